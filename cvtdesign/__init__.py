@@ -1,0 +1,1 @@
+"""cvtdesign: design, optimise and compare spherical CVTs."""

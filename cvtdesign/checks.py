@@ -1,0 +1,117 @@
+"""Geometric and kinematic checks of a resolved (numeric) layout, run before any model is compiled.
+
+Each failure is one InputError line naming the file and the field a user would edit.
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from .geometry import rotate, steering_angle_guess
+from .model import _steer_data
+from .units import InputError
+from .variant import Layout
+
+N_RIM = 48
+
+
+def _np(v):
+    return np.asarray(v, float).ravel() if isinstance(v, np.ndarray) else np.asarray(np.array(v.full() if hasattr(v, "full") else v, float)).ravel()
+
+
+def pose(r, phi):
+    """Numeric (normal, axle) of roller r at steering angle φ [rad]."""
+    n, a = _np(r.normal), _np(r.axle)
+    if r.fork_axis is None:
+        return n, a
+    k = _np(r.fork_axis)
+    return _np(rotate(n, k, r.fork_sign * phi)), _np(rotate(a, k, r.fork_sign * phi))
+
+
+def rigid_constraints(layout: Layout, phi: float) -> np.ndarray:
+    """Rolling constraints of rigid contacts, rows × unknowns [Ω (3), ω1, ω2, idler speeds].
+
+    Lateral: R Ω·t_i = 0 (no sideways slip); longitudinal: −R Ω·a_i − r_i ρ_i ω_s = 0."""
+    R = float(layout.sphere_radius)
+    idlers = [r.name for r in layout.rollers if r.role == "steering"]
+    rows = []
+    for r in layout.rollers:
+        n, a = pose(r, phi)
+        t = np.cross(n, a)
+        lat = np.zeros(5 + len(idlers))
+        lat[:3] = R * t
+        lon = np.zeros_like(lat)
+        lon[:3] = -R * a
+        if r.role == "steering":
+            lon[5 + idlers.index(r.name)] = -float(r.radius)
+        else:
+            lon[2 + r.shaft] = -float(r.radius) * float(r.ratio)
+        rows += [lat, lon]
+    return np.array(rows)
+
+
+def check_kinematics(layout: Layout):
+    """Across the γ envelope: the linkage reaches γ, and the rigid rolling constraints leave exactly one
+    motion (the sphere turning about one axis, every roller rolling): none means the rollers fight, more
+    than one means the steering rollers cannot fix an axis."""
+    gammas = np.linspace(layout.gamma_grid.min(), layout.gamma_grid.max(), 9)
+    phis, misfit = steering_angle_guess(*_steer_data(layout), gammas)
+    for g, phi, m in zip(gammas, phis, misfit):
+        if m > 1e-6:
+            raise InputError(f"{layout.file}: steering.forks: the steering rollers cannot all roll about the "
+                             f"commanded axis at γ = {np.degrees(g):.0f}° (misfit {m:.2g}); the linkage does not "
+                             "reach the envelope.gamma range")
+        A = rigid_constraints(layout, phi)
+        sv = np.linalg.svd(A, compute_uv=False)
+        null = int(np.sum(sv < 1e-9 * sv[0])) + max(0, A.shape[1] - A.shape[0])
+        if null >= 2:
+            raise InputError(f"{layout.file}: steering: the steering rollers cannot fix the sphere's axis at γ = "
+                             f"{np.degrees(g):.0f}° ({null} free motions); add or move steering rollers")
+        if null == 0:
+            raise InputError(f"{layout.file}: rollers: no rolling motion fits every roller at γ = {np.degrees(g):.0f}° "
+                             "(rollers fight); check follower ratios, axles and fork axes")
+
+
+def roller_surface_points(r, phi, R):
+    """Points on the roller's cylinder (rims and faces) [m] and the frame of the cylinder."""
+    n, a = pose(r, phi)
+    t = np.cross(n, a)
+    rad, half = float(r.radius), float(r.width) / 2
+    centre = (R + rad) * n
+    th = np.linspace(0, 2 * np.pi, N_RIM, endpoint=False)
+    pts = []
+    for s in (-half, 0.0, half):
+        for f in (1.0, 0.66, 0.33) if s != 0 else (1.0,):
+            pts.append(centre + s * a + f * rad * (np.cos(th)[:, None] * n + np.sin(th)[:, None] * t))
+    return np.vstack(pts), centre, a, rad, half
+
+
+def check_overlaps(layout: Layout):
+    """No two roller bodies (cylinders of their radius and width) intersect, at any steering angle."""
+    R = float(layout.sphere_radius)
+    gammas = np.linspace(layout.gamma_grid.min(), layout.gamma_grid.max(), 9)
+    phis, _ = steering_angle_guess(*_steer_data(layout), gammas)
+    for g, phi in zip(gammas, phis):
+        bodies = {r.name: roller_surface_points(r, phi, R) for r in layout.rollers}
+        for (na, A), (nb, B) in itertools.combinations(bodies.items(), 2):
+            for (pts, _, _, _, _), (_, c, ax, rad, half) in ((A, B), (B, A)):
+                d = pts - c
+                along = d @ ax
+                radial = np.linalg.norm(d - np.outer(along, ax), axis=1)
+                if np.any((np.abs(along) < half * (1 - 1e-9)) & (radial < rad * (1 - 1e-9))):
+                    raise InputError(f"{layout.file}: rollers.{na}, rollers.{nb}: the two rollers overlap at "
+                                     f"γ = {np.degrees(g):.0f}°; move them apart or make them smaller")
+
+
+def check_mounts(layout: Layout):
+    """The contact normals must hold the sphere in every direction (the mount stiffness matrix is regular)."""
+    K = sum(float(r.stiffness) * np.outer(*(2 * (pose(r, 0.0)[0],))) for r in layout.rollers)
+    if np.linalg.cond(K) > 1e8:
+        raise InputError(f"{layout.file}: rollers: the contact normals do not hold the sphere in all directions")
+
+
+def check_layout(layout: Layout):
+    check_mounts(layout)
+    check_kinematics(layout)
+    check_overlaps(layout)

@@ -1,0 +1,127 @@
+"""The `cvtdesign` command."""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from .units import InputError
+
+COLUMNS = [
+    ("max_abs_alpha_deg", "max |α| [°]", "{:.3f}"),
+    ("rms_alpha_deg", "RMS α [°]", "{:.3f}"),
+    ("max_abs_alpha_steering_deg", "max |α| steering [°]", "{:.3f}"),
+    ("max_abs_alpha_drive_deg", "max |α| drive [°]", "{:.3f}"),
+    ("ratio_error_pct_at_max_load", "ratio error at max load [%]", "{:.2f}"),
+    ("min_efficiency", "worst efficiency", "{:.3f}"),
+    ("max_traction_utilisation", "max F/(μN)", "{:.3f}"),
+    ("max_hertz_pressure_MPa", "max Hertz p [MPa]", "{:.2f}"),
+]
+
+
+def write_atomic(path: Path, text: str):
+    """Write text to `path` via a temporary file and a rename, so no half-written file is ever left."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def cmd_compare(args):
+    from . import plots
+
+    painter = plots.Background()   # imports matplotlib in a second process while we compute
+    try:
+        return _compare(args, painter)
+    finally:
+        painter.close()
+
+
+def _compare(args, painter):
+    from .evaluate import envelope, metrics
+    from .model import compile_model
+    from .variant import load_variant
+
+    files = [Path(f) for f in args.variants]
+    layouts = [load_variant(f) for f in files]
+    rows, results = [], []
+    if len(files) == 1:
+        ideal = compile_model(layouts[0], effects=())
+        res = envelope(ideal)
+        row = metrics(ideal, res)
+        row["name"] = f"ideal ({layouts[0].name})"
+        rows.append(row)
+        existing = Path("variants/existing.yaml")
+        if not existing.exists():
+            existing = files[0].parent / "existing.yaml"
+        if existing.exists() and existing.resolve() != files[0].resolve():
+            layouts.insert(0, load_variant(existing))
+    for L in layouts:
+        m = compile_model(L)
+        res = envelope(m)
+        rows.append(metrics(m, res))
+        results.append((L, res))
+
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title="CVT comparison over the operating envelope (γ × τ⊥)")
+    table.add_column("figure")
+    for row in rows:
+        table.add_column(row["name"], justify="right")
+    for key, label, fmt in COLUMNS:
+        table.add_row(label, *[fmt.format(r[key]) for r in rows])
+    console = Console(width=max(100, 30 + 22 * len(rows)))
+    console.print(table)
+    for r in rows:
+        if r["not_converged"]:
+            console.print(f"[red]{r['name']}: {r['not_converged']} of {r['points']} operating points did not "
+                          "converge (left out of the figures)[/red]")
+
+    figure = Path(args.out) / "compare.png"
+    painter.draw("compare_figure", [(L.name, res) for L, res in results], figure)
+    if args.json:
+        write_atomic(Path(args.json), json.dumps({"variants": rows}, indent=2) + "\n")
+        console.print(f"figures written to {args.json}")
+    error = painter.wait()
+    if error:
+        print(f"cvtdesign: error: plotting failed: {error}", file=sys.stderr)
+        return 1
+    console.print(f"plots: {figure}")
+    return 0
+
+
+def build_parser():
+    p = argparse.ArgumentParser(prog="cvtdesign", description="Design, optimise and compare spherical CVTs.")
+    sub = p.add_subparsers(dest="command", required=True)
+    c = sub.add_parser("compare", help="evaluate variants over their envelope and print a side-by-side table")
+    c.add_argument("variants", nargs="+", help="variant YAML files")
+    c.add_argument("--out", default="out/compare", help="folder for the plots (default: out/compare)")
+    c.add_argument("--json", help="also write the figures to this JSON file")
+    c.set_defaults(func=cmd_compare)
+    return p
+
+
+def main(argv=None):
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except InputError as e:
+        print(f"cvtdesign: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("cvtdesign: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,104 @@
+"""Frames, roller poses, the steering linkage and ideal kinematics.
+
+Frames follow Kim et al. (refs/001, sec. 2.1) as fixed in DESIGN.md sec. 1: sphere centre at the origin of
+N (x, y, z); d1 = (1, 1, 0)/√2, d2 = (−1, 1, 0)/√2, d3 = z; c1 = (0, −1, 1)/√2, c2 = (0, −1, −1)/√2, c3 = x.
+
+A roller is described at its contact with the sphere by the outward unit normal n (contact point R·n) and
+the unit axle a (its positive spin direction, a ⊥ n). Its rolling direction is t = n × a: a roller spinning
+at +ω about a moves its surface at the contact with velocity r·ω·t. A steered roller's pose (n and a) turns
+about its fork axis k, which passes through the sphere centre, by sign·φ (φ = steering angle), so the
+roller stays in contact whatever φ is. Kim's forks turn about the contact normal itself (n unchanged); the
+box CVT's forks carry a tandem pair about the sphere's pole axis (n and a both turn).
+
+Functions here take and return plain 3-vectors of floats or CasADi expressions (lists/ca.SX); numeric
+helpers at the bottom work on numpy arrays.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+S2 = np.sqrt(2.0)
+FRAME = {
+    "x": np.array([1.0, 0.0, 0.0]),
+    "y": np.array([0.0, 1.0, 0.0]),
+    "z": np.array([0.0, 0.0, 1.0]),
+    "d1": np.array([1.0, 1.0, 0.0]) / S2,
+    "d2": np.array([-1.0, 1.0, 0.0]) / S2,
+    "d3": np.array([0.0, 0.0, 1.0]),
+    "c1": np.array([0.0, -1.0, 1.0]) / S2,
+    "c2": np.array([0.0, -1.0, -1.0]) / S2,
+    "c3": np.array([1.0, 0.0, 0.0]),
+}
+D1, D2 = FRAME["d1"], FRAME["d2"]
+
+
+def named_vector(name: str) -> np.ndarray | None:
+    """Unit vector for a frame name such as 'd1', '-c2' or 'z'; None if the name is not a frame vector."""
+    sign = -1.0 if name.startswith("-") else 1.0
+    v = FRAME.get(name.lstrip("+-"))
+    return None if v is None else sign * v
+
+
+def spherical(polar, azimuth):
+    """Unit vector from polar angle [rad] (from +z) and azimuth [rad] (from +x towards +y)."""
+    return ca.vertcat(ca.sin(polar) * ca.cos(azimuth), ca.sin(polar) * ca.sin(azimuth), ca.cos(polar))
+
+
+def rotate(v, k, angle):
+    """Rotate 3-vector v about unit axis k by angle [rad] (Rodrigues); v, k may be CasADi expressions."""
+    v, k = ca.vec(ca.DM(v) if isinstance(v, np.ndarray) else v), ca.vec(ca.DM(k) if isinstance(k, np.ndarray) else k)
+    c, s = ca.cos(angle), ca.sin(angle)
+    return v * c + ca.cross(k, v) * s + k * ca.dot(k, v) * (1 - c)
+
+
+def axis_angle_deg(omega) -> np.ndarray:
+    """Transmission angle γ = atan2(Ω·d2, Ω·d1) [deg] of sphere angular velocities Ω (..., 3) (DESIGN sec. 1)."""
+    omega = np.asarray(omega)
+    return np.degrees(np.arctan2(omega @ D2, omega @ D1))
+
+
+def kim_gamma_from_phi(phi):
+    """Kim eq 5: commanded transmission angle γ [rad] for steering angle φ [rad] of the existing CVT.
+
+    Written with atan2 so the branch is continuous: tan γ = (√2 + tan φ)/(√2 − tan φ) ⇔
+    γ = atan2(√2 cos φ + sin φ, √2 cos φ − sin φ)."""
+    return np.arctan2(S2 * np.cos(phi) + np.sin(phi), S2 * np.cos(phi) - np.sin(phi))
+
+
+def steering_residuals_numeric(t0s, forks, gammas, phis):
+    """Lateral-constraint misfit t_i(φ)·u(γ) of every steered roller, shape (len(gammas), len(phis), n).
+
+    t0s: rolling directions at φ = 0 (n, 3); forks: (axis (n, 3), sign (n,)); u(γ) = cos γ d1 + sin γ d2 is
+    the commanded axis. A linkage reaches γ where every steered roller rolls without lateral slip about u."""
+    axes, signs = forks
+    u = np.cos(gammas)[:, None] * D1 + np.sin(gammas)[:, None] * D2          # (G, 3)
+    phis = np.broadcast_to(np.atleast_2d(phis), (len(gammas), np.shape(phis)[-1]))  # (G, P): shared or per γ
+    th = phis[:, :, None] * signs[None, None, :]                             # (G, P, n)
+    # t_i(φ)·u = t0 · R(−sφ) u  (rotation preserves dot products)
+    ku = u @ axes.T                                                          # (G, n)
+    kxu = np.cross(axes[None, :, :], u[:, None, :])                          # (G, n, 3)
+    t0u = u @ t0s.T                                                          # (G, n)
+    t0kxu = np.einsum("gnk,nk->gn", kxu, t0s)                                # (G, n)
+    t0k = np.einsum("nk,nk->n", t0s, axes)                                   # (n,)
+    c, s = np.cos(th), np.sin(th)
+    return t0u[:, None, :] * c - t0kxu[:, None, :] * s + (ku * t0k)[:, None, :] * (1 - c)
+
+
+def steering_angle_guess(t0s, forks, gammas, n_scan: int = 721) -> tuple[np.ndarray, np.ndarray]:
+    """Steering angle φ ∈ (−90°, 90°] [rad] that best realises each commanded γ [rad], by a scan.
+
+    Returns (φ, worst residual). The compiled model refines φ with Newton; the scan only seeds it and
+    tells whether the linkage can reach γ at all."""
+    gammas, inverse = np.unique(np.atleast_1d(gammas), return_inverse=True)
+    phis = np.linspace(-np.pi / 2, np.pi / 2, n_scan)[1:]
+    cost = np.sum(steering_residuals_numeric(t0s, forks, gammas, phis) ** 2, axis=-1)
+    best = phis[np.argmin(cost, axis=1)]
+    width = phis[1] - phis[0]
+    for _ in range(6):  # zoom in around each best angle: 6 passes of 41 points refine it by 20^6
+        local = best[:, None] + np.linspace(-width, width, 41)[None, :]
+        cost = np.sum(steering_residuals_numeric(t0s, forks, gammas, local) ** 2, axis=-1)
+        best = local[np.arange(len(gammas)), np.argmin(cost, axis=1)]
+        width /= 20
+    wrapped = (best + np.pi / 2) % np.pi - np.pi / 2
+    return wrapped[inverse], np.sqrt(np.min(cost, axis=1))[inverse]

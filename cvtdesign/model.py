@@ -1,0 +1,304 @@
+"""compile(layout, effects) → CasADi functions of one steady operating point and of a grid.
+
+One generalised model for every variant; no variant-specific equations. Notation (per contact i):
+n_i outward contact normal, a_i roller axle (positive spin axis), t_i = n_i × a_i rolling direction,
+R sphere radius, r_i roller radius, Ω sphere angular velocity, ω_i roller speed about a_i, F_i the
+tangential force ON THE SPHERE from roller i (components F_t along t_i, F_a along a_i), N_i normal force.
+
+Equations (all derived from the vectors; DESIGN.md sec. 1 conventions):
+ * slip velocity of sphere over roller at the contact: s_i = R·Ω × n_i − r_i·ω_i·t_i
+   (no slip: r_i ω_i = −R Ω·a_i, which gives ω1 = (R/r1)Ω·d1 for Kim's D1 at d2 with axle −d1);
+ * creep law, dissipative (F·s ≤ 0): s_t + c_t·F_t = 0, s_a + c_a·F_a = 0 with c = ε·V (Kim's slip ratio
+   ψ = ε_D F and slip angle α⊥ = ε_S F, V = |R Ω·a_i| the rolling speed) plus Gillespie's spin term
+   (b/(μN))·|Ω·n_i| on drive rollers (Brokowski eqs 14-19), and a tiny floor EPS_RIGID·V_ref on directions
+   no effect makes compliant (rigid in Kim's sense, but keeps the statically indeterminate system regular);
+ * sphere moment balance: Σ R n_i × F_i + Σ (rolling-resistance moments) = 0;
+ * sphere force balance on preloaded compliant mounts: N_i = P_i + k_i n_i·δ, Σ (F_i − N_i n_i) = 0,
+   solved for the sphere's displacement δ in closed form (a 3×3 solve), so the normal-force distribution of
+   an over-constrained layout comes from compliance;
+ * idler (steering) roller torque balance: −r_i F_t,i + M_rr,i = 0;
+ * shaft torques τ_s = Σ_{i on s} ρ_i (r_i F_t,i − M_rr,i) (torque applied to the shaft from outside);
+ * the operating point fixes ω1 and the lateral load τ⊥ = −τ1 sin γ_cmd + τ2 cos γ_cmd (Kim eq 17).
+Unknowns: Ω, ω2, idler speeds, (F_t, F_a) per contact. Solved by CasADi's Newton rootfinder, whose implicit
+derivatives give the optimiser exact gradients.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from . import contact
+from .effects import EFFECTS, parameter_vector
+from .geometry import D1, D2, rotate, steering_angle_guess
+from .variant import Layout
+
+EPS_RIGID = 1e-9      # [1/N] creep-compliance floor of the directions that are rigid in the model
+F_SCALE = 10.0        # [N] force scaling of the unknowns
+RES_TOL = 1e-8        # scaled residual above which a point is reported as not converged
+
+CONTACT_OUTPUTS = ("N", "F_t", "F_a", "utilisation", "p_max", "xi", "eta", "spin")
+POINT_OUTPUTS = ("omega_2", "tau_1", "tau_2", "phi", "gamma_axis", "alpha", "alpha_steering", "alpha_drive",
+                 "power_loss", "residual", "Omega_x", "Omega_y", "Omega_z")
+
+
+def _v(x):
+    return ca.vec(ca.DM(x)) if isinstance(x, np.ndarray) else ca.vec(x)
+
+
+def _wrap(x):
+    return ca.atan2(ca.sin(x), ca.cos(x))
+
+
+def _sabs(x, eps):
+    return ca.sqrt(x * x + eps * eps)
+
+
+@dataclass
+class CompiledModel:
+    """The compiled model of one layout with one set of effects.
+
+    `point` maps (γ_cmd [rad], ω1 [rad/s], τ⊥ [N m], φ guess [rad], θ effect parameters, p design) to a
+    dict of POINT_OUTPUTS (scalars) and CONTACT_OUTPUTS (one entry per roller). `grid` evaluates many
+    points at once, compiled and mapped."""
+    layout: Layout
+    effects: tuple
+    param_names: list
+    param_values: list
+    design: ca.SX
+    point: ca.Function
+    roller_names: list
+    _maps: dict = field(default_factory=dict)
+
+    def steering_guess(self, gammas):
+        return steering_angle_guess(*_steer_data(self.layout), np.asarray(gammas, float))
+
+    def evaluate(self, gammas, loads, speeds=None, theta=None, design=None):
+        """Evaluate points (1-D arrays of equal length, or broadcastable). Returns dict of numpy arrays;
+        points whose Newton solve did not converge have `converged` False and NaN in every output."""
+        gammas, loads = np.broadcast_arrays(np.asarray(gammas, float), np.asarray(loads, float))
+        shape = gammas.shape
+        g, l = gammas.ravel(), loads.ravel()
+        w = np.broadcast_to(self.layout.motor_speed if speeds is None else np.asarray(speeds, float), shape).ravel()
+        phi0, _ = self.steering_guess(g)
+        th = np.asarray(self.param_values if theta is None else theta, float)
+        p = np.zeros(self.design.numel()) if design is None else np.asarray(design, float)
+        n = g.size
+        if n not in self._maps:
+            self._maps[n] = self.point.map(n, "thread", 2)
+        out = self._maps[n](g, w, l, phi0, th, p)
+        names = self.point.name_out()
+        res = {k: np.asarray(v) for k, v in zip(names, out)}
+        converged = np.isfinite(res["residual"][0]) & (res["residual"][0] < RES_TOL)
+        result = {"converged": converged.reshape(shape), "gamma_cmd": gammas, "load": loads,
+                  "omega_1": w.reshape(shape)}
+        for k, v in res.items():
+            v = np.where(converged, v, np.nan)
+            result[k] = v[0].reshape(shape) if v.shape[0] == 1 else v.reshape((v.shape[0],) + shape)
+        return result
+
+
+def _steer_data(layout: Layout):
+    steered = [r for r in layout.rollers if r.fork_axis is not None]
+    t0 = np.array([np.cross(np.asarray(ca.DM(_v(r.normal))).ravel(), np.asarray(ca.DM(_v(r.axle))).ravel())
+                   for r in steered])
+    axes = np.array([np.asarray(ca.DM(_v(r.fork_axis))).ravel() for r in steered])
+    return t0, (axes, np.array([r.fork_sign for r in steered], float))
+
+
+def _pose(r, phi):
+    """Contact normal and axle of roller r at steering angle φ (fixed rollers ignore φ)."""
+    n, a = _v(r.normal), _v(r.axle)
+    if r.fork_axis is None:
+        return n, a
+    k = _v(r.fork_axis)
+    return rotate(n, k, r.fork_sign * phi), rotate(a, k, r.fork_sign * phi)
+
+
+def _steering_solver(layout: Layout, design: ca.SX):
+    """Rootfinder φ(γ_cmd): the steering angle at which every steered roller rolls without lateral slip
+    about the commanded axis u = cos γ d1 + sin γ d2 (least squares, so over-determined linkages work).
+    For Kim's linkage it reproduces eq 5 inverted."""
+    phi, gamma = ca.SX.sym("phi"), ca.SX.sym("gamma")
+    u = ca.cos(gamma) * _v(D1) + ca.sin(gamma) * _v(D2)
+    res = ca.vertcat(*[ca.dot(ca.cross(*_pose(r, phi)), u) for r in layout.rollers if r.fork_axis is not None])
+    g = ca.jacobian(ca.sumsqr(res) / 2, phi)
+    f = ca.Function("steer_res", [phi, ca.vertcat(gamma, design)], [g])
+    return ca.rootfinder("steer", "newton", f, {"abstol": 1e-14, "max_iter": 30, "error_on_fail": False})
+
+
+def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> CompiledModel:
+    """Compile `layout` with the given effects (default: the variant's) into a CompiledModel.
+
+    `design` is the vector of CasADi symbols that the layout's fields may depend on (design variables of
+    an optimisation study); numeric layouts need none."""
+    effects = tuple(layout.effects if effects is None else effects)
+    on = set(effects)
+    for e in effects:
+        if e not in EFFECTS:
+            raise ValueError(f"unknown effect '{e}'")
+    design = ca.SX(0, 1) if design is None else design
+    pnames, pvalues = parameter_vector(effects, layout.effect_parameters)
+    theta = ca.SX.sym("theta", len(pnames))
+    P = {name: theta[i] for i, name in enumerate(pnames)}
+
+    def par(effect, name):
+        return P[f"{effect}.{name}"]
+
+    rollers = layout.rollers
+    R = layout.sphere_radius
+    gamma, w1, load, phi_cmd = (ca.SX.sym(s) for s in ("gamma_cmd", "omega_1", "tau_perp", "phi_cmd"))
+    # steering_offset: the linkage's actual angle is the commanded one plus a constant
+    phi = phi_cmd + (par("steering_offset", "offset") if "steering_offset" in on else 0)
+
+    # per-contact constants at the preload: Hertz ellipse and Kalker/Kim creep compliances
+    sm = layout.sphere_material
+    const = []
+    for r in rollers:
+        A, B = contact.curvature_sums(R, r.radius, r.crown_radius)
+        Es, G, nu = contact.contact_material(r.material.E, r.material.nu, sm.E, sm.nu)
+        a, b, p0, _ = contact.hertz_ellipse(A, B, r.preload, Es)
+        C11, C22, _ = contact.kalker_coefficients(a / b, nu)
+        e_long, e_lat = contact.creep_compliances(G, a, b, C11, C22)
+        drive = r.role != "steering"
+        kim = layout.creep_drive if drive else layout.creep_steering
+        eps0 = kim if kim is not None else (e_long if drive else e_lat)
+        mu = ca.fmin(r.material.mu, sm.mu)
+        const.append(dict(a=a, b=b, p0=p0, eps0=eps0, mu=mu))
+
+    primary = {s: next(r for r in rollers if r.role == "drive" and r.shaft == s) for s in (1, 2)}
+    idlers = [r for r in rollers if r.role == "steering"]
+    nc, ni = len(rollers), len(idlers)
+    v_ref = w1 * primary[1].radius                   # [m/s] speed scale
+    om_ref = v_ref / R                               # [rad/s] sphere speed scale
+
+    x = ca.SX.sym("x", 4 + ni + 2 * nc)
+    Om = om_ref * x[0:3]
+    w2 = w1 * x[3]
+    w_idle = {r.name: w1 * x[4 + j] for j, r in enumerate(idlers)}
+    Ft = F_SCALE * x[4 + ni: 4 + ni + nc]
+    Fa = F_SCALE * x[4 + ni + nc:]
+
+    poses = [_pose(r, phi) for r in rollers]
+    tdirs = [ca.cross(n, a) for n, a in poses]
+    Fvec = [Ft[i] * tdirs[i] + Fa[i] * poses[i][1] for i in range(nc)]
+
+    # sphere force balance on preloaded compliant mounts → displacement δ → normal forces
+    K = sum(r.stiffness * ca.mtimes(n, n.T) for r, (n, _) in zip(rollers, poses))
+    rhs = sum(Fvec[i] - rollers[i].preload * poses[i][0] for i in range(nc))
+    delta = ca.solve(K, rhs)
+    N = [r.preload + r.stiffness * ca.dot(n, delta) for r, (n, _) in zip(rollers, poses)]
+    # normal_force_variation: creep, spin creep, rolling resistance and saturation use the balanced N
+    N_eff = N if "normal_force_variation" in on else [r.preload for r in rollers]
+    n_exp = par("normal_force_variation", "exponent") if "normal_force_variation" in on else 0
+
+    slip_res, moment = [], ca.SX.zeros(3)
+    idle_res, tau = [], {1: 0, 2: 0}
+    xi, eta, spin, util, pmax = [], [], [], [], []
+    for i, r in enumerate(rollers):
+        n, a = poses[i]
+        t = tdirs[i]
+        c = const[i]
+        drive = r.role != "steering"
+        r_eff = r.radius
+        if "drive_radius_mismatch" in on and drive and r.shaft == 2:
+            r_eff = r.radius * (1 + par("drive_radius_mismatch", "delta"))
+        if drive:
+            w_i = r.ratio * (w1 if r.shaft == 1 else w2)
+        else:
+            w_i = w_idle[r.name]
+        s = R * ca.cross(Om, n) - r_eff * w_i * t
+        s_t, s_a = ca.dot(s, t), ca.dot(s, a)
+        V = _sabs(R * ca.dot(Om, a), 1e-9 * v_ref)          # rolling speed [m/s]
+        w_spin = ca.dot(Om, n)                               # spin [rad/s]
+        nscale = (r.preload / N_eff[i]) ** n_exp             # ε ∝ N^(-2/3) (Hertz + Kalker)
+        mu = c["mu"] * (par("traction_saturation", "mu_scale") if "traction_saturation" in on else 1)
+        ct = 0
+        if drive and "drive_longitudinal_creep" in on:
+            ct += par("drive_longitudinal_creep", "scale") * c["eps0"] * nscale * V
+        if drive and "drive_spin_creep" in on:
+            b_n = c["b"] * (N_eff[i] / r.preload) ** (1.0 / 3.0)  # Hertz half-width at N_eff
+            ct += par("drive_spin_creep", "scale") * b_n / (mu * N_eff[i]) * _sabs(w_spin, 1e-9 * om_ref)
+        if not drive and "steering_lateral_creep" in on:
+            ca_ = par("steering_lateral_creep", "scale") * c["eps0"] * nscale * V
+        else:
+            ca_ = 0
+        if "traction_saturation" in on:
+            u = ca_fmin_sqrt(Ft[i], Fa[i], mu * N_eff[i])
+            gsat = ca_atanh_ratio(u)
+            ct, ca_ = ct * gsat, ca_ * gsat
+        floor = EPS_RIGID * v_ref
+        slip_res += [(s_t + (ct + floor) * Ft[i]) / v_ref, (s_a + (ca_ + floor) * Fa[i]) / v_ref]
+
+        moment += R * ca.cross(n, Fvec[i])
+        m_rr = 0                                              # rolling-resistance torque on the roller about a
+        if "rolling_resistance" in on:
+            e_off = par("rolling_resistance", "offset")
+            sigma = -ca.dot(Om, a) / _sabs(ca.dot(Om, a), 1e-6 * om_ref)   # sign of the surface speed along t
+            moment += e_off * sigma * N_eff[i] * a            # pressure centre behind by e: sphere moment eσN a
+            m_rr = -e_off * sigma * N_eff[i]
+        if drive:
+            tau[r.shaft] = tau[r.shaft] + r.ratio * (r_eff * Ft[i] - m_rr)
+        else:
+            idle_res.append((-r.radius * Ft[i] + m_rr) / (r.radius * F_SCALE))
+
+        xi.append(s_t / V)
+        eta.append(s_a / V)
+        spin.append(w_spin / V)
+        util.append(ca.sqrt(Ft[i] ** 2 + Fa[i] ** 2) / (mu * N[i]))
+        pmax.append(c["p0"] * (ca.fmax(N[i], 0) / r.preload) ** (1.0 / 3.0))
+
+    load_res = (-tau[1] * ca.sin(gamma) + tau[2] * ca.cos(gamma) - load) / 1.0
+    resid = ca.vertcat(*slip_res, moment / (R * F_SCALE), *idle_res, load_res)
+    params = ca.vertcat(gamma, w1, load, phi_cmd, theta, design)
+    G = ca.Function("residual", [x, params], [resid])
+    solver = ca.rootfinder("cvt", "newton", G, {"abstol": 1e-12, "max_iter": 40, "error_on_fail": False})
+
+    # initial guess: ideal kinematics about the commanded axis, no forces
+    gains = {s: -R / (primary[s].ratio * primary[s].radius) * _v(primary[s].axle) for s in (1, 2)}
+    u = ca.cos(gamma) * _v(D1) + ca.sin(gamma) * _v(D2)
+    Om0 = u * w1 / ca.dot(gains[1], u)
+    x0 = ca.vertcat(Om0 / om_ref, ca.dot(gains[2], Om0) / w1,
+                    *[-R * ca.dot(Om0, _pose(r, phi)[1]) / (r.radius * w1) for r in idlers], ca.SX.zeros(2 * nc))
+    x0_fn = ca.Function("x0", [params], [x0])
+
+    Om_s, w2_s = Om, w2
+    subs = lambda e: e
+    g1, g2 = ca.norm_2(gains[1]), ca.norm_2(gains[2])
+    gamma_axis = ca.atan2(ca.dot(Om_s, _v(D2)), ca.dot(Om_s, _v(D1)))
+    alpha = _wrap(ca.atan2(w2_s / g2, w1 / g1) - gamma)
+    alpha_s = _wrap(gamma_axis - gamma)
+    tau1, tau2 = subs(tau[1]), subs(tau[2])
+    outs = {
+        "omega_2": w2_s, "tau_1": tau1, "tau_2": tau2, "phi": phi, "gamma_axis": gamma_axis,
+        "alpha": alpha, "alpha_steering": alpha_s, "alpha_drive": _wrap(alpha - alpha_s),
+        "power_loss": tau1 * w1 + tau2 * w2_s,
+        "residual": ca.norm_inf(resid),
+        "Omega_x": Om_s[0], "Omega_y": Om_s[1], "Omega_z": Om_s[2],
+        "N": subs(ca.vertcat(*N)), "F_t": subs(Ft), "F_a": subs(Fa), "utilisation": subs(ca.vertcat(*util)),
+        "p_max": subs(ca.vertcat(*pmax)), "xi": subs(ca.vertcat(*xi)), "eta": subs(ca.vertcat(*eta)),
+        "spin": subs(ca.vertcat(*spin)),
+    }
+    names = list(POINT_OUTPUTS) + list(CONTACT_OUTPUTS)
+    post = ca.Function("post", [x, params], [outs[k] for k in names])
+
+    # one operating point: φ from the linkage's inverse kinematics, then the Newton solve, then outputs
+    ins = [ca.MX.sym(n, *shape) for n, shape in (("gamma_cmd", (1, 1)), ("omega_1", (1, 1)), ("tau_perp", (1, 1)),
+                                                  ("phi_guess", (1, 1)), ("theta", theta.shape), ("design", design.shape))]
+    g_m, w_m, l_m, pg_m, th_m, d_m = ins
+    phi_m = _steering_solver(layout, design)(pg_m, ca.vertcat(g_m, d_m))
+    p_m = ca.vertcat(g_m, w_m, l_m, phi_m, th_m, d_m)
+    out_m = post(solver(x0_fn(p_m), p_m), p_m)
+    point = ca.Function("point", ins, out_m, ["gamma_cmd", "omega_1", "tau_perp", "phi_guess", "theta", "design"], names)
+    return CompiledModel(layout, effects, pnames, pvalues, design, point, [r.name for r in rollers])
+
+
+def ca_fmin_sqrt(ft, fa, limit):
+    """Traction utilisation u = |F|/(μN), kept just below 1 so the inverse saturation law stays finite."""
+    return ca.fmin(ca.sqrt(ft * ft + fa * fa + 1e-18) / limit, 1 - 1e-9)
+
+
+def ca_atanh_ratio(u):
+    """atanh(u)/u, → 1 as u → 0 (series below 1e-4): the creep-compliance amplification of saturation."""
+    return ca.if_else(u < 1e-4, 1 + u * u / 3, ca.atanh(u) / ca.fmax(u, 1e-4))

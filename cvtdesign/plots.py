@@ -1,0 +1,110 @@
+"""Matplotlib figures (Agg backend, written atomically as PNG)."""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save(fig, path: Path, dpi=80):
+    """Write a figure atomically (temporary file in the same folder, then rename)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=path.suffix)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=dpi)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        _plt().close(fig)
+
+
+def compare_figure(results: list[tuple[str, dict]], path: Path, loads=(-1.0, -0.5, 0.5, 1.0)):
+    """One row per variant: α, its steering part and its drive part against commanded γ at several loads
+    (Kim Figs 20-21), and the efficiency map over γ and τ⊥."""
+    plt = _plt()
+    n = len(results)
+    fig, axes = plt.subplots(n, 4, figsize=(17, 3.4 * n), squeeze=False)
+    cmap = plt.get_cmap("coolwarm")
+    for row, (name, res) in zip(axes, results):
+        g = np.degrees(res["gamma_cmd"][:, 0])
+        lg = res["load"][0]
+        for ax, key, title in zip(row, ("alpha", "alpha_steering", "alpha_drive"),
+                                  ("slip angle α", "steering part γ_axis − γ_cmd", "drive part")):
+            for L in loads:
+                j = int(np.argmin(np.abs(lg - L)))
+                ax.plot(g, np.degrees(res[key][:, j]), "o-", ms=3,
+                        color=cmap((lg[j] - lg.min()) / max(np.ptp(lg), 1e-12)), label=f"τ⊥ = {lg[j]:+.2g} N·m")
+            ax.axhline(0, color="k", lw=0.5)
+            ax.set_title(f"{name}: {title}", fontsize=10)
+            ax.set_xlabel("commanded γ [deg]")
+            ax.set_ylabel("[deg]")
+            ax.grid(alpha=0.3)
+        row[0].legend(fontsize=7)
+        cs = row[3].contourf(np.degrees(res["gamma_cmd"]), res["load"], np.clip(res["efficiency"], 0, 1),
+                             levels=np.linspace(0, 1, 11), cmap="viridis")
+        fig.colorbar(cs, ax=row[3], label="efficiency")
+        row[3].set_title(f"{name}: efficiency (out/in)", fontsize=10)
+        row[3].set_xlabel("commanded γ [deg]")
+        row[3].set_ylabel("τ⊥ [N·m]")
+    h = 3.4 * n
+    fig.subplots_adjust(left=0.05, right=0.97, bottom=0.55 / h, top=1 - 0.3 / h, wspace=0.3, hspace=0.45)
+    save(fig, path)
+
+
+def worker(conn):
+    """Plotting process: imports matplotlib at once (while the parent computes), then draws what it is
+    sent, (figure function name, args), and answers None or an error text."""
+    _plt()
+    try:
+        name, args = conn.recv()
+    except EOFError:
+        return
+    try:
+        globals()[name](*args)
+        conn.send(None)
+    except Exception as e:  # reported by the parent as one line
+        conn.send(f"{type(e).__name__}: {e}")
+
+
+class Background:
+    """Run figure functions of this module in a forked process that has matplotlib ready.
+
+    Start it before the computation; `draw` hands over the data; `wait` returns the error text or None."""
+
+    def __init__(self):
+        import multiprocessing
+
+        ctx = multiprocessing.get_context("fork")
+        self.conn, child = ctx.Pipe()
+        self.proc = ctx.Process(target=worker, args=(child,), daemon=True)
+        self.proc.start()
+
+    def draw(self, name, *args):
+        self.conn.send((name, args))
+
+    def wait(self):
+        try:
+            return self.conn.recv()
+        except EOFError:
+            return "the plotting process ended unexpectedly"
+        finally:
+            self.close()
+
+    def close(self):
+        if self.proc.is_alive():
+            self.proc.join(timeout=0.1)
+            if self.proc.is_alive():
+                self.proc.terminate()

@@ -1,0 +1,186 @@
+"""Unit tests for cvtdesign.contact: elliptic integrals, Hertz ellipse, Kalker table interpolation."""
+
+import math
+
+import casadi as ca
+import numpy as np
+import pytest
+from scipy import optimize, special
+
+from cvtdesign import contact as c
+
+
+def floats(values):
+    return [float(v) for v in values]
+
+
+# --- elliptic integrals -------------------------------------------------------------------------------
+
+M_VALUES = [0.0, 1e-14, 1e-8, 1e-3, 0.1, 0.3, 0.5, 0.7, 0.9, 0.99, 0.999, 0.9999, -1.0, -400.0]
+
+
+@pytest.mark.parametrize("m", M_VALUES)
+def test_elliptic_KE_matches_scipy(m):
+    K, E = floats(c.elliptic_KE(m))
+    assert K == pytest.approx(special.ellipk(m), rel=1e-12, abs=0)
+    assert E == pytest.approx(special.ellipe(m), rel=1e-12, abs=0)
+
+
+def test_elliptic_KE_symbolic_equals_float():
+    m = ca.SX.sym("m")
+    f = ca.Function("ke", [m], list(c.elliptic_KE(m)))
+    for mv in (0.0, 0.37, 0.9999):
+        assert floats(f(mv)) == pytest.approx(floats(c.elliptic_KE(mv)), rel=1e-15)
+
+
+# --- geometry and material ----------------------------------------------------------------------------
+
+def test_curvature_sums_crowned_and_cylindrical():
+    A, B = floats(c.curvature_sums(0.0635, 0.040, 0.010))
+    assert A == pytest.approx(0.5 * (1 / 0.0635 + 1 / 0.040), rel=1e-15)
+    assert B == pytest.approx(0.5 * (1 / 0.0635 + 1 / 0.010), rel=1e-15)
+    A, B = floats(c.curvature_sums(0.0635, 0.040, math.inf))
+    assert B == pytest.approx(1 / (2 * 0.0635), rel=1e-15)
+
+
+def test_contact_material_identical_bodies():
+    E, nu = 210e9, 0.3
+    E_star, G, nu_c = floats(c.contact_material(E, nu, E, nu))
+    assert E_star == pytest.approx(E / (2 * (1 - nu**2)), rel=1e-14)
+    assert G == pytest.approx(E / (2 * (1 + nu)), rel=1e-14)
+    assert nu_c == pytest.approx(nu, rel=1e-14)
+    assert E_star == pytest.approx(G / (1 - nu_c), rel=1e-14)
+
+
+def test_contact_material_steel_on_polyurethane():
+    E1, nu1, E2, nu2 = 210e9, 0.3, 30e6, 0.48
+    E_star, G, nu = floats(c.contact_material(E1, nu1, E2, nu2))
+    G1, G2 = E1 / (2 * 1.3), E2 / (2 * 1.48)
+    assert E_star == pytest.approx(1 / ((1 - 0.09) / E1 + (1 - 0.48**2) / E2), rel=1e-14)
+    assert G == pytest.approx(2 * G1 * G2 / (G1 + G2), rel=1e-14)
+    assert nu == pytest.approx(G / 2 * (nu1 / G1 + nu2 / G2), rel=1e-14)
+    assert floats(c.contact_material(E2, nu2, E1, nu1)) == pytest.approx([E_star, G, nu], rel=1e-15)
+    assert nu == pytest.approx(0.48, abs=1e-3)  # soft body dominates: G ~ 2 G2, nu ~ nu2
+
+
+# --- Hertz ellipse ------------------------------------------------------------------------------------
+
+def test_hertz_swap_symmetry():
+    a, b, p0, d = floats(c.hertz_ellipse(1.3e-3, 7.1e-3, 250.0, 2.3e7))
+    a2, b2, p02, d2 = floats(c.hertz_ellipse(7.1e-3, 1.3e-3, 250.0, 2.3e7))
+    assert a > b
+    assert (a2, b2) == pytest.approx((b, a), rel=1e-13)
+    assert (p02, d2) == pytest.approx((p0, d), rel=1e-13)
+
+
+@pytest.mark.parametrize("factor", [1 + 1e-9, 1 - 1e-9])
+def test_hertz_circle_limit_is_continuous(factor):
+    B = 0.4219e-2
+    circle = floats(c.hertz_ellipse(B, B, 82000.0, 82000.0 / 0.72))
+    near = floats(c.hertz_ellipse(B * factor, B, 82000.0, 82000.0 / 0.72))
+    assert near == pytest.approx(circle, rel=2e-9)
+
+
+def test_hertz_circle_matches_classic_formulae():
+    R, N, E_star = 0.02, 100.0, 1e8  # sphere on a flat of radius-R equivalent: A = B = 1/(2R)
+    a, b, p0, d = floats(c.hertz_ellipse(1 / (2 * R), 1 / (2 * R), N, E_star))
+    assert a == b
+    assert a == pytest.approx((3 * N * R / (4 * E_star)) ** (1 / 3), rel=1e-14)
+    assert d == pytest.approx(a**2 / R, rel=1e-14)
+    assert p0 == pytest.approx(3 * N / (2 * math.pi * a**2), rel=1e-14)
+
+
+def _johnson_ratio(a_over_b):
+    """B/A implied by a >= b (Johnson eq. 4.39), evaluated with scipy."""
+    m = 1 - a_over_b**-2
+    K, E = special.ellipk(m), special.ellipe(m)
+    return (a_over_b**2 * E - K) / (K - E)
+
+
+@pytest.mark.parametrize("target", [1.05, 1.5, 2.0, 5.0, 10.0, 20.0])
+@pytest.mark.parametrize("major_along_x", [True, False])
+def test_hertz_solves_eccentricity_equation(target, major_along_x):
+    ratio = _johnson_ratio(target)  # B/A for which a/b = target
+    A, B = (1.0, ratio) if major_along_x else (ratio, 1.0)
+    N, E_star = 3.0, 2.0
+    a, b, p0, d = floats(c.hertz_ellipse(A, B, N, E_star))
+    major, minor = (a, b) if major_along_x else (b, a)
+    assert major / minor == pytest.approx(target, rel=1e-12)
+    # independent check of the size with scipy: a^3 = 3 N (K - E) / (2 pi A_min E* e^2)
+    m = 1 - (minor / major) ** 2
+    K, E = special.ellipk(m), special.ellipe(m)
+    assert major**3 == pytest.approx(3 * N * (K - E) / (2 * math.pi * 1.0 * E_star * m), rel=1e-12)
+    assert N == pytest.approx(2 / 3 * math.pi * a * b * p0, rel=1e-14)
+    assert d == pytest.approx(p0 * minor * K / E_star, rel=1e-12)
+
+
+def test_hertz_ratio_root_by_brentq():
+    # a/b for B/A = 7 solved independently with scipy's root finder
+    root = optimize.brentq(lambda q: _johnson_ratio(q) - 7.0, 1.0001, 50.0, xtol=1e-15, rtol=1e-15)
+    a, b, _, _ = floats(c.hertz_ellipse(1.0, 7.0, 1.0, 1.0))
+    assert a / b == pytest.approx(root, rel=1e-12)
+
+
+def test_float_inputs_give_float_convertible_results():
+    for value in (*c.hertz_ellipse(1.0, 2.0, 3.0, 4.0), *c.kalker_coefficients(1.7, 0.3),
+                  *c.creep_compliances(1.0, 2.0, 3.0, 4.0, 5.0), c.spin_force_coefficient(1.0, 2.0, 3.0, 4.0)):
+        assert isinstance(float(value), float)
+
+
+# --- Kalker coefficients ------------------------------------------------------------------------------
+
+def test_kalker_table_layout():
+    assert c.KALKER_TABLE.shape == (19, 9)
+    assert c.KALKER_A_OVER_B[0] == pytest.approx(0.1) and c.KALKER_A_OVER_B[-1] == pytest.approx(10.0)
+    assert np.all(np.diff(c.KALKER_A_OVER_B) > 0)
+    # Kalker: for nu = 0 longitudinal and lateral coefficients coincide
+    np.testing.assert_array_equal(c.KALKER_TABLE[:, 0], c.KALKER_TABLE[:, 3])
+
+
+def test_kalker_all_nodes_reproduced():
+    for aob, row in zip(c.KALKER_A_OVER_B, c.KALKER_TABLE):
+        for j, nu in enumerate(c.KALKER_NU):
+            got = floats(c.kalker_coefficients(aob, nu))
+            assert got == pytest.approx(row[[j, 3 + j, 6 + j]], rel=1e-12)
+
+
+def test_kalker_between_nodes_lies_between_neighbours():
+    nodes = c.KALKER_A_OVER_B
+    for i in range(len(nodes) - 1):
+        mid = math.sqrt(nodes[i] * nodes[i + 1])  # midpoint in log(a/b)
+        for j, nu in enumerate(c.KALKER_NU):
+            got = floats(c.kalker_coefficients(mid, nu))
+            for k in range(3):
+                lo, hi = c.KALKER_TABLE[i, 3 * k + j], c.KALKER_TABLE[i + 1, 3 * k + j]
+                assert got[k] == pytest.approx(0.5 * (lo + hi), rel=1e-12)
+
+
+def test_kalker_monotonic_where_table_is():
+    aob = np.logspace(-1, 1, 301)
+    for nu in (0.0, 0.1, 0.25, 0.4, 0.5):
+        values = np.array([floats(c.kalker_coefficients(x, nu)) for x in aob])
+        assert np.all(np.diff(values[:, 1]) > 0)  # C22 grows with a/b
+        assert np.all(np.diff(values[:, 2]) > 0)  # C23 grows with a/b
+        assert np.all(np.diff(values[aob >= 0.3, 0]) > 0)  # C11 grows for a/b >= 0.3 (table dips below)
+    for x in (0.15, 1.0, 3.0):
+        nus = np.linspace(0, 0.5, 21)
+        values = np.array([floats(c.kalker_coefficients(x, nu)) for nu in nus])
+        assert np.all(np.diff(values, axis=0) > 0)  # all grow with nu at these ratios
+
+
+def test_kalker_linear_in_nu_and_clamped():
+    c0, c1 = floats(c.kalker_coefficients(0.5, 0.0)), floats(c.kalker_coefficients(0.5, 0.25))
+    assert floats(c.kalker_coefficients(0.5, 0.125)) == pytest.approx(
+        [(x + y) / 2 for x, y in zip(c0, c1)], rel=1e-14)
+    assert floats(c.kalker_coefficients(0.05, 0.3)) == pytest.approx(floats(c.kalker_coefficients(0.1, 0.3)))
+    assert floats(c.kalker_coefficients(30.0, 0.3)) == pytest.approx(floats(c.kalker_coefficients(10.0, 0.3)))
+    assert floats(c.kalker_coefficients(2.0, 0.7)) == pytest.approx(floats(c.kalker_coefficients(2.0, 0.5)))
+    assert floats(c.kalker_coefficients(2.0, -0.1)) == pytest.approx(floats(c.kalker_coefficients(2.0, 0.0)))
+
+
+def test_creep_compliances_and_spin():
+    G, a, b = 8e10, 2e-3, 1e-3
+    eps_long, eps_lat = floats(c.creep_compliances(G, a, b, 4.12, 3.67))
+    assert eps_long == pytest.approx(1 / (G * a * b * 4.12), rel=1e-15)
+    assert eps_lat == pytest.approx(1 / (G * a * b * 3.67), rel=1e-15)
+    assert float(c.spin_force_coefficient(G, a, b, 1.47)) == pytest.approx(G * (a * b) ** 1.5 * 1.47, rel=1e-14)
