@@ -82,9 +82,9 @@ def roller_surface_points(r, phi, R):
     th = np.linspace(0, 2 * np.pi, N_RIM, endpoint=False)
     pts = []
     for s in (-half, 0.0, half):
-        for f in (1.0, 0.66, 0.33) if s != 0 else (1.0,):
+        for f in (1.0, 0.66, 0.33):
             pts.append(centre + s * a + f * rad * (np.cos(th)[:, None] * n + np.sin(th)[:, None] * t))
-    return np.vstack(pts), centre, a, rad, half
+    return np.vstack(pts + [centre[None, :]]), centre, a, rad, half
 
 
 def check_overlaps(layout: Layout):
@@ -112,6 +112,6 @@ def check_mounts(layout: Layout):
 
 
 def check_layout(layout: Layout):
-    check_mounts(layout)
     check_kinematics(layout)
+    check_mounts(layout)
     check_overlaps(layout)

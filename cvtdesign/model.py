@@ -34,9 +34,10 @@ from .effects import EFFECTS, parameter_vector
 from .geometry import D1, D2, rotate, steering_angle_guess
 from .variant import Layout
 
-EPS_RIGID = 1e-9      # [1/N] creep-compliance floor of the directions that are rigid in the model
+EPS_RIGID = 1e-12     # [1/N] creep-compliance floor of the directions that are rigid in the model
 F_SCALE = 10.0        # [N] force scaling of the unknowns
 RES_TOL = 1e-8        # scaled residual above which a point is reported as not converged
+SAT_LIMIT = 0.999     # traction utilisation |F|/(μN) beyond which traction_saturation means gross slip
 
 CONTACT_OUTPUTS = ("N", "F_t", "F_a", "utilisation", "p_max", "xi", "eta", "spin")
 POINT_OUTPUTS = ("omega_2", "tau_1", "tau_2", "phi", "gamma_axis", "alpha", "alpha_steering", "alpha_drive",
@@ -69,6 +70,9 @@ class CompiledModel:
     design: ca.SX
     point: ca.Function
     roller_names: list
+    residual: ca.Function          # (x, params) → scaled residual; params = [γ, ω1, τ⊥, φ_cmd, θ, p]
+    initial_guess: ca.Function     # params → x0 (ideal kinematics, no forces)
+    outputs: ca.Function           # (x, params) → the point outputs
     _maps: dict = field(default_factory=dict)
 
     def steering_guess(self, gammas):
@@ -195,7 +199,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
 
     slip_res, moment = [], ca.SX.zeros(3)
     idle_res, tau = [], {1: 0, 2: 0}
-    xi, eta, spin, util, pmax = [], [], [], [], []
+    xi, eta, spin, util, pmax, sat = [], [], [], [], [], []
     for i, r in enumerate(rollers):
         n, a = poses[i]
         t = tdirs[i]
@@ -226,6 +230,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
             ca_ = 0
         if "traction_saturation" in on:
             u = ca_fmin_sqrt(Ft[i], Fa[i], mu * N_eff[i])
+            sat.append(u)
             gsat = ca_atanh_ratio(u)
             ct, ca_ = ct * gsat, ca_ * gsat
         floor = EPS_RIGID * v_ref
@@ -274,7 +279,8 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
         "omega_2": w2_s, "tau_1": tau1, "tau_2": tau2, "phi": phi, "gamma_axis": gamma_axis,
         "alpha": alpha, "alpha_steering": alpha_s, "alpha_drive": _wrap(alpha - alpha_s),
         "power_loss": tau1 * w1 + tau2 * w2_s,
-        "residual": ca.norm_inf(resid),
+        # a solve that needs |F| → μN at a contact (traction_saturation) is gross slip, not a creep state
+        "residual": ca.if_else(ca.mmax(ca.vertcat(0, *sat)) > SAT_LIMIT, ca.inf, ca.norm_inf(resid)),
         "Omega_x": Om_s[0], "Omega_y": Om_s[1], "Omega_z": Om_s[2],
         "N": subs(ca.vertcat(*N)), "F_t": subs(Ft), "F_a": subs(Fa), "utilisation": subs(ca.vertcat(*util)),
         "p_max": subs(ca.vertcat(*pmax)), "xi": subs(ca.vertcat(*xi)), "eta": subs(ca.vertcat(*eta)),
@@ -291,11 +297,12 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
     p_m = ca.vertcat(g_m, w_m, l_m, phi_m, th_m, d_m)
     out_m = post(solver(x0_fn(p_m), p_m), p_m)
     point = ca.Function("point", ins, out_m, ["gamma_cmd", "omega_1", "tau_perp", "phi_guess", "theta", "design"], names)
-    return CompiledModel(layout, effects, pnames, pvalues, design, point, [r.name for r in rollers])
+    return CompiledModel(layout, effects, pnames, pvalues, design, point, [r.name for r in rollers], G, x0_fn, post)
 
 
 def ca_fmin_sqrt(ft, fa, limit):
-    """Traction utilisation u = |F|/(μN), kept just below 1 so the inverse saturation law stays finite."""
+    """Traction utilisation u = |F|/(μN), kept just below 1 so the inverse saturation law stays finite
+    while Newton iterates (a solution beyond SAT_LIMIT is reported as gross slip)."""
     return ca.fmin(ca.sqrt(ft * ft + fa * fa + 1e-18) / limit, 1 - 1e-9)
 
 

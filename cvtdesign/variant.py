@@ -164,7 +164,8 @@ def _suggest(word: str, options) -> str:
 
 
 def _schema_error(err: ValidationError, where: str) -> InputError:
-    e = err.errors()[0]
+    # an unknown (misspelt) field explains the 'missing' error that comes with it: report it first
+    e = sorted(err.errors(), key=lambda x: x["type"] != "extra_forbidden")[0]
     loc = [str(p) for p in e["loc"]]
     # pydantic lists union branches in loc (e.g. 'str', 'list[float]'): drop them
     loc = [p for p in loc if not (p in ("str", "float", "int", "Spherical") or p.startswith(("list[", "literal[")))]
