@@ -49,7 +49,9 @@ def _v(x):
 
 
 def _wrap(x):
-    return ca.atan2(ca.sin(x), ca.cos(x))
+    """Wrap an angle between two axis directions to [−π/2, π/2]: an axis is a line, defined modulo π
+    (with ω1 < 0 the shaft-speed vector points the other way along the same line)."""
+    return ca.atan2(ca.sin(2 * x), ca.cos(2 * x)) / 2
 
 
 def _sabs(x, eps):
@@ -233,7 +235,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
             sat.append(u)
             gsat = ca_atanh_ratio(u)
             ct, ca_ = ct * gsat, ca_ * gsat
-        floor = EPS_RIGID * v_ref
+        floor = EPS_RIGID * ca.fabs(v_ref)
         slip_res += [(s_t + (ct + floor) * Ft[i]) / v_ref, (s_a + (ca_ + floor) * Fa[i]) / v_ref]
 
         moment += R * ca.cross(n, Fvec[i])

@@ -1,0 +1,369 @@
+"""The generalised model (cvtdesign.model) against the two papers' equations and a hand-written reference.
+
+Kim et al. (refs/001): ideal law (eq 8) and steering linkage (eq 5) at zero load; steering-roller slip
+(eqs 19-24), drive-roller slip (eqs 25-31) and their sum (eq 32) at small load; the box CVT's halved drive
+slip (sec. 5.1); speed independence (sec. 4.3). Brokowski et al. (refs/000): Gillespie's creep/spin speed
+ratio (eqs 14-15), sideslip angle (eq 17) and efficiency (eq 22) with k from eq 19. And a PyBaMM-style
+cross-check of the whole existing CVT against reference_existing.py.
+
+The closed forms are in kim_closed_forms.py, with the corrections to the printed equations documented
+there. Measured numbers are printed (run pytest with -s to see them).
+"""
+from __future__ import annotations
+
+import functools
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+HERE = Path(__file__).resolve().parent
+if str(HERE) not in sys.path:          # the closed forms and the reference model live next to this file
+    sys.path.insert(0, str(HERE))
+
+import kim_closed_forms as kim  # noqa: E402
+from reference_existing import ExistingCVT  # noqa: E402
+
+from cvtdesign import contact  # noqa: E402
+from cvtdesign.effects import EFFECTS  # noqa: E402
+from cvtdesign.model import EPS_RIGID, compile_model  # noqa: E402
+from cvtdesign.variant import load_variant  # noqa: E402
+
+# --- helpers -------------------------------------------------------------------------------------------
+
+VARIANT_DIR = HERE.parents[1] / "variants"
+VARIANTS = sorted(p.stem for p in VARIANT_DIR.glob("*.yaml"))
+GAMMA_DEG = np.arange(-80.0, 81.0, 10.0)             # Kim sec. 4.2 test protocol
+GAMMAS = np.radians(GAMMA_DEG)
+LOADS = np.round(np.arange(-1.0, 1.0001, 0.1), 10)    # [N m], Kim sec. 4.2
+SMALL_LOADS = (0.05, -0.05)                           # [N m], linear range of the closed forms
+
+# Effects that act at zero load: rolling resistance loads the contacts whatever τ⊥ is, and a steering
+# offset or a radius mismatch change the kinematics. Every other effect acts through the tractive forces,
+# which vanish at zero load (drive_spin_creep included: its slip is proportional to F_t).
+ACT_AT_ZERO_LOAD = ("rolling_resistance", "steering_offset", "drive_radius_mismatch")
+ZERO_LOAD_SAFE = tuple(e for e in EFFECTS if e not in ACT_AT_ZERO_LOAD)
+
+EXISTING_ONLY_STEERING = ("steering_lateral_creep",)
+EXISTING_ONLY_DRIVE = ("drive_longitudinal_creep",)
+
+
+def report(msg):
+    print(f"[measured] {msg}")
+
+
+@functools.lru_cache(maxsize=None)
+def layout(name):
+    return load_variant(VARIANT_DIR / f"{name}.yaml")
+
+
+@functools.lru_cache(maxsize=None)
+def model(name, effects=None):
+    """Compiled model of a variant; effects: tuple of names, None = the variant's defaults."""
+    return compile_model(layout(name), effects=effects)
+
+
+def solve(name, gammas, loads, effects=None, **kw):
+    r = model(name, effects).evaluate(gammas, loads, **kw)
+    assert r["converged"].all(), f"{name} {effects}: {np.count_nonzero(~r['converged'])} points did not converge"
+    return r
+
+
+def drive_radii(lay):
+    """Radii [m] of the drive (not follower) rollers of shafts 1 and 2."""
+    return tuple(next(r.radius for r in lay.rollers if r.role == "drive" and r.shaft == s) for s in (1, 2))
+
+
+def rel_err(actual, expected, zero_atol=None):
+    """Max |actual/expected − 1| over the points where expected ≠ 0; where expected == 0, |actual| must be
+    at most zero_atol (the "tiny absolute floor only where the closed form is 0")."""
+    actual, expected = np.broadcast_arrays(np.asarray(actual, float), np.asarray(expected, float))
+    zero = expected == 0
+    if zero.any():
+        assert zero_atol is not None, "closed form is 0 at some points: give zero_atol"
+        assert np.max(np.abs(actual[zero])) <= zero_atol, (actual[zero], zero_atol)
+    return np.max(np.abs(actual[~zero] / expected[~zero] - 1))
+
+
+# --- 1. zero load: ideal law (Kim eq 8) and steering linkage (Kim eq 5) -------------------------------
+
+@pytest.mark.parametrize("effects", [None, ZERO_LOAD_SAFE], ids=["default_effects", "zero_load_safe_effects"])
+@pytest.mark.parametrize("name", VARIANTS)
+def test_ideal_law_kim_eq8_at_zero_load(name, effects):
+    """ω2/ω1 = (r1/r2) tan γ (Kim eq 8; DESIGN sec. 1 for unequal radii) to 1e-9 at τ⊥ = 0."""
+    r1, r2 = drive_radii(layout(name))
+    r = solve(name, GAMMAS, 0.0, effects)
+    ratio = r["omega_2"] / r["omega_1"]
+    ideal = kim.ideal_ratio(GAMMAS, r1, r2)
+    np.testing.assert_allclose(ratio, ideal, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(r["alpha"], 0.0, atol=1e-9)
+    np.testing.assert_allclose(r["alpha_steering"], 0.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("effect", ACT_AT_ZERO_LOAD)
+def test_excluded_effects_do_act_at_zero_load(effect):
+    """Why the three effects are left out of the zero-load test: each moves α by more than 1e-4 rad at τ⊥ = 0
+    (existing CVT, default effects plus that one)."""
+    r = solve("existing", GAMMAS, 0.0, tuple(layout("existing").effects) + (effect,))
+    report(f"{effect}: max |alpha| at zero load = {np.max(np.abs(r['alpha'])):.3g} rad")
+    assert np.max(np.abs(r["alpha"])) > 1e-4
+
+
+@pytest.mark.parametrize("name", [n for n in VARIANTS if n in ("existing", "unequal")])
+def test_steering_angle_kim_eq5(name):
+    """The solved steering angle φ of Kim's linkage gives γ = atan((√2 + tan φ)/(√2 − tan φ)) (Kim eq 5),
+    compared modulo 180° (axis angles)."""
+    r = solve(name, GAMMAS, 0.0, ZERO_LOAD_SAFE)
+    gamma_eq5 = kim.kim_gamma_from_phi(r["phi"])
+    np.testing.assert_allclose(kim.wrap_half_pi(gamma_eq5 - GAMMAS), 0.0, atol=1e-9)
+
+
+def test_box_steering_angle_equals_gamma():
+    """Box CVT (box.yaml): forks turning about the pole axis z give φ = γ (modulo 180°)."""
+    r = solve("box", GAMMAS, 0.0)
+    np.testing.assert_allclose(kim.wrap_half_pi(r["phi"] - GAMMAS), 0.0, atol=1e-9)
+
+
+# --- 2. Kim's closed forms at small load ---------------------------------------------------------------
+
+def _existing_constants():
+    lay = layout("existing")
+    return lay.creep_steering, lay.creep_drive, drive_radii(lay)[0]
+
+
+@pytest.mark.parametrize("tau", SMALL_LOADS)
+def test_steering_roller_slip_kim_eqs19_24(tau):
+    """α_steering of the model with only steering_lateral_creep = Kim's α_SR (eqs 19-24, with corrections
+    (a)-(d) of kim_closed_forms.steering_slip_angle) within 2 %, all γ in −80..80°."""
+    eps_s, _, r_d = _existing_constants()
+    r = solve("existing", GAMMAS, tau, EXISTING_ONLY_STEERING)
+    a_sr = kim.steering_slip_angle(tau, GAMMAS, eps_s, r_d)
+    err = rel_err(r["alpha_steering"], a_sr)
+    report(f"tau={tau}: alpha_SR (eqs 19-24) max rel err {err:.2e}, max |alpha_SR| {np.max(np.abs(a_sr)):.3e} rad")
+    assert err < 0.02
+    # no drive slip when the drive rollers are rigid (up to the 1e-9 compliance floor)
+    assert np.max(np.abs(r["alpha_drive"])) < 1e-8
+
+
+@pytest.mark.parametrize("tau", SMALL_LOADS)
+def test_kim_eq19_radius_is_the_drive_radius(tau):
+    """Finding (a): with eq 19's r read as the steering-roller radius (38 mm, as the text says) instead of
+    the drive-roller radius (40 mm) the model's α_SR is 38/40 − 1 = −5 % off the closed form, outside 2 %."""
+    eps_s, _, r_d = _existing_constants()
+    r_s = next(r.radius for r in layout("existing").rollers if r.role == "steering")
+    r = solve("existing", GAMMAS, tau, EXISTING_ONLY_STEERING)
+    ratio = r["alpha_steering"] / kim.steering_slip_angle(tau, GAMMAS, eps_s, r_s)
+    report(f"tau={tau}: model / eq 19 with r_S: {ratio.min():.4f}..{ratio.max():.4f} (r_S/r_D = {r_s / r_d:.4f})")
+    np.testing.assert_allclose(ratio, r_s / r_d, rtol=1e-3)
+    assert np.all(np.abs(ratio - 1) > 0.02)
+
+
+@pytest.mark.parametrize("tau", SMALL_LOADS)
+def test_kim_eq24_printed_sign_is_reversed(tau):
+    """Finding (c): the printed eq 24, α_SR = γ − γ_a, has the opposite sign of the model's steering part
+    (γ_a − γ, needed by eqs 15, 31, 32) at every point."""
+    eps_s, _, r_d = _existing_constants()
+    phi = kim.kim_phi_from_gamma(GAMMAS)
+    gamma_a = kim.kim_gamma_actual(phi, kim.steering_lateral_slip_angle(tau, GAMMAS, eps_s, r_d))
+    printed = kim.wrap_half_pi(GAMMAS - gamma_a)
+    r = solve("existing", GAMMAS, tau, EXISTING_ONLY_STEERING)
+    assert np.all(np.sign(printed) == -np.sign(r["alpha_steering"]))
+    assert rel_err(r["alpha_steering"], -printed) < 0.02
+
+
+@pytest.mark.parametrize("tau", SMALL_LOADS)
+def test_drive_roller_slip_kim_eqs25_31(tau):
+    """α_drive of the model with only drive_longitudinal_creep = Kim's α_DR (eqs 25-31, γ_a = γ) within 2 %;
+    at γ = 0, where the closed form is 0, |α_drive| < 1e-8 rad (the model's rigid-direction floor)."""
+    _, eps_d, r_d = _existing_constants()
+    r = solve("existing", GAMMAS, tau, EXISTING_ONLY_DRIVE)
+    a_dr = kim.drive_slip_angle(tau, GAMMAS, eps_d, r_d)
+    err = rel_err(r["alpha_drive"], a_dr, zero_atol=1e-8)
+    report(f"tau={tau}: alpha_DR (eqs 25-31) max rel err {err:.2e}, max |alpha_DR| {np.max(np.abs(a_dr)):.3e} rad")
+    assert err < 0.02
+    assert np.max(np.abs(r["alpha_steering"])) < 1e-8
+
+
+@pytest.mark.parametrize("tau", SMALL_LOADS)
+def test_slip_angle_sum_kim_eq32(tau):
+    """Both effects on (existing.yaml's defaults): α ≈ α_SR + α_DR (Kim eq 32) within 2 %."""
+    eps_s, eps_d, r_d = _existing_constants()
+    r = solve("existing", GAMMAS, tau)
+    expected = kim.kim_slip_angle(tau, GAMMAS, eps_s, eps_d, r_d)
+    err = rel_err(r["alpha"], expected)
+    report(f"tau={tau}: alpha (eq 32) max rel err {err:.2e}")
+    assert err < 0.02
+
+
+def test_slip_angle_independent_of_speed_kim_sec43():
+    """Kim sec. 4.3 / Fig. 12: the slip angle does not depend on the CVT's speed (creep ∝ rolling speed);
+    ω1 = 1, 10, 100 rad/s."""
+    g, t = np.meshgrid(GAMMAS, [-1.0, -0.3, 0.3, 1.0], indexing="ij")
+    base = solve("existing", g, t)["alpha"]
+    for w in (1.0, 100.0):
+        np.testing.assert_allclose(solve("existing", g, t, speeds=w)["alpha"], base, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("tau", SMALL_LOADS)
+def test_kim_closed_forms_negative_speed(tau):
+    """Kim's sgn(ω∥) and sgn(ω_S) factors (eqs 21 as corrected, 27-28): with shaft 1 turning backwards
+    (ω1 = −10 rad/s) the model's slip angles, taken modulo 180° (axis angles), match α_SR (eqs 19-24),
+    α_DR (eqs 25-31) and α (eq 32) within 2 %. (Modulo 180°: see test_slip_angles_for_negative_speed.)"""
+    eps_s, eps_d, r_d = _existing_constants()
+    rs = solve("existing", GAMMAS, tau, EXISTING_ONLY_STEERING, speeds=-10.0)
+    rd = solve("existing", GAMMAS, tau, EXISTING_ONLY_DRIVE, speeds=-10.0)
+    rb = solve("existing", GAMMAS, tau, speeds=-10.0)
+    err_s = rel_err(kim.wrap_half_pi(rs["alpha_steering"]), kim.steering_slip_angle(tau, GAMMAS, eps_s, r_d, -1.0))
+    err_d = rel_err(kim.wrap_half_pi(rd["alpha_drive"]), kim.drive_slip_angle(tau, GAMMAS, eps_d, r_d, omega_par=-1.0),
+                    zero_atol=1e-8)
+    err_b = rel_err(kim.wrap_half_pi(rb["alpha"]), kim.kim_slip_angle(tau, GAMMAS, eps_s, eps_d, r_d, -1.0))
+    report(f"tau={tau}, omega_1<0: max rel err alpha_SR {err_s:.2e}, alpha_DR {err_d:.2e}, alpha {err_b:.2e}")
+    assert max(err_s, err_d, err_b) < 0.02
+
+
+def test_slip_angles_for_negative_speed():
+    """The slip angle compares two axes, so it is a small angle defined modulo 180° (Kim Fig. 12 plots α over
+    positive and negative ω∥; Brokowski Fig. 13, w_m < 0, shows small sideslip angles): the model's reported
+    α, α_steering and α_drive should equal their values wrapped to [−90°, 90°) for ω1 < 0 as they do for
+    ω1 > 0 (α and α_steering once came out as ±π + slip)."""
+    r = solve("existing", GAMMAS, 0.5, speeds=-10.0)
+    for key in ("alpha_drive", "alpha", "alpha_steering"):
+        np.testing.assert_allclose(r[key], kim.wrap_half_pi(r[key]), atol=1e-12, err_msg=key)
+
+
+# --- 3. box CVT vs existing (Kim sec. 5.1) ------------------------------------------------------------
+
+def _max_abs(name, key, tau):
+    return np.max(np.abs(solve(name, GAMMAS, tau)[key]))
+
+
+@pytest.mark.parametrize("tau", [0.05, -0.05, 1.0, -1.0])
+def test_box_halves_drive_slip_kim_sec51(tau):
+    """Kim sec. 5.1: four drive rollers share each tractive force, "essentially halving" the drive-roller
+    slip: max |α_drive| over the envelope, box / existing, in 0.45..0.55 (Kim's ε for both)."""
+    ratio = _max_abs("box", "alpha_drive", tau) / _max_abs("existing", "alpha_drive", tau)
+    report(f"tau={tau}: max|alpha_drive| box/existing = {ratio:.4f}")
+    assert 0.45 <= ratio <= 0.55
+
+
+@pytest.mark.parametrize("tau", [0.05, -0.05, 1.0, -1.0])
+def test_box_lessens_steering_slip_kim_sec51(tau):
+    """Kim sec. 5.1: four steering rollers at the full moment arm "significantly lessen" the steering-roller
+    slip: max |α_steering|, box / existing, below one half."""
+    ratio = _max_abs("box", "alpha_steering", tau) / _max_abs("existing", "alpha_steering", tau)
+    report(f"tau={tau}: max|alpha_steering| box/existing = {ratio:.4f}")
+    assert ratio < 0.5
+
+
+# --- 4. hand-written reference model of the existing CVT ---------------------------------------------
+
+@pytest.fixture(scope="module")
+def reference_envelope():
+    """The reference model (reference_existing.py, with DESIGN.md sec. 1's dimensions and Kim's ε, and the
+    model's rigid-direction floor) and the compiled model over Kim's full envelope."""
+    lay = layout("existing")
+    ref = ExistingCVT(eps_rigid=EPS_RIGID)
+    radii = {r.name: r.radius for r in lay.rollers}
+    assert (lay.sphere_radius, lay.creep_drive, lay.creep_steering) == pytest.approx((ref.R, ref.eps_d, ref.eps_s))
+    assert (radii["D1"], radii["D2"], radii["S1"], radii["S2"]) == pytest.approx(
+        (ref.r_drive, ref.r_drive, ref.r_steer, ref.r_steer))
+    g, t = np.meshgrid(GAMMAS, LOADS, indexing="ij")
+    keys = ("alpha", "alpha_steering", "alpha_drive", "tau_1", "tau_2", "residual")
+    out = {k: np.empty(g.shape) for k in keys}
+    for idx in np.ndindex(g.shape):
+        sol = ref.solve(g[idx], t[idx], omega1=lay.motor_speed)
+        for k in keys:
+            out[k][idx] = sol[k]
+    return out, solve("existing", g, t)
+
+
+def test_reference_model_converged(reference_envelope):
+    ref, _ = reference_envelope
+    assert np.max(ref["residual"]) < 1e-10
+
+
+@pytest.mark.parametrize("key", ["alpha", "alpha_steering", "alpha_drive", "tau_1", "tau_2"])
+def test_reference_model_cross_check(reference_envelope, key):
+    """Compiled model = hand-written reference (Kim's vectors, scipy root) over −80..80° × −1..1 N m,
+    to 1e-6 relative plus 1e-9 absolute (rad, or N m for the torques)."""
+    ref, mod = reference_envelope
+    diff = np.abs(mod[key] - ref[key])
+    report(f"{key}: max |model - reference| = {diff.max():.2e} (max |value| {np.max(np.abs(ref[key])):.3g})")
+    assert np.all(diff <= 1e-9 + 1e-6 * np.abs(ref[key]))
+
+
+# --- 5. Gillespie's creep/spin model (Brokowski eqs 14-19, 22) -----------------------------------------
+
+GILLESPIE_LOADS = (-1.0, -0.5, 0.5, 1.0)
+GILLESPIE_GAMMAS = np.radians(np.concatenate([-GAMMA_DEG[GAMMA_DEG > 0][::-1], GAMMA_DEG[GAMMA_DEG > 0]]))
+SPIN_ONLY = ("drive_spin_creep",)
+
+
+def gillespie_k_existing():
+    """k = b/(R r μ N) (Brokowski eq 19) for the existing CVT's drive rollers at the preload: b the lateral
+    Hertz semi-axis, μ the lower of the two materials' friction coefficients."""
+    lay = layout("existing")
+    d1 = next(r for r in lay.rollers if r.role == "drive" and r.shaft == 1)
+    sm, R = lay.sphere_material, lay.sphere_radius
+    e_star, _, _ = contact.contact_material(d1.material.E, d1.material.nu, sm.E, sm.nu)
+    _, b, _, _ = contact.hertz_ellipse(*contact.curvature_sums(R, d1.radius, d1.crown_radius), d1.preload, e_star)
+    return kim.gillespie_k(float(b), R, d1.radius, min(d1.material.mu, sm.mu), d1.preload)
+
+
+@pytest.mark.parametrize("tau", GILLESPIE_LOADS)
+def test_gillespie_spin_creep_is_dissipative(tau):
+    """With only drive_spin_creep the CVT dissipates power for loads of both signs, whereas the printed
+    Brokowski eq 14 (0 < γ < 90°) would make it produce power (τ1ω1 + τ2ω2 < 0)."""
+    r = solve("existing", GILLESPIE_GAMMAS, tau, SPIN_ONLY)
+    assert np.all(r["power_loss"] > 0)
+    g = GILLESPIE_GAMMAS[GILLESPIE_GAMMAS > 0]
+    w1 = layout("existing").motor_speed
+    p14 = tau * w1 * (np.cos(g) * kim.gillespie_ratio_printed_eq14(g, gillespie_k_existing(), tau) - np.sin(g))
+    assert np.all(p14 < 0)
+
+
+@pytest.mark.parametrize("tau", GILLESPIE_LOADS)
+def test_gillespie_speed_ratio_brokowski_eqs14_15(tau):
+    """ω2/ω1 of the model (only drive_spin_creep) = (sin γ + kτ⊥ cos γ|cos γ|)/(cos γ − kτ⊥ sin γ|sin γ|) to
+    1e-6 relative, γ ∈ ±{10..80}°: that is the printed eq 15 for γ < 0, and the printed eq 14 with τ⊥ → −τ⊥
+    for γ > 0; the printed eq 14 puts the slip (ratio − tan γ) on the wrong side of the ideal ratio."""
+    k = gillespie_k_existing()
+    g = GILLESPIE_GAMMAS
+    r = solve("existing", g, tau, SPIN_ONLY)
+    ratio = r["omega_2"] / r["omega_1"]
+    err = rel_err(ratio, kim.gillespie_ratio(g, k, tau))
+    neg, pos = g < 0, g > 0
+    err15 = rel_err(ratio[neg], kim.gillespie_ratio_printed_eq15(g[neg], k, tau))
+    printed14 = kim.gillespie_ratio_printed_eq14(g[pos], k, tau)
+    err14 = np.abs(ratio[pos] / printed14 - 1)
+    report(f"tau={tau}: k = {k:.5g} 1/(N m); ratio vs dissipative form {err:.2e}, vs printed eq 15 (γ<0) "
+           f"{err15:.2e}, vs printed eq 14 (γ>0) {err14.min():.3f}..{err14.max():.3f}")
+    assert err < 1e-6
+    assert err15 < 1e-6
+    np.testing.assert_allclose(printed14, kim.gillespie_ratio(g[pos], k, -tau), rtol=1e-12)
+    assert np.all(np.sign(printed14 - np.tan(g[pos])) == -np.sign(ratio[pos] - np.tan(g[pos])))
+
+
+@pytest.mark.parametrize("tau", GILLESPIE_LOADS)
+def test_gillespie_sideslip_brokowski_eq17(tau):
+    """tan α from the printed Brokowski eq 17 (0 < γ < 90°) = the model's α, to 1e-7 rad (the 1e-6 relative
+    speed-ratio tolerance of the test above is ≤ 5e-7 rad in α)."""
+    g = GILLESPIE_GAMMAS[GILLESPIE_GAMMAS > 0]
+    r = solve("existing", g, tau, SPIN_ONLY)
+    alpha17 = np.arctan(kim.gillespie_tan_alpha(g, gillespie_k_existing(), tau))
+    diff = np.max(np.abs(r["alpha"] - alpha17))
+    report(f"tau={tau}: |alpha - atan(eq 17)| max {diff:.2e} rad, max |alpha| {np.max(np.abs(alpha17)):.3e} rad")
+    assert diff < 1e-7
+
+
+@pytest.mark.parametrize("tau", GILLESPIE_LOADS)
+def test_creep_spin_efficiency_brokowski_eq22(tau):
+    """Where power enters at shaft 2 (Brokowski's motor), the model's efficiency −τ1ω1/(τ2ω2) with only
+    drive_spin_creep = tan γ / tan(γ + α) (Brokowski eq 22) to 1e-9."""
+    r = solve("existing", GILLESPIE_GAMMAS, tau, SPIN_ONLY)
+    p_in2 = r["tau_2"] * r["omega_2"] > 0
+    assert p_in2.sum() == len(GILLESPIE_GAMMAS) // 2
+    eta = -r["tau_1"] * r["omega_1"] / (r["tau_2"] * r["omega_2"])
+    np.testing.assert_allclose(eta[p_in2], kim.creep_spin_efficiency(GILLESPIE_GAMMAS, r["alpha"])[p_in2], rtol=1e-9)
+    assert np.all(eta[p_in2] < 1)
