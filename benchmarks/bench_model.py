@@ -46,7 +46,7 @@ def grid_benchmark():
     def scipy_solve():
         alphas = []
         for g, l, p in zip(G.ravel(), T.ravel(), phi):
-            params = np.concatenate([[g, L.motor_speed, l, p], th])
+            params = np.concatenate([[g, L.motor_speed, l, 0.0, p], th])
             sol = root(lambda x: np.asarray(m.residual(x, params)).ravel(), np.asarray(m.initial_guess(params)).ravel(),
                        method="hybr", options={"xtol": 1e-13})
             alphas.append(float(m.outputs(sol.x, params)[5]))

@@ -8,47 +8,11 @@ import itertools
 
 import numpy as np
 
-from .geometry import rotate, steering_angle_guess
-from .model import _steer_data
+from .geometry import pose, rigid_constraints, steering_angle_guess, steering_data
 from .units import InputError
 from .variant import Layout
 
 N_RIM = 48
-
-
-def _np(v):
-    return np.asarray(v, float).ravel() if isinstance(v, np.ndarray) else np.asarray(np.array(v.full() if hasattr(v, "full") else v, float)).ravel()
-
-
-def pose(r, phi):
-    """Numeric (normal, axle) of roller r at steering angle φ [rad]."""
-    n, a = _np(r.normal), _np(r.axle)
-    if r.fork_axis is None:
-        return n, a
-    k = _np(r.fork_axis)
-    return _np(rotate(n, k, r.fork_sign * phi)), _np(rotate(a, k, r.fork_sign * phi))
-
-
-def rigid_constraints(layout: Layout, phi: float) -> np.ndarray:
-    """Rolling constraints of rigid contacts, rows × unknowns [Ω (3), ω1, ω2, idler speeds].
-
-    Lateral: R Ω·t_i = 0 (no sideways slip); longitudinal: −R Ω·a_i − r_i ρ_i ω_s = 0."""
-    R = float(layout.sphere_radius)
-    idlers = [r.name for r in layout.rollers if r.role == "steering"]
-    rows = []
-    for r in layout.rollers:
-        n, a = pose(r, phi)
-        t = np.cross(n, a)
-        lat = np.zeros(5 + len(idlers))
-        lat[:3] = R * t
-        lon = np.zeros_like(lat)
-        lon[:3] = -R * a
-        if r.role == "steering":
-            lon[5 + idlers.index(r.name)] = -float(r.radius)
-        else:
-            lon[2 + r.shaft] = -float(r.radius) * float(r.ratio)
-        rows += [lat, lon]
-    return np.array(rows)
 
 
 def check_kinematics(layout: Layout):
@@ -56,7 +20,7 @@ def check_kinematics(layout: Layout):
     motion (the sphere turning about one axis, every roller rolling): none means the rollers fight, more
     than one means the steering rollers cannot fix an axis."""
     gammas = np.linspace(layout.gamma_grid.min(), layout.gamma_grid.max(), 9)
-    phis, misfit = steering_angle_guess(*_steer_data(layout), gammas)
+    phis, misfit = steering_angle_guess(*steering_data(layout), gammas)
     for g, phi, m in zip(gammas, phis, misfit):
         if m > 1e-6:
             raise InputError(f"{layout.file}: steering.forks: the steering rollers cannot all roll about the "
@@ -91,7 +55,7 @@ def check_overlaps(layout: Layout):
     """No two roller bodies (cylinders of their radius and width) intersect, at any steering angle."""
     R = float(layout.sphere_radius)
     gammas = np.linspace(layout.gamma_grid.min(), layout.gamma_grid.max(), 9)
-    phis, _ = steering_angle_guess(*_steer_data(layout), gammas)
+    phis, _ = steering_angle_guess(*steering_data(layout), gammas)
     for g, phi in zip(gammas, phis):
         bodies = {r.name: roller_surface_points(r, phi, R) for r in layout.rollers}
         for (na, A), (nb, B) in itertools.combinations(bodies.items(), 2):

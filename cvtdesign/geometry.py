@@ -47,7 +47,7 @@ def spherical(polar, azimuth):
 
 def rotate(v, k, angle):
     """Rotate 3-vector v about unit axis k by angle [rad] (Rodrigues); v, k may be CasADi expressions."""
-    v, k = ca.vec(ca.DM(v) if isinstance(v, np.ndarray) else v), ca.vec(ca.DM(k) if isinstance(k, np.ndarray) else k)
+    v, k = vec(v), vec(k)
     c, s = ca.cos(angle), ca.sin(angle)
     return v * c + ca.cross(k, v) * s + k * ca.dot(k, v) * (1 - c)
 
@@ -102,3 +102,64 @@ def steering_angle_guess(t0s, forks, gammas, n_scan: int = 721) -> tuple[np.ndar
         width /= 20
     wrapped = (best + np.pi / 2) % np.pi - np.pi / 2
     return wrapped[inverse], np.sqrt(np.min(cost, axis=1))[inverse]
+
+
+def _np(v):
+    return np.asarray(v, float).ravel() if isinstance(v, np.ndarray) else np.asarray(np.array(v.full() if hasattr(v, "full") else v, float)).ravel()
+
+
+def vec(x):
+    """A 3-vector (numpy array, list or CasADi expression) as a CasADi column."""
+    return ca.vec(ca.DM(x)) if isinstance(x, np.ndarray) else ca.vec(x)
+
+
+def roller_pose(r, phi):
+    """Contact normal and axle of roller r at steering angle φ [rad] (CasADi; fixed rollers ignore φ)."""
+    n, a = vec(r.normal), vec(r.axle)
+    if r.fork_axis is None:
+        return n, a
+    k = vec(r.fork_axis)
+    return rotate(n, k, r.fork_sign * phi), rotate(a, k, r.fork_sign * phi)
+
+
+def pose(r, phi):
+    """Numeric (normal, axle) of roller r at steering angle φ [rad], numpy arrays."""
+    return tuple(_np(v) for v in roller_pose(r, phi))
+
+
+def steering_data(layout):
+    """Rolling directions at φ = 0 and (fork axes, signs) of the steered rollers, for the linkage scan."""
+    steered = [r for r in layout.rollers if r.fork_axis is not None]
+    t0 = np.array([np.cross(*pose(r, 0.0)) for r in steered])
+    return t0, (np.array([_np(r.fork_axis) for r in steered]), np.array([r.fork_sign for r in steered], float))
+
+
+def rigid_constraints(layout, phi: float) -> np.ndarray:
+    """Rolling constraints of rigid contacts, rows × unknowns [Ω (3), ω1, ω2, idler speeds].
+
+    Lateral: R Ω·t_i = 0 (no sideways slip); longitudinal: −R Ω·a_i − r_i ρ_i ω_s = 0."""
+    R = float(layout.sphere_radius)
+    idlers = [r.name for r in layout.rollers if r.role == "steering"]
+    rows = []
+    for r in layout.rollers:
+        n, a = pose(r, phi)
+        t = np.cross(n, a)
+        lat = np.zeros(5 + len(idlers))
+        lat[:3] = R * t
+        lon = np.zeros_like(lat)
+        lon[:3] = -R * a
+        if r.role == "steering":
+            lon[5 + idlers.index(r.name)] = -float(r.radius)
+        else:
+            lon[2 + r.shaft] = -float(r.radius) * float(r.ratio)
+        rows += [lat, lon]
+    return np.array(rows)
+
+
+def ideal_gamma(layout, phi: float) -> float:
+    """Forward kinematics: the transmission angle γ [rad] the rigid rollers give at steering angle φ [rad],
+    from the one motion the rolling constraints leave (sign chosen so that shaft 1 turns forwards)."""
+    A = rigid_constraints(layout, phi)
+    motion = np.linalg.svd(A)[2][-1]
+    om = motion[:3] * np.sign(motion[3])
+    return float(np.arctan2(om @ D2, om @ D1))

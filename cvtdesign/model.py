@@ -31,7 +31,7 @@ import numpy as np
 
 from . import contact
 from .effects import EFFECTS, parameter_vector
-from .geometry import D1, D2, rotate, steering_angle_guess
+from .geometry import D1, D2, ideal_gamma, roller_pose, steering_angle_guess, steering_data, vec
 from .variant import Layout
 
 EPS_RIGID = 1e-12     # [1/N] creep-compliance floor of the directions that are rigid in the model
@@ -42,10 +42,6 @@ SAT_LIMIT = 0.999     # traction utilisation |F|/(μN) beyond which traction_sat
 CONTACT_OUTPUTS = ("N", "F_t", "F_a", "utilisation", "p_max", "xi", "eta", "spin")
 POINT_OUTPUTS = ("omega_2", "tau_1", "tau_2", "phi", "gamma_axis", "alpha", "alpha_steering", "alpha_drive",
                  "power_loss", "residual", "Omega_x", "Omega_y", "Omega_z")
-
-
-def _v(x):
-    return ca.vec(ca.DM(x)) if isinstance(x, np.ndarray) else ca.vec(x)
 
 
 def _wrap(x):
@@ -62,7 +58,8 @@ def _sabs(x, eps):
 class CompiledModel:
     """The compiled model of one layout with one set of effects.
 
-    `point` maps (γ_cmd [rad], ω1 [rad/s], τ⊥ [N m], φ guess [rad], θ effect parameters, p design) to a
+    `point` maps (γ_cmd [rad], ω1 [rad/s], load [N m], load_is_τ2 (0: the load is τ⊥, 1: it is the brake
+    torque τ2), φ guess [rad], θ effect parameters, p design) to a
     dict of POINT_OUTPUTS (scalars) and CONTACT_OUTPUTS (one entry per roller). `grid` evaluates many
     points at once, compiled and mapped."""
     layout: Layout
@@ -72,17 +69,25 @@ class CompiledModel:
     design: ca.SX
     point: ca.Function
     roller_names: list
-    residual: ca.Function          # (x, params) → scaled residual; params = [γ, ω1, τ⊥, φ_cmd, θ, p]
+    residual: ca.Function          # (x, params) → scaled residual; params = [γ, ω1, load, load_is_τ2, φ_cmd, θ, p]
     initial_guess: ca.Function     # params → x0 (ideal kinematics, no forces)
     outputs: ca.Function           # (x, params) → the point outputs
     _maps: dict = field(default_factory=dict)
 
     def steering_guess(self, gammas):
-        return steering_angle_guess(*_steer_data(self.layout), np.asarray(gammas, float))
+        return steering_angle_guess(*steering_data(self.layout), np.asarray(gammas, float))
 
-    def evaluate(self, gammas, loads, speeds=None, theta=None, design=None):
-        """Evaluate points (1-D arrays of equal length, or broadcastable). Returns dict of numpy arrays;
-        points whose Newton solve did not converge have `converged` False and NaN in every output."""
+    def evaluate(self, gammas, loads, speeds=None, theta=None, design=None, load_kind="tau_perp",
+                 steering_angles=None):
+        """Evaluate operating points (broadcastable arrays): commanded γ [rad] (or, with `steering_angles`
+        [rad], the linkage's angle φ, and γ_cmd is then the ideal γ of that φ), loads [N m] that are the
+        lateral load τ⊥ (load_kind 'tau_perp') or the brake-shaft torque τ2 ('tau_2'), motor speeds ω1
+        [rad/s] (default: the variant's). Returns a dict of numpy arrays; points whose Newton solve did
+        not converge have `converged` False and NaN in every output."""
+        if load_kind not in ("tau_perp", "tau_2"):
+            raise ValueError(f"load_kind must be 'tau_perp' or 'tau_2', not {load_kind!r}")
+        if steering_angles is not None:
+            gammas = np.vectorize(lambda p: ideal_gamma(self.layout, p))(np.asarray(steering_angles, float))
         gammas, loads = np.broadcast_arrays(np.asarray(gammas, float), np.asarray(loads, float))
         shape = gammas.shape
         g, l = gammas.ravel(), loads.ravel()
@@ -93,7 +98,7 @@ class CompiledModel:
         n = g.size
         if n not in self._maps:
             self._maps[n] = self.point.map(n, "thread", 2)
-        out = self._maps[n](g, w, l, phi0, th, p)
+        out = self._maps[n](g, w, l, float(load_kind == "tau_2"), phi0, th, p)
         names = self.point.name_out()
         res = {k: np.asarray(v) for k, v in zip(names, out)}
         converged = np.isfinite(res["residual"][0]) & (res["residual"][0] < RES_TOL)
@@ -105,30 +110,13 @@ class CompiledModel:
         return result
 
 
-def _steer_data(layout: Layout):
-    steered = [r for r in layout.rollers if r.fork_axis is not None]
-    t0 = np.array([np.cross(np.asarray(ca.DM(_v(r.normal))).ravel(), np.asarray(ca.DM(_v(r.axle))).ravel())
-                   for r in steered])
-    axes = np.array([np.asarray(ca.DM(_v(r.fork_axis))).ravel() for r in steered])
-    return t0, (axes, np.array([r.fork_sign for r in steered], float))
-
-
-def _pose(r, phi):
-    """Contact normal and axle of roller r at steering angle φ (fixed rollers ignore φ)."""
-    n, a = _v(r.normal), _v(r.axle)
-    if r.fork_axis is None:
-        return n, a
-    k = _v(r.fork_axis)
-    return rotate(n, k, r.fork_sign * phi), rotate(a, k, r.fork_sign * phi)
-
-
 def _steering_solver(layout: Layout, design: ca.SX):
     """Rootfinder φ(γ_cmd): the steering angle at which every steered roller rolls without lateral slip
     about the commanded axis u = cos γ d1 + sin γ d2 (least squares, so over-determined linkages work).
     For Kim's linkage it reproduces eq 5 inverted."""
     phi, gamma = ca.SX.sym("phi"), ca.SX.sym("gamma")
-    u = ca.cos(gamma) * _v(D1) + ca.sin(gamma) * _v(D2)
-    res = ca.vertcat(*[ca.dot(ca.cross(*_pose(r, phi)), u) for r in layout.rollers if r.fork_axis is not None])
+    u = ca.cos(gamma) * vec(D1) + ca.sin(gamma) * vec(D2)
+    res = ca.vertcat(*[ca.dot(ca.cross(*roller_pose(r, phi)), u) for r in layout.rollers if r.fork_axis is not None])
     g = ca.jacobian(ca.sumsqr(res) / 2, phi)
     f = ca.Function("steer_res", [phi, ca.vertcat(gamma, design)], [g])
     return ca.rootfinder("steer", "newton", f, {"abstol": 1e-14, "max_iter": 30, "error_on_fail": False})
@@ -154,7 +142,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
 
     rollers = layout.rollers
     R = layout.sphere_radius
-    gamma, w1, load, phi_cmd = (ca.SX.sym(s) for s in ("gamma_cmd", "omega_1", "tau_perp", "phi_cmd"))
+    gamma, w1, load, brake, phi_cmd = (ca.SX.sym(s) for s in ("gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_cmd"))
     # steering_offset: the linkage's actual angle is the commanded one plus a constant
     phi = phi_cmd + (par("steering_offset", "offset") if "steering_offset" in on else 0)
 
@@ -186,7 +174,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
     Ft = F_SCALE * x[4 + ni: 4 + ni + nc]
     Fa = F_SCALE * x[4 + ni + nc:]
 
-    poses = [_pose(r, phi) for r in rollers]
+    poses = [roller_pose(r, phi) for r in rollers]
     tdirs = [ca.cross(n, a) for n, a in poses]
     Fvec = [Ft[i] * tdirs[i] + Fa[i] * poses[i][1] for i in range(nc)]
 
@@ -256,24 +244,25 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
         util.append(ca.sqrt(Ft[i] ** 2 + Fa[i] ** 2) / (mu * N[i]))
         pmax.append(c["p0"] * (ca.fmax(N[i], 0) / r.preload) ** (1.0 / 3.0))
 
-    load_res = (-tau[1] * ca.sin(gamma) + tau[2] * ca.cos(gamma) - load) / 1.0
+    # the load: lateral torque τ⊥ = −τ1 sin γ + τ2 cos γ (Kim eq 17), or the brake-shaft torque τ2 itself
+    load_res = (1 - brake) * (-tau[1] * ca.sin(gamma) + tau[2] * ca.cos(gamma) - load) + brake * (tau[2] - load)
     resid = ca.vertcat(*slip_res, moment / (R * F_SCALE), *idle_res, load_res)
-    params = ca.vertcat(gamma, w1, load, phi_cmd, theta, design)
+    params = ca.vertcat(gamma, w1, load, brake, phi_cmd, theta, design)
     G = ca.Function("residual", [x, params], [resid])
     solver = ca.rootfinder("cvt", "newton", G, {"abstol": 1e-12, "max_iter": 40, "error_on_fail": False})
 
     # initial guess: ideal kinematics about the commanded axis, no forces
-    gains = {s: -R / (primary[s].ratio * primary[s].radius) * _v(primary[s].axle) for s in (1, 2)}
-    u = ca.cos(gamma) * _v(D1) + ca.sin(gamma) * _v(D2)
+    gains = {s: -R / (primary[s].ratio * primary[s].radius) * vec(primary[s].axle) for s in (1, 2)}
+    u = ca.cos(gamma) * vec(D1) + ca.sin(gamma) * vec(D2)
     Om0 = u * w1 / ca.dot(gains[1], u)
     x0 = ca.vertcat(Om0 / om_ref, ca.dot(gains[2], Om0) / w1,
-                    *[-R * ca.dot(Om0, _pose(r, phi)[1]) / (r.radius * w1) for r in idlers], ca.SX.zeros(2 * nc))
+                    *[-R * ca.dot(Om0, roller_pose(r, phi)[1]) / (r.radius * w1) for r in idlers], ca.SX.zeros(2 * nc))
     x0_fn = ca.Function("x0", [params], [x0])
 
     Om_s, w2_s = Om, w2
     subs = lambda e: e
     g1, g2 = ca.norm_2(gains[1]), ca.norm_2(gains[2])
-    gamma_axis = ca.atan2(ca.dot(Om_s, _v(D2)), ca.dot(Om_s, _v(D1)))
+    gamma_axis = ca.atan2(ca.dot(Om_s, vec(D2)), ca.dot(Om_s, vec(D1)))
     alpha = _wrap(ca.atan2(w2_s / g2, w1 / g1) - gamma)
     alpha_s = _wrap(gamma_axis - gamma)
     tau1, tau2 = subs(tau[1]), subs(tau[2])
@@ -292,13 +281,13 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
     post = ca.Function("post", [x, params], [outs[k] for k in names])
 
     # one operating point: φ from the linkage's inverse kinematics, then the Newton solve, then outputs
-    ins = [ca.MX.sym(n, *shape) for n, shape in (("gamma_cmd", (1, 1)), ("omega_1", (1, 1)), ("tau_perp", (1, 1)),
-                                                  ("phi_guess", (1, 1)), ("theta", theta.shape), ("design", design.shape))]
-    g_m, w_m, l_m, pg_m, th_m, d_m = ins
+    in_names = ["gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_guess", "theta", "design"]
+    ins = [ca.MX.sym(n, *(theta.shape if n == "theta" else design.shape if n == "design" else (1, 1))) for n in in_names]
+    g_m, w_m, l_m, b_m, pg_m, th_m, d_m = ins
     phi_m = _steering_solver(layout, design)(pg_m, ca.vertcat(g_m, d_m))
-    p_m = ca.vertcat(g_m, w_m, l_m, phi_m, th_m, d_m)
+    p_m = ca.vertcat(g_m, w_m, l_m, b_m, phi_m, th_m, d_m)
     out_m = post(solver(x0_fn(p_m), p_m), p_m)
-    point = ca.Function("point", ins, out_m, ["gamma_cmd", "omega_1", "tau_perp", "phi_guess", "theta", "design"], names)
+    point = ca.Function("point", ins, out_m, in_names, names)
     return CompiledModel(layout, effects, pnames, pvalues, design, point, [r.name for r in rollers], G, x0_fn, post)
 
 

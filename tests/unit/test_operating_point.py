@@ -1,0 +1,43 @@
+"""Operating points given by steering angle instead of γ, and by brake torque τ2 instead of τ⊥."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cvtdesign.geometry import ideal_gamma, kim_gamma_from_phi
+from cvtdesign.model import compile_model
+from cvtdesign.variant import load_variant
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def existing():
+    return compile_model(load_variant(ROOT / "variants/existing.yaml"))
+
+
+def test_forward_kinematics_is_kim_eq5(existing):
+    for phi in np.radians([-60.0, -20.0, 0.0, 15.0, 50.0]):
+        g = ideal_gamma(existing.layout, phi)
+        assert np.isclose(np.tan(g), np.tan(kim_gamma_from_phi(phi)), rtol=1e-12, atol=1e-12)
+
+
+def test_steering_angle_input_equals_gamma_input(existing):
+    phis = np.radians([-40.0, 10.0, 35.0])
+    by_phi = existing.evaluate(None, 0.6, steering_angles=phis)
+    by_gamma = existing.evaluate(kim_gamma_from_phi(phis), 0.6)
+    np.testing.assert_allclose(by_phi["phi"], phis, atol=1e-12)
+    np.testing.assert_allclose(by_phi["alpha"], by_gamma["alpha"], rtol=1e-10, atol=1e-14)
+
+
+def test_brake_torque_load(existing):
+    """A τ⊥ point re-solved with its own τ2 as the load is the same state."""
+    g = np.radians([-50.0, 20.0, 70.0])
+    a = existing.evaluate(g, 0.8)
+    b = existing.evaluate(g, a["tau_2"], load_kind="tau_2")
+    np.testing.assert_allclose(b["tau_2"], a["tau_2"], rtol=1e-12)
+    np.testing.assert_allclose(b["alpha"], a["alpha"], rtol=1e-9)
+    tau_perp = -b["tau_1"] * np.sin(g) + b["tau_2"] * np.cos(g)
+    np.testing.assert_allclose(tau_perp, 0.8, rtol=1e-9)
+    with pytest.raises(ValueError):
+        existing.evaluate(g, 0.8, load_kind="brake")
