@@ -31,12 +31,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import optimize
 
-S2 = np.sqrt(2.0)
-D1 = np.array([1.0, 1.0, 0.0]) / S2
-D2 = np.array([-1.0, 1.0, 0.0]) / S2
-C1 = np.array([0.0, -1.0, 1.0]) / S2
-C2 = np.array([0.0, -1.0, -1.0]) / S2
-C3 = np.array([1.0, 0.0, 0.0])
+from kim_closed_forms import C1, C2, C3, D1, D2, S2  # Kim's vectors, written by hand there too
 EPS_RIGID = 1e-9      # [1/N] default compliance floor of the rigid directions
 
 
