@@ -119,7 +119,8 @@ def _steering_solver(layout: Layout, design: ca.SX):
     res = ca.vertcat(*[ca.dot(ca.cross(*roller_pose(r, phi)), u) for r in layout.rollers if r.fork_axis is not None])
     g = ca.jacobian(ca.sumsqr(res) / 2, phi)
     f = ca.Function("steer_res", [phi, ca.vertcat(gamma, design)], [g])
-    return ca.rootfinder("steer", "newton", f, {"abstol": 1e-14, "max_iter": 30, "error_on_fail": False})
+    misfit = ca.Function("steer_misfit", [phi, ca.vertcat(gamma, design)], [ca.norm_2(res)])
+    return ca.rootfinder("steer", "newton", f, {"abstol": 1e-14, "max_iter": 30, "error_on_fail": False}), misfit
 
 
 def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> CompiledModel:
@@ -284,10 +285,13 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
     in_names = ["gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_guess", "theta", "design"]
     ins = [ca.MX.sym(n, *(theta.shape if n == "theta" else design.shape if n == "design" else (1, 1))) for n in in_names]
     g_m, w_m, l_m, b_m, pg_m, th_m, d_m = ins
-    phi_m = _steering_solver(layout, design)(pg_m, ca.vertcat(g_m, d_m))
+    steer, misfit = _steering_solver(layout, design)
+    phi_m = steer(pg_m, ca.vertcat(g_m, d_m))
     p_m = ca.vertcat(g_m, w_m, l_m, b_m, phi_m, th_m, d_m)
-    out_m = post(solver(x0_fn(p_m), p_m), p_m)
-    point = ca.Function("point", ins, out_m, in_names, names)
+    out_m = list(post(solver(x0_fn(p_m), p_m), p_m))
+    # how far the linkage is from rolling about the commanded axis (0 where it reaches γ)
+    out_m.append(misfit(phi_m, ca.vertcat(g_m, d_m)))
+    point = ca.Function("point", ins, out_m, in_names, names + ["steer_misfit"])
     return CompiledModel(layout, effects, pnames, pvalues, design, point, [r.name for r in rollers], G, x0_fn, post)
 
 

@@ -217,10 +217,9 @@ def _grid(r: RangeSpec, kind, where):
 
 def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Layout:
     """Build the SI Layout. `overrides` maps parameter names to values (floats or CasADi symbols)."""
-    names = {}
-    for k, v in spec.parameters.items():
-        names[k] = _param(v, f"{where}: parameters.{k}", names)
-    names.update(overrides or {})
+    names, overrides = {}, overrides or {}
+    for k, v in spec.parameters.items():   # in order, so later parameters may use earlier ones
+        names[k] = overrides[k] if k in overrides else _param(v, f"{where}: parameters.{k}", names)
 
     mats = {}
     for k, m in spec.materials.items():
