@@ -100,6 +100,49 @@ def _compare(args, painter):
     return 0
 
 
+def cmd_optimise(args):
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.table import Table
+
+    from . import optimise
+
+    console = Console(width=110)
+    with Progress(TextColumn("multistart"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.description}"), console=console, transient=True) as bar:
+        task = bar.add_task("", total=None)
+
+        def progress(done, total, sol):
+            bar.update(task, total=total, completed=done, description=f"last: {sol.status}, f = {sol.objective:.5g}")
+
+        res = optimise.run(args.study, args.out, args.starts, progress)
+    statuses = ", ".join(f"{s} ×{res['statuses'].count(s)}" for s in dict.fromkeys(res["statuses"]))
+    console.print(f"study {res['study']}: {res['starts']} starts ({statuses}); "
+                  f"{len(res['optima'])} distinct optima found " +
+                  ", ".join(f"f = {o['objective']:.6g} ({o['found']}×)" for o in res["optima"]))
+    if res["success"]:
+        t = Table(title=f"optimum: {res['objective_kind']} = {res['objective']:.6g}")
+        for c in ("variable", "optimum", "base"):
+            t.add_column(c, justify="right")
+        for n, v in res["design"].items():
+            t.add_row(n, f"{v:.6g}", f"{res['base_design'][n]:.6g}")
+        console.print(t)
+        c = Table(title="constraints (most binding row of each; multiplier = objective change per unit of bound)")
+        for col in ("constraint", "where", "value", "bound", "slack", "multiplier", "active"):
+            c.add_column(col)
+        for r in res["constraints"]:
+            c.add_row(r["name"], r["where"], f"{r['value']:.5g}", f"{r['bound']:.5g}", f"{r['slack']:.3g}",
+                      f"{r['multiplier']:.3g}", "yes" if r["active"] else "")
+        console.print(c)
+        console.print(f"optimised variant: {res['variant_file']}  (try: cvtdesign compare {res['variant_file']})")
+    else:
+        console.print(f"[red]no successful solve: IPOPT status {res['status']}[/red]")
+    if args.json:
+        keys = ("status", "objective", "design", "active_constraints", "variant_file")
+        write_atomic(Path(args.json), json.dumps({k: res[k] for k in keys} | {"details": res}, indent=2) + "\n")
+    return 0 if res["success"] else 1
+
+
 def build_parser():
     p = argparse.ArgumentParser(prog="cvtdesign", description="Design, optimise and compare spherical CVTs.")
     sub = p.add_subparsers(dest="command", required=True)
@@ -108,6 +151,12 @@ def build_parser():
     c.add_argument("--out", default="out/compare", help="folder for the plots (default: out/compare)")
     c.add_argument("--json", help="also write the figures to this JSON file")
     c.set_defaults(func=cmd_compare)
+    o = sub.add_parser("optimise", help="optimise a variant's parameters under slip/efficiency objectives (IPOPT)")
+    o.add_argument("study", help="study YAML file (studies/*.yaml)")
+    o.add_argument("--out", help="folder for the optimised variant (default: results/<study name>)")
+    o.add_argument("--starts", type=int, help="number of multistart points (default: the study's)")
+    o.add_argument("--json", help="also write the result to this JSON file")
+    o.set_defaults(func=cmd_optimise)
     return p
 
 

@@ -34,7 +34,7 @@ from .effects import EFFECTS, parameter_vector
 from .geometry import D1, D2, ideal_gamma, roller_pose, steering_angle_guess, steering_data, vec
 from .variant import Layout
 
-EPS_RIGID = 1e-12     # [1/N] creep-compliance floor of the directions that are rigid in the model
+EPS_RIGID = 1e-9      # [1/N] creep-compliance floor of the directions that are rigid in the model
 F_SCALE = 10.0        # [N] force scaling of the unknowns
 RES_TOL = 1e-8        # scaled residual above which a point is reported as not converged
 SAT_LIMIT = 0.999     # traction utilisation |F|/(μN) beyond which traction_saturation means gross slip
@@ -119,7 +119,7 @@ def _steering_solver(layout: Layout, design: ca.SX):
     res = ca.vertcat(*[ca.dot(ca.cross(*roller_pose(r, phi)), u) for r in layout.rollers if r.fork_axis is not None])
     g = ca.jacobian(ca.sumsqr(res) / 2, phi)
     f = ca.Function("steer_res", [phi, ca.vertcat(gamma, design)], [g])
-    misfit = ca.Function("steer_misfit", [phi, ca.vertcat(gamma, design)], [ca.norm_2(res)])
+    misfit = ca.Function("steer_misfit", [phi, ca.vertcat(gamma, design)], [ca.sqrt(ca.sumsqr(res) + 1e-30)])
     return ca.rootfinder("steer", "newton", f, {"abstol": 1e-14, "max_iter": 30, "error_on_fail": False}), misfit
 
 
@@ -242,7 +242,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
         xi.append(s_t / V)
         eta.append(s_a / V)
         spin.append(w_spin / V)
-        util.append(ca.sqrt(Ft[i] ** 2 + Fa[i] ** 2) / (mu * N[i]))
+        util.append(ca.sqrt(Ft[i] ** 2 + Fa[i] ** 2 + 1e-6) / (mu * N[i]))   # smooth on a 1 mN scale at F = 0
         pmax.append(c["p0"] * (ca.fmax(N[i], 0) / r.preload) ** (1.0 / 3.0))
 
     # the load: lateral torque τ⊥ = −τ1 sin γ + τ2 cos γ (Kim eq 17), or the brake-shaft torque τ2 itself

@@ -163,7 +163,7 @@ def _suggest(word: str, options) -> str:
     return f" (did you mean '{close[0]}'?)" if close else ""
 
 
-def _schema_error(err: ValidationError, where: str) -> InputError:
+def _schema_error(err: ValidationError, where: str, root=None) -> InputError:
     # an unknown (misspelt) field explains the 'missing' error that comes with it: report it first
     e = sorted(err.errors(), key=lambda x: x["type"] != "extra_forbidden")[0]
     loc = [str(p) for p in e["loc"]]
@@ -171,7 +171,7 @@ def _schema_error(err: ValidationError, where: str) -> InputError:
     loc = [p for p in loc if not (p in ("str", "float", "int", "Spherical") or p.startswith(("list[", "literal[")))]
     path = ".".join(loc)
     if e["type"] == "extra_forbidden":
-        model = VariantSpec
+        model = root or VariantSpec
         for p in loc[:-1]:
             ann = model.model_fields.get(p) if isinstance(model, type) and issubclass(model, BaseModel) else None
             if ann is None:

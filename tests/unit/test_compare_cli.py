@@ -2,9 +2,11 @@
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from cvtdesign.cli import main
+from cvtdesign.model import EPS_RIGID
 
 ROOT = Path(__file__).resolve().parents[2]
 KEYS = {"name", "file", "max_abs_alpha_deg", "rms_alpha_deg", "max_abs_alpha_steering_deg",
@@ -27,7 +29,8 @@ def test_single_file_compares_with_ideal_and_existing(box_vs_existing, monkeypat
     for r in rows:
         assert KEYS <= set(r)
     ideal, existing, box = rows
-    assert ideal["max_abs_alpha_deg"] < 1e-6 and ideal["min_efficiency"] > 1 - 1e-6
+    # the ideal CVT slips only by the model's rigid-direction floor: α ≲ EPS_RIGID · F with F < 50 N
+    assert ideal["max_abs_alpha_deg"] < np.degrees(EPS_RIGID * 50) and ideal["min_efficiency"] > 1 - 1e-6
     # Kim sec. 5.1: the box CVT slips less in both parts
     assert box["max_abs_alpha_drive_deg"] < 0.6 * existing["max_abs_alpha_drive_deg"]
     assert box["max_abs_alpha_steering_deg"] < 0.5 * existing["max_abs_alpha_steering_deg"]
