@@ -159,8 +159,12 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
         drive = r.role != "steering"
         kim = layout.creep_drive if drive else layout.creep_steering
         eps0 = kim if kim is not None else (e_long if drive else e_lat)
+        # the normal force at which eps0 holds: the variant's reference force for given creep constants
+        # (Kim's were fitted at a 100 N preload), else the preload at which Hertz + Kalker computed them
+        n_ref = layout.creep_reference_force if kim is not None and layout.creep_reference_force is not None \
+            else r.preload
         mu = ca.fmin(r.material.mu, sm.mu)
-        const.append(dict(a=a, b=b, p0=p0, eps0=eps0, mu=mu))
+        const.append(dict(a=a, b=b, p0=p0, eps0=eps0, mu=mu, n_ref=n_ref))
 
     primary = {s: next(r for r in rollers if r.role == "drive" and r.shaft == s) for s in (1, 2)}
     idlers = [r for r in rollers if r.role == "steering"]
@@ -186,7 +190,9 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
     N = [r.preload + r.stiffness * ca.dot(n, delta) for r, (n, _) in zip(rollers, poses)]
     # normal_force_variation: creep, spin creep, rolling resistance and saturation use the balanced N
     N_eff = N if "normal_force_variation" in on else [r.preload for r in rollers]
-    n_exp = par("normal_force_variation", "exponent") if "normal_force_variation" in on else 0
+    # creep compliance follows the Hertz patch, ε ∝ N^(-2/3): at the preload, or with
+    # normal_force_variation at the force-balanced N (and the effect's exponent)
+    n_exp = par("normal_force_variation", "exponent") if "normal_force_variation" in on else 2.0 / 3.0
 
     slip_res, moment = [], ca.SX.zeros(3)
     idle_res, tau = [], {1: 0, 2: 0}
@@ -207,7 +213,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
         s_t, s_a = ca.dot(s, t), ca.dot(s, a)
         V = _sabs(R * ca.dot(Om, a), 1e-9 * v_ref)          # rolling speed [m/s]
         w_spin = ca.dot(Om, n)                               # spin [rad/s]
-        nscale = (r.preload / N_eff[i]) ** n_exp             # ε ∝ N^(-2/3) (Hertz + Kalker)
+        nscale = (c["n_ref"] / N_eff[i]) ** n_exp            # ε ∝ N^(-2/3) (Hertz + Kalker)
         mu = c["mu"] * (par("traction_saturation", "mu_scale") if "traction_saturation" in on else 1)
         ct = 0
         if drive and "drive_longitudinal_creep" in on:

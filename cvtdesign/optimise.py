@@ -29,7 +29,7 @@ from .checks import check_layout
 from .geometry import roller_pose, steering_angle_guess, steering_data
 from .model import compile_model
 from .units import InputError, registry
-from .variant import Num, Strict, _param, _schema_error, _suggest, load_spec, resolve
+from .variant import EnvelopeSpec, Num, Strict, _grid, _param, _schema_error, _suggest, load_spec, resolve
 
 
 class DesignVar(Strict):
@@ -61,6 +61,20 @@ class Multistart(Strict):
     seed: int = 0
 
 
+class Batch(Strict):
+    """What `cvtdesign study` runs as separate cases: every base variant × every combination of the swept
+    (fixed) parameters × every multistart point, and one Pareto chain per variant × sweep combination."""
+    variants: list[str] | None = None                 # default: [base]
+    sweep: dict[str, list[Num]] = {}
+    pareto: bool = False
+
+
+class Pareto(Strict):
+    """ε-constraint sweep: minimise power loss subject to worst |α| ≤ ε, ε from the slip optimum to the
+    loss optimum's slip, warm-started point to point."""
+    points: int = 8
+
+
 class StudySpec(Strict):
     name: str
     description: str = ""
@@ -70,6 +84,9 @@ class StudySpec(Strict):
     objective: Objective = Objective()
     constraints: Constraints = Constraints()
     multistart: Multistart = Multistart()
+    envelope: EnvelopeSpec | None = None              # default: the variant's envelope
+    batch: Batch = Batch()
+    pareto: Pareto = Pareto()
     max_iter: int = 200
 
 
@@ -123,12 +140,22 @@ def _unit_of(raw) -> str | None:
     return None
 
 
-def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | None = None) -> Problem:
+def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | None = None,
+                  fixed: dict | None = None, objective: str | None = None) -> Problem:
+    """The NLP of a study. `fixed` sets other variant parameters (SI) for a sweep case; `objective`
+    overrides the study's objective kind ('pareto' builds the ε-constraint problem)."""
     if spec is None:
         spec, base_file = load_study(study_path)
     where = str(study_path)
     vspec = load_spec(base_file)
-    base = resolve(vspec, str(base_file))
+    fixed = fixed or {}
+    for n in fixed:
+        if n not in vspec.parameters:
+            raise InputError(f"{where}: batch.sweep.{n}: the variant {base_file.name} has no parameter '{n}'"
+                             f"{_suggest(n, vspec.parameters)}")
+        if n in spec.design:
+            raise InputError(f"{where}: batch.sweep.{n}: '{n}' is a design variable; sweep fixed parameters only")
+    base = resolve(vspec, str(base_file), overrides=fixed)
     check_layout(base)
     names = list(spec.design)
     if not names:
@@ -149,9 +176,13 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
     base_values = np.array([base.parameters[n] for n in names])
 
     p = ca.SX.sym("p", len(names))
-    layout = resolve(vspec, str(base_file), overrides={n: p[i] for i, n in enumerate(names)})
+    layout = resolve(vspec, str(base_file), overrides=fixed | {n: p[i] for i, n in enumerate(names)})
     model = compile_model(layout, effects=spec.effects, design=p)
-    G, T = np.meshgrid(base.gamma_grid, base.load_grid, indexing="ij")
+    gammas, loads = base.gamma_grid, base.load_grid
+    if spec.envelope is not None:
+        gammas = _grid(spec.envelope.gamma, "angle", f"{where}: envelope.gamma")
+        loads = _grid(spec.envelope.load, "torque", f"{where}: envelope.load")
+    G, T = np.meshgrid(gammas, loads, indexing="ij")
     g_pts, l_pts = G.ravel(), T.ravel()
     phi0, _ = steering_angle_guess(*steering_data(base), g_pts)
     theta = np.array(model.param_values)
@@ -175,16 +206,17 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
 
     pt_label = [f"γ={np.degrees(g):+.0f}° τ⊥={l:+.2g}" for g, l in zip(g_pts, l_pts)]
     rn = model.roller_names
-    kind = spec.objective.kind
-    epigraph = kind == "worst_alpha"
+    kind = objective or spec.objective.kind
+    epigraph = kind in ("worst_alpha", "pareto")
     t = ca.MX.sym("t") if epigraph else ca.MX(0, 1)
+    eps = ca.MX.sym("eps")          # ε of the Pareto sweep: worst |α| ≤ ε [deg]
     if epigraph:
         f = t
         add(alpha_deg.T - t, -np.inf, 0, "worst_alpha", [f"α ≤ t at {s}" for s in pt_label])
         add(-alpha_deg.T - t, -np.inf, 0, "worst_alpha", [f"−α ≤ t at {s}" for s in pt_label])
-    elif kind == "rms_alpha":
+    if kind == "rms_alpha":
         f = ca.sqrt(ca.sumsqr(alpha_deg) / npts)
-    else:
+    elif kind in ("power_loss", "pareto"):
         duty = spec.objective.duty_cycle
         if duty:
             dg = np.array([_param(d.gamma, f"{where}: objective.duty_cycle.gamma", {}) for d in duty])
@@ -230,12 +262,14 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
         ext = ca.Function("extent", [p], [ca.vertcat(*[R + 2 * r.radius for r in layout.rollers])])
         add(ext(P), -np.inf, e, "envelope_radius", [f"extent of {r}" for r in rn])
 
+    if kind == "pareto":
+        add(t - eps, -np.inf, 0, "epsilon", ["worst |α| ≤ ε"])
     g = ca.vertcat(*rows)
     x = ca.vertcat(z, t)
     opts = {"ipopt": {"print_level": 0, "max_iter": spec.max_iter, "tol": 1e-8, "acceptable_tol": 1e-6,
                       "sb": "yes", "hessian_approximation": "limited-memory"}, "print_time": False}
-    solver = ca.nlpsol("design", "ipopt", {"x": x, "f": f, "g": g}, opts)
-    evaluate = ca.Function("evaluate", [x], [f, g])
+    solver = ca.nlpsol("design", "ipopt", {"x": x, "f": f, "g": g, "p": eps}, opts)
+    evaluate = ca.Function("evaluate", [x, eps], [f, g]) if kind == "pareto" else ca.Function("evaluate", [x], [f, g])
     start_t = ca.Function("start_t", [z], [ca.mmax(ca.fabs(alpha_deg))]) if epigraph else None
     return Problem(spec, where, base_file, names, lower, upper, solver, x.shape[0], np.array(lb), np.array(ub),
                    labels, family, evaluate, epigraph, start_t, base_values)
@@ -255,18 +289,22 @@ class Solution:
     start: int
 
 
-def solve_from(problem: Problem, z0, start_index=0) -> Solution:
+def solve_from(problem: Problem, z0, start_index=0, eps: float = 0.0, warm: Solution | None = None) -> Solution:
+    """Solve from normalised design z0 (and, for the Pareto problem, bound ε on worst |α| [deg]);
+    `warm` passes a neighbouring solution's multipliers as a warm start."""
     x0 = list(z0)
     if problem.epigraph:
         x0.append(float(problem.start_t(z0)) * 1.05 + 1e-3)
     n = len(problem.names)
     lbx = [0.0] * n + ([0.0] if problem.epigraph else [])
     ubx = [1.0] * n + ([np.inf] if problem.epigraph else [])
-    sol = problem.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=problem.g_lb, ubg=problem.g_ub)
+    extra = {} if warm is None else {"lam_g0": warm.lam_g}
+    sol = problem.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=problem.g_lb, ubg=problem.g_ub, p=eps, **extra)
     st = problem.solver.stats()
     zs = np.asarray(sol["x"]).ravel()[:n]
     values = problem.lower + (problem.upper - problem.lower) * zs
-    return Solution(st["return_status"], bool(st["success"]), float(sol["f"]), zs,
+    return Solution(st["return_status"], bool(st["success"]) or st["return_status"] == "Solved_To_Acceptable_Level",
+                    float(sol["f"]), zs,
                     dict(zip(problem.names, values.tolist())), np.asarray(sol["g"]).ravel(),
                     np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel()[:n], int(st["iter_count"]),
                     start_index)
@@ -373,3 +411,38 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
                   variant_file=str(variant), objective_kind=problem.spec.objective.kind,
                   base_variant=str(problem.base_file), base_design=dict(zip(problem.names, problem.base_values.tolist())))
     return result
+
+
+def pareto_front(study_path, spec: StudySpec, base_file: Path, fixed: dict | None = None,
+                 points: int | None = None) -> list[dict]:
+    """Slip/efficiency trade-off by the ε-constraint method: minimise power loss subject to worst |α| ≤ ε,
+    ε from the slip optimum's worst |α| to that of the loss optimum, each point warm-started from the last.
+    Returns one dict per point: eps, worst_alpha_deg, power_loss_W, design, status, solution."""
+    slip = build_problem(study_path, spec, base_file, fixed, objective="worst_alpha")
+    loss = build_problem(study_path, spec, base_file, fixed, objective="power_loss")
+    front = build_problem(study_path, spec, base_file, fixed, objective="pareto")
+    z0 = starts(slip)[0]
+    s_slip, s_loss = solve_from(slip, z0), solve_from(loss, z0)
+    lo, hi = s_slip.objective, float(slip.start_t(s_loss.z))
+    out, prev = [], s_slip
+    for k, eps in enumerate(np.linspace(lo, hi, points or spec.pareto.points)):
+        sol = solve_from(front, prev.z, k, eps=float(eps))
+        worst = float(slip.start_t(sol.z))
+        out.append({"index": k, "eps": float(eps), "worst_alpha_deg": worst, "power_loss_W": sol.objective,
+                    "design": sol.design, "status": sol.status, "success": sol.success, "solution": sol,
+                    "problem": front})
+        if sol.success:
+            prev = sol
+    return out
+
+
+def knee(front: list[dict]) -> int:
+    """Index of the knee: the successful point farthest from the straight line joining the two ends
+    (both objectives scaled to [0, 1])."""
+    ok = [p for p in front if p["success"]]
+    if len(ok) < 3:
+        return ok[0]["index"] if ok else 0
+    a = np.array([[p["worst_alpha_deg"], p["power_loss_W"]] for p in ok])
+    a = (a - a.min(0)) / np.where(np.ptp(a, 0) > 0, np.ptp(a, 0), 1)
+    d = np.abs(np.cross(a[-1] - a[0], a - a[0])) / max(np.linalg.norm(a[-1] - a[0]), 1e-12)
+    return ok[int(np.argmax(d))]["index"]

@@ -77,6 +77,7 @@ class SteeringSpec(Strict):
 class ContactSpec(Strict):
     creep_drive: Num | None = None
     creep_steering: Num | None = None
+    creep_reference_force: Num | None = None   # normal force at which the creep constants hold (default: preload)
 
 
 class RangeSpec(Strict):
@@ -143,6 +144,7 @@ class Layout:
     rollers: tuple[Roller, ...]
     creep_drive: object            # ε_D at the preload [1/N] or None (Hertz + Kalker)
     creep_steering: object         # ε_S at the preload [1/N] or None
+    creep_reference_force: object  # normal force [N] at which ε_D, ε_S hold; None: each roller's preload
     effects: tuple[str, ...]
     effect_parameters: dict        # effect -> {param: SI value}
     gamma_grid: np.ndarray         # [rad]
@@ -309,6 +311,7 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         rollers=tuple(rollers),
         creep_drive=None if c.creep_drive is None else _positive(to_si(c.creep_drive, "compliance", f"{where}: contact.creep_drive", names), f"{where}: contact.creep_drive"),
         creep_steering=None if c.creep_steering is None else _positive(to_si(c.creep_steering, "compliance", f"{where}: contact.creep_steering", names), f"{where}: contact.creep_steering"),
+        creep_reference_force=None if c.creep_reference_force is None else _positive(to_si(c.creep_reference_force, "force", f"{where}: contact.creep_reference_force", names), f"{where}: contact.creep_reference_force"),
         effects=tuple(spec.effects), effect_parameters=eparams,
         gamma_grid=_grid(env.gamma, "angle", f"{where}: envelope.gamma"),
         load_grid=_grid(env.load, "torque", f"{where}: envelope.load"),
