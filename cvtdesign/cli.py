@@ -143,6 +143,61 @@ def cmd_optimise(args):
     return 0 if res["success"] else 1
 
 
+def cmd_study(args):
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.table import Table
+
+    import numpy as np
+
+    from . import study
+
+    console = Console(width=120)
+    with Progress(TextColumn("cases"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.description}"), console=console) as bar:
+        task = bar.add_task("", total=None)
+
+        def progress(done, total, row):
+            desc = "" if row is None else f"last: {row['case_id']} {row['status']}"
+            bar.update(task, total=total, completed=done, description=desc)
+
+        res = study.run_study(args.study, args.out, args.scheduler, args.workers, progress)
+    df = res["table"]
+    console.print(f"{res['cases']} cases: {res['skipped']} already in {res['out_dir']}, {res['ran']} run in "
+                  f"{res['seconds']:.1f} s")
+    t = Table(title="cases by status")
+    t.add_column("status")
+    t.add_column("cases", justify="right")
+    for status, n in df.groupby("status")["case_id"].nunique().items():
+        t.add_row(status, str(n))
+    console.print(t)
+    starts_ = df[(df["kind"] == "start") & df["success"]]
+    if len(starts_):
+        best = starts_.sort_values("objective").groupby(["variant", "fixed"], sort=False).head(1)
+        b = Table(title="best optimum per variant and sweep point")
+        for c in ("variant", "fixed", "objective", "found by", "variant file"):
+            b.add_column(c)
+        for _, r in best.iterrows():
+            same = starts_[(starts_["variant"] == r["variant"]) & (starts_["fixed"] == r["fixed"]) &
+                           (np.abs(starts_["objective"] - r["objective"]) <= 1e-6 * max(1, abs(r["objective"])))]
+            b.add_row(r["variant"], r["fixed"], f"{r['objective']:.6g}", f"{len(same)} starts", str(r["variant_file"]))
+        console.print(b)
+    pareto = df[df["kind"] == "pareto"]
+    if len(pareto):
+        from . import plots
+        from .optimise import knee
+
+        chains = []
+        for cid, grp in pareto.groupby("case_id", sort=False):
+            pts = [dict(r) | {"index": r["point"]} for _, r in grp.sort_values("point").iterrows()]
+            chains.append((cid, pts, knee(pts)))
+            console.print(f"Pareto {cid}: knee at point {chains[-1][2]}")
+        figure = Path(res["out_dir"]) / "pareto.png"
+        plots.pareto_figure(chains, figure)
+        console.print(f"Pareto plot: {figure}")
+    return 0 if df["success"].any() else 1
+
+
 def build_parser():
     p = argparse.ArgumentParser(prog="cvtdesign", description="Design, optimise and compare spherical CVTs.")
     sub = p.add_subparsers(dest="command", required=True)
@@ -157,6 +212,12 @@ def build_parser():
     o.add_argument("--starts", type=int, help="number of multistart points (default: the study's)")
     o.add_argument("--json", help="also write the result to this JSON file")
     o.set_defaults(func=cmd_optimise)
+    b = sub.add_parser("study", help="run a study's cases (sweeps, multistarts, Pareto fronts) in batch on Dask")
+    b.add_argument("study", help="study YAML file (studies/*.yaml)")
+    b.add_argument("--out", help="results store (default: results/<study name>)")
+    b.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a local cluster)")
+    b.add_argument("--workers", type=int, help="local cluster size (default: one single-threaded worker per core)")
+    b.set_defaults(func=cmd_study)
     return p
 
 

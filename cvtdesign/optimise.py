@@ -357,8 +357,9 @@ def constraint_report(problem: Problem, sol: Solution) -> list[dict]:
     return rows
 
 
-def write_variant(problem: Problem, sol: Solution, out_dir: Path) -> Path:
-    """The optimised design as a variant file `compare` reads, with a provenance header."""
+def write_variant(problem: Problem, sol: Solution, out_dir: Path, name: str | None = None) -> Path:
+    """The optimised design as a variant file `compare` reads, with a provenance header
+    (name: default '<base variant>_<study>')."""
     from .cli import write_atomic
 
     data = yaml.safe_load(problem.base_file.read_text())
@@ -369,7 +370,7 @@ def write_variant(problem: Problem, sol: Solution, out_dir: Path) -> Path:
             data["parameters"][n] = f"{q.magnitude:.6g} {unit}"
         else:
             data["parameters"][n] = float(f"{v:.6g}")
-    name = f"{data['name']}_{problem.spec.name}"
+    name = name or f"{data['name']}_{problem.spec.name}"
     data["description"] = f"{problem.spec.name} optimum of {data['name']}. " + problem.spec.description
     data["name"] = name
     header = (f"# Optimised by `cvtdesign optimise {problem.study_file}`\n"

@@ -108,3 +108,31 @@ class Background:
             self.proc.join(timeout=0.1)
             if self.proc.is_alive():
                 self.proc.terminate()
+
+
+def pareto_figure(chains: list[tuple[str, list[dict], int]], path: Path):
+    """Slip/efficiency Pareto fronts (worst |α| [deg] against mean power loss [W]), knee marked, every point
+    labelled with the stem of its variant file. chains: (label, points with worst_alpha_deg, power_loss_W,
+    variant_file, success, point), index of the knee point)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(8, 5.5))
+    for label, pts, k in chains:
+        ok = [p for p in pts if p["success"]]
+        x = [p["worst_alpha_deg"] for p in ok]
+        y = [p["power_loss_W"] for p in ok]
+        line, = ax.plot(x, y, "o-", label=label)
+        for p in ok:
+            if p.get("variant_file"):
+                ax.annotate(Path(p["variant_file"]).stem, (p["worst_alpha_deg"], p["power_loss_W"]), fontsize=6,
+                            xytext=(4, 3), textcoords="offset points", color=line.get_color())
+        kp = next((p for p in ok if p["point"] == k), None)
+        if kp:
+            ax.plot(kp["worst_alpha_deg"], kp["power_loss_W"], "*", ms=18, color=line.get_color(),
+                    markeredgecolor="k", label=f"knee of {label}")
+    ax.set_xlabel("worst-case slip angle max |α| over the envelope [deg]")
+    ax.set_ylabel("mean power loss over the envelope [W]")
+    ax.set_title("slip against power loss (ε-constraint Pareto front)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    save(fig, path, dpi=110)

@@ -1,0 +1,214 @@
+"""Batch studies on Dask: many optimisation cases at once, each written to the results store as it finishes.
+
+Cases: every base variant (`batch.variants`, default the study's `base`) × every combination of the swept
+fixed parameters (`batch.sweep`) × every multistart point (`multistart.starts`), plus, with
+`batch.pareto`, one ε-constraint Pareto chain per variant × sweep combination (a chain is sequential:
+each point warm-starts the next).
+
+Store (`results/<study>/` by default): `cases/<case id>.parquet`, one file per finished case written
+atomically (a Parquet dataset readable with pandas/pyarrow as a whole), `variants/` the designs as variant
+files, and `manifest.json` (study hash, package versions, solver options). Re-running the same command
+skips the cases already in the store, so a killed study loses nothing it had finished; a store made by a
+different study file (another hash) is refused. Each case's status is recorded: IPOPT's status
+(Solve_Succeeded, Infeasible_Problem_Detected, Maximum_Iterations_Exceeded, ...), `worker_crashed`, or
+`error: ...`; nothing is swallowed.
+
+Dask: by default a LocalCluster started by the command, one single-threaded worker process per core;
+`--scheduler ADDRESS` sends the same cases to an existing cluster unchanged.
+"""
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import os
+import tempfile
+import time
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+
+from .units import InputError
+
+
+def study_hash(study_file: Path) -> str:
+    """Hash of the study file and of every variant file it names (so an edited variant is a new study)."""
+    from .optimise import load_study
+
+    spec, base = load_study(study_file)
+    h = hashlib.sha256(Path(study_file).read_bytes())
+    for v in variant_files(study_file, spec, base):
+        h.update(v.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def variant_files(study_file, spec, base) -> list[Path]:
+    if not spec.batch.variants:
+        return [base]
+    files = [Path(study_file).parent / v for v in spec.batch.variants]
+    for v, f in zip(spec.batch.variants, files):
+        if not f.exists():
+            raise InputError(f"{study_file}: batch.variants: no variant file '{v}' next to the study")
+    return files
+
+
+def make_cases(study_file) -> list[dict]:
+    """The study's cases, each a small picklable dict with a stable id."""
+    from .optimise import _param, load_study
+
+    spec, base = load_study(study_file)
+    sweep = {k: [_param(v, f"{study_file}: batch.sweep.{k}", {}) for v in vals] for k, vals in spec.batch.sweep.items()}
+    combos = [dict(zip(sweep, vals)) for vals in itertools.product(*sweep.values())] or [{}]
+    cases = []
+    for vf in variant_files(study_file, spec, base):
+        for fixed in combos:
+            tag = "_".join(f"{k}={v:.6g}" for k, v in fixed.items())
+            stem = vf.stem + (f"_{tag}" if tag else "")
+            for k in range(max(spec.multistart.starts, 1)):
+                cases.append({"id": f"{stem}_start{k}", "kind": "start", "variant": str(vf), "fixed": fixed, "start": k})
+            if spec.batch.pareto:
+                cases.append({"id": f"{stem}_pareto", "kind": "pareto", "variant": str(vf), "fixed": fixed, "start": 0})
+    return cases
+
+
+def run_case(study_file: str, case: dict, out_dir: str) -> list[dict]:
+    """Run one case in a worker; returns its rows (one per optimum or Pareto point)."""
+    from .optimise import build_problem, load_study, pareto_front, starts, solve_from, write_variant
+
+    t0 = time.perf_counter()
+    spec, _ = load_study(study_file)
+    base = Path(case["variant"])
+    common = {"case_id": case["id"], "kind": case["kind"], "variant": base.name,
+              "fixed": json.dumps(case["fixed"]), "start": case["start"]}
+    vdir = Path(out_dir) / "variants"
+    rows = []
+    if case["kind"] == "start":
+        problem = build_problem(study_file, spec, base, case["fixed"])
+        sol = solve_from(problem, starts(problem)[case["start"]], case["start"])
+        vfile = str(write_variant(problem, sol, vdir, f"{spec.name}_{case['id']}")) if sol.success else None
+        rows.append(common | {"point": 0, "status": sol.status, "success": sol.success, "objective": sol.objective,
+                              "worst_alpha_deg": np.nan, "power_loss_W": np.nan, "iterations": sol.iterations,
+                              "variant_file": vfile} | {f"design.{k}": v for k, v in sol.design.items()})
+    else:
+        for p in pareto_front(study_file, spec, base, case["fixed"]):
+            sol, problem = p["solution"], p["problem"]
+            name = f"{spec.name}_{case['id']}{p['index']}"
+            vfile = str(write_variant(problem, sol, vdir, name)) if sol.success else None
+            rows.append(common | {"point": p["index"], "status": p["status"], "success": p["success"],
+                                  "objective": p["power_loss_W"], "worst_alpha_deg": p["worst_alpha_deg"],
+                                  "power_loss_W": p["power_loss_W"], "iterations": sol.iterations,
+                                  "variant_file": vfile} | {f"design.{k}": v for k, v in p["design"].items()})
+    for r in rows:
+        r["seconds"] = time.perf_counter() - t0
+    return rows
+
+
+def failure_rows(case: dict, status: str) -> list[dict]:
+    return [{"case_id": case["id"], "kind": case["kind"], "variant": Path(case["variant"]).name,
+             "fixed": json.dumps(case["fixed"]), "start": case["start"], "point": 0, "status": status,
+             "success": False, "objective": np.nan, "worst_alpha_deg": np.nan, "power_loss_W": np.nan,
+             "iterations": 0, "variant_file": None, "seconds": np.nan}]
+
+
+def write_case(out_dir: Path, case_id: str, rows: list[dict]):
+    """One Parquet file per case, written to a temporary name and renamed (never half-written)."""
+    import pandas as pd
+
+    d = out_dir / "cases"
+    d.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp_", suffix=".parquet")
+    os.close(fd)
+    try:
+        pd.DataFrame(rows).to_parquet(tmp, index=False)
+        os.replace(tmp, d / f"{case_id}.parquet")
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def done_cases(out_dir: Path) -> set[str]:
+    d = out_dir / "cases"
+    return {p.stem for p in d.glob("*.parquet") if not p.name.startswith(".")} if d.exists() else set()
+
+
+def read_store(out_dir) -> "pandas.DataFrame":
+    import pandas as pd
+
+    files = sorted((Path(out_dir) / "cases").glob("[!.]*.parquet"))
+    return pd.concat([pd.read_parquet(f) for f in files], ignore_index=True) if files else pd.DataFrame()
+
+
+def manifest(study_file, digest: str) -> dict:
+    from .optimise import load_study
+
+    spec, _ = load_study(study_file)
+    versions = {p: metadata.version(p) for p in ("cvtdesign", "casadi", "numpy", "scipy", "dask", "distributed",
+                                                 "pyarrow", "pandas")}
+    return {"study": spec.name, "study_file": str(study_file), "study_hash": digest, "versions": versions,
+            "solver": {"name": "ipopt", "tol": 1e-8, "acceptable_tol": 1e-6, "max_iter": spec.max_iter,
+                       "hessian_approximation": "limited-memory"}}
+
+
+def prepare_store(study_file, out_dir: Path) -> dict:
+    """Create or reopen the store; refuse one that belongs to another version of the study."""
+    from .cli import write_atomic
+
+    digest = study_hash(study_file)
+    mpath = out_dir / "manifest.json"
+    if mpath.exists():
+        old = json.loads(mpath.read_text())
+        if old.get("study_hash") != digest:
+            raise InputError(f"{study_file}: the results folder {out_dir} holds another version of this study "
+                             f"(hash {old.get('study_hash')} ≠ {digest}); use --out for a new folder")
+    man = manifest(study_file, digest)
+    write_atomic(mpath, json.dumps(man, indent=2) + "\n")
+    return man
+
+
+def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: int | None = None,
+              progress=None) -> dict:
+    """Run every case not yet in the store on Dask; returns a summary dict."""
+    from dask.distributed import Client, LocalCluster, as_completed
+    from distributed.scheduler import KilledWorker
+
+    from .optimise import load_study
+
+    spec, _ = load_study(study_file)
+    out_dir = Path(out_dir or Path("results") / spec.name)
+    man = prepare_store(study_file, out_dir)
+    cases = make_cases(study_file)
+    finished = done_cases(out_dir)
+    todo = [c for c in cases if c["id"] not in finished]
+    if progress:
+        progress(len(finished), len(cases), None)
+    cluster = None
+    if scheduler:
+        client = Client(scheduler)
+    else:
+        cluster = LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=40)
+        client = Client(cluster)
+    t0 = time.perf_counter()
+    try:
+        futures = {client.submit(run_case, str(study_file), c, str(out_dir), key=f"case-{man['study_hash']}-{c['id']}",
+                                 retries=0, pure=False): c for c in todo}
+        done = len(finished)
+        for fut in as_completed(futures):
+            case = futures[fut]
+            try:
+                rows = fut.result()
+            except KilledWorker:
+                rows = failure_rows(case, "worker_crashed")
+            except Exception as e:  # recorded in the store, never swallowed
+                rows = failure_rows(case, f"error: {type(e).__name__}: {e}")
+            write_case(out_dir, case["id"], rows)
+            done += 1
+            if progress:
+                progress(done, len(cases), rows[0])
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return {"out_dir": str(out_dir), "cases": len(cases), "skipped": len(finished), "ran": len(todo),
+            "seconds": time.perf_counter() - t0, "table": read_store(out_dir)}
