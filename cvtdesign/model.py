@@ -266,23 +266,21 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
                     *[-R * ca.dot(Om0, roller_pose(r, phi)[1]) / (r.radius * w1) for r in idlers], ca.SX.zeros(2 * nc))
     x0_fn = ca.Function("x0", [params], [x0])
 
-    Om_s, w2_s = Om, w2
-    subs = lambda e: e
     g1, g2 = ca.norm_2(gains[1]), ca.norm_2(gains[2])
-    gamma_axis = ca.atan2(ca.dot(Om_s, vec(D2)), ca.dot(Om_s, vec(D1)))
-    alpha = _wrap(ca.atan2(w2_s / g2, w1 / g1) - gamma)
+    gamma_axis = ca.atan2(ca.dot(Om, vec(D2)), ca.dot(Om, vec(D1)))
+    alpha = _wrap(ca.atan2(w2 / g2, w1 / g1) - gamma)
     alpha_s = _wrap(gamma_axis - gamma)
-    tau1, tau2 = subs(tau[1]), subs(tau[2])
+    tau1, tau2 = tau[1], tau[2]
     outs = {
-        "omega_2": w2_s, "tau_1": tau1, "tau_2": tau2, "phi": phi, "gamma_axis": gamma_axis,
+        "omega_2": w2, "tau_1": tau1, "tau_2": tau2, "phi": phi, "gamma_axis": gamma_axis,
         "alpha": alpha, "alpha_steering": alpha_s, "alpha_drive": _wrap(alpha - alpha_s),
-        "power_loss": tau1 * w1 + tau2 * w2_s,
+        "power_loss": tau1 * w1 + tau2 * w2,
         # a solve that needs |F| → μN at a contact (traction_saturation) is gross slip, not a creep state
         "residual": ca.if_else(ca.mmax(ca.vertcat(0, *sat)) > SAT_LIMIT, ca.inf, ca.norm_inf(resid)),
-        "Omega_x": Om_s[0], "Omega_y": Om_s[1], "Omega_z": Om_s[2],
-        "N": subs(ca.vertcat(*N)), "F_t": subs(Ft), "F_a": subs(Fa), "utilisation": subs(ca.vertcat(*util)),
-        "p_max": subs(ca.vertcat(*pmax)), "xi": subs(ca.vertcat(*xi)), "eta": subs(ca.vertcat(*eta)),
-        "spin": subs(ca.vertcat(*spin)),
+        "Omega_x": Om[0], "Omega_y": Om[1], "Omega_z": Om[2],
+        "N": ca.vertcat(*N), "F_t": Ft, "F_a": Fa, "utilisation": ca.vertcat(*util),
+        "p_max": ca.vertcat(*pmax), "xi": ca.vertcat(*xi), "eta": ca.vertcat(*eta),
+        "spin": ca.vertcat(*spin),
     }
     names = list(POINT_OUTPUTS) + list(CONTACT_OUTPUTS)
     post = ca.Function("post", [x, params], [outs[k] for k in names])
