@@ -23,13 +23,12 @@ from typing import Literal
 import casadi as ca
 import numpy as np
 import yaml
-from pydantic import ValidationError
 
 from .checks import check_layout
 from .geometry import roller_pose, steering_angle_guess, steering_data
 from .model import compile_model
 from .units import InputError, registry
-from .variant import EnvelopeSpec, Num, Strict, _grid, _param, _schema_error, _suggest, load_spec, resolve
+from .variant import EnvelopeSpec, Num, Strict, _grid, _param, _suggest, load_spec, read_spec, resolve
 
 
 class DesignVar(Strict):
@@ -92,24 +91,14 @@ class StudySpec(Strict):
 
 def load_study(path) -> tuple[StudySpec, Path]:
     where = str(path)
-    try:
-        data = yaml.safe_load(Path(path).read_text())
-    except OSError as e:
-        raise InputError(f"{where}: cannot read file ({e.strerror})") from None
-    except yaml.YAMLError as e:
-        raise InputError(f"{where}: not valid YAML: {getattr(e, 'problem', e)}") from None
-    if not isinstance(data, dict):
-        raise InputError(f"{where}: expected a YAML mapping with fields name, base, design, objective")
-    try:
-        spec = StudySpec.model_validate(data)
-    except ValidationError as err:
-        raise _schema_error(err, where, StudySpec) from None
+    spec = read_spec(path, StudySpec, "name, base, design, objective")
     base = (Path(path).parent / spec.base)
     if not base.exists():
         raise InputError(f"{where}: base: no variant file '{spec.base}' next to the study")
     return spec, base
 
 
+IPOPT_OPTIONS = {"tol": 1e-8, "acceptable_tol": 1e-6, "hessian_approximation": "limited-memory"}
 ACTIVE_TOL = 1e-7   # a constraint within this (relative) slack of its bound counts as active
 
 
@@ -266,8 +255,7 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
         add(t - eps, -np.inf, 0, "epsilon", ["worst |α| ≤ ε"])
     g = ca.vertcat(*rows)
     x = ca.vertcat(z, t)
-    opts = {"ipopt": {"print_level": 0, "max_iter": spec.max_iter, "tol": 1e-8, "acceptable_tol": 1e-6,
-                      "sb": "yes", "hessian_approximation": "limited-memory"}, "print_time": False}
+    opts = {"ipopt": IPOPT_OPTIONS | {"print_level": 0, "max_iter": spec.max_iter, "sb": "yes"}, "print_time": False}
     solver = ca.nlpsol("design", "ipopt", {"x": x, "f": f, "g": g, "p": eps}, opts)
     evaluate = ca.Function("evaluate", [x, eps], [f, g]) if kind == "pareto" else ca.Function("evaluate", [x], [f, g])
     start_t = ca.Function("start_t", [z], [ca.mmax(ca.fabs(alpha_deg))]) if epigraph else None

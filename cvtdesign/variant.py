@@ -334,7 +334,8 @@ def _param(v, where, names):
         raise InputError(f"{where}: expected a number or a quantity like '60 mm', got '{v}'") from None
 
 
-def load_spec(path) -> VariantSpec:
+def read_spec(path, model: type[BaseModel], fields: str):
+    """Read a YAML file and validate it against `model`; every failure is one InputError line."""
     where = str(path)
     try:
         text = Path(path).read_text()
@@ -347,11 +348,15 @@ def load_spec(path) -> VariantSpec:
         line = f" (line {mark.line + 1})" if mark else ""
         raise InputError(f"{where}: not valid YAML{line}: {getattr(e, 'problem', e)}") from None
     if not isinstance(data, dict):
-        raise InputError(f"{where}: expected a YAML mapping with fields name, materials, sphere, rollers, steering")
+        raise InputError(f"{where}: expected a YAML mapping with fields {fields}")
     try:
-        return VariantSpec.model_validate(data)
+        return model.model_validate(data)
     except ValidationError as err:
-        raise _schema_error(err, where) from None
+        raise _schema_error(err, where, model) from None
+
+
+def load_spec(path) -> VariantSpec:
+    return read_spec(path, VariantSpec, "name, materials, sphere, rollers, steering")
 
 
 def load_variant(path, overrides: dict | None = None, check: bool = True) -> Layout:
