@@ -100,16 +100,22 @@ def _compare(args, painter):
     return 0
 
 
+def _progress_bar(console, label: str, transient: bool = False):
+    """A rich progress bar: label, bar, done/total, elapsed time and a description of the last item."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    return Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                    TextColumn("{task.description}"), console=console, transient=transient)
+
+
 def cmd_optimise(args):
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
     from . import optimise
 
     console = Console(width=110)
-    with Progress(TextColumn("multistart"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TextColumn("{task.description}"), console=console, transient=True) as bar:
+    with _progress_bar(console, "multistart", transient=True) as bar:
         task = bar.add_task("", total=None)
 
         def progress(done, total, sol):
@@ -144,17 +150,14 @@ def cmd_optimise(args):
 
 
 def cmd_study(args):
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-    from rich.table import Table
-
     import numpy as np
+    from rich.console import Console
+    from rich.table import Table
 
     from . import study
 
     console = Console(width=120)
-    with Progress(TextColumn("cases"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TextColumn("{task.description}"), console=console) as bar:
+    with _progress_bar(console, "cases") as bar:
         task = bar.add_task("", total=None)
 
         def progress(done, total, row):

@@ -32,11 +32,8 @@ import numpy as np
 from .units import InputError
 
 
-def study_hash(study_file: Path) -> str:
+def study_hash(study_file: Path, spec, base: Path) -> str:
     """Hash of the study file and of every variant file it names (so an edited variant is a new study)."""
-    from .optimise import load_study
-
-    spec, base = load_study(study_file)
     h = hashlib.sha256(Path(study_file).read_bytes())
     for v in variant_files(study_file, spec, base):
         h.update(v.read_bytes())
@@ -53,11 +50,12 @@ def variant_files(study_file, spec, base) -> list[Path]:
     return files
 
 
-def make_cases(study_file) -> list[dict]:
-    """The study's cases, each a small picklable dict with a stable id."""
+def make_cases(study_file, spec=None, base: Path | None = None) -> list[dict]:
+    """The study's cases, each a small picklable dict with a stable id (spec, base: the loaded study)."""
     from .optimise import _param, load_study
 
-    spec, base = load_study(study_file)
+    if spec is None:
+        spec, base = load_study(study_file)
     sweep = {k: [_param(v, f"{study_file}: batch.sweep.{k}", {}) for v in vals] for k, vals in spec.batch.sweep.items()}
     combos = [dict(zip(sweep, vals)) for vals in itertools.product(*sweep.values())] or [{}]
     cases = []
@@ -139,29 +137,27 @@ def read_store(out_dir) -> "pandas.DataFrame":
     return pd.concat([pd.read_parquet(f) for f in files], ignore_index=True) if files else pd.DataFrame()
 
 
-def manifest(study_file, digest: str) -> dict:
-    from .optimise import load_study
+def manifest(study_file, spec, digest: str) -> dict:
+    from .optimise import IPOPT_OPTIONS
 
-    spec, _ = load_study(study_file)
     versions = {p: metadata.version(p) for p in ("cvtdesign", "casadi", "numpy", "scipy", "dask", "distributed",
                                                  "pyarrow", "pandas")}
     return {"study": spec.name, "study_file": str(study_file), "study_hash": digest, "versions": versions,
-            "solver": {"name": "ipopt", "tol": 1e-8, "acceptable_tol": 1e-6, "max_iter": spec.max_iter,
-                       "hessian_approximation": "limited-memory"}}
+            "solver": {"name": "ipopt", "max_iter": spec.max_iter} | IPOPT_OPTIONS}
 
 
-def prepare_store(study_file, out_dir: Path) -> dict:
+def prepare_store(study_file, spec, base: Path, out_dir: Path) -> dict:
     """Create or reopen the store; refuse one that belongs to another version of the study."""
     from .cli import write_atomic
 
-    digest = study_hash(study_file)
+    digest = study_hash(study_file, spec, base)
     mpath = out_dir / "manifest.json"
     if mpath.exists():
         old = json.loads(mpath.read_text())
         if old.get("study_hash") != digest:
             raise InputError(f"{study_file}: the results folder {out_dir} holds another version of this study "
                              f"(hash {old.get('study_hash')} ≠ {digest}); use --out for a new folder")
-    man = manifest(study_file, digest)
+    man = manifest(study_file, spec, digest)
     write_atomic(mpath, json.dumps(man, indent=2) + "\n")
     return man
 
@@ -174,10 +170,10 @@ def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: i
 
     from .optimise import load_study
 
-    spec, _ = load_study(study_file)
+    spec, base = load_study(study_file)
     out_dir = Path(out_dir or Path("results") / spec.name)
-    man = prepare_store(study_file, out_dir)
-    cases = make_cases(study_file)
+    man = prepare_store(study_file, spec, base, out_dir)
+    cases = make_cases(study_file, spec, base)
     finished = done_cases(out_dir)
     todo = [c for c in cases if c["id"] not in finished]
     if progress:
