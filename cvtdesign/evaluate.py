@@ -17,9 +17,9 @@ import numpy as np
 from .model import CompiledModel
 
 
-def ideal_ratio_gain(model: CompiledModel) -> float:
+def ideal_ratio_gain(layout) -> float:
     """r1/r2 of the primary drive rollers: the ideal law is ω2/ω1 = (r1/r2) tan γ."""
-    prim = {s: next(r for r in model.layout.rollers if r.role == "drive" and r.shaft == s) for s in (1, 2)}
+    prim = {s: next(r for r in layout.rollers if r.role == "drive" and r.shaft == s) for s in (1, 2)}
     return float(prim[1].radius) / float(prim[2].radius)
 
 
@@ -33,9 +33,10 @@ def envelope(model: CompiledModel, theta=None) -> dict:
 
 
 def efficiency(p1, p2):
-    """Power out / power in [-], whichever shaft the power enters (p_i = τ_i ω_i [W]); NaN without power in."""
+    """Power out / power in [-], whichever shaft the power enters (p_i = τ_i ω_i [W]); NaN without power in,
+    0 when power enters both shafts (no power out: e.g. at γ = 0 with rolling resistance)."""
     p_in = np.maximum(p1, p2)
-    p_out = -np.minimum(p1, p2)
+    p_out = np.maximum(-np.minimum(p1, p2), 0.0)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(p_in > 1e-12, p_out / p_in, np.nan)
 
@@ -46,7 +47,7 @@ def metrics(model: CompiledModel, res: dict) -> dict:
     deg = np.degrees
     G, T = res["gamma_cmd"], res["load"]
     a = res["alpha"]
-    ideal = ideal_ratio_gain(model) * np.tan(G)
+    ideal = ideal_ratio_gain(L) * np.tan(G)
     achieved = res["omega_2"] / res["omega_1"]
     in_range = (np.abs(ideal) >= 0.4) & (np.abs(ideal) <= 2.5)
     at_max = np.isclose(np.abs(T), np.max(np.abs(L.load_grid)))

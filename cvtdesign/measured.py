@@ -1,0 +1,155 @@
+"""Measured data in the format of DESIGN.md sec. 2: read, validate, derive slip angle, load and efficiency.
+
+One operating point per CSV row: `gamma_cmd_deg` [deg], `omega_1`, `omega_2` [rad/s], `tau_1`, `tau_2`
+[N m] (external torques, positive in the sense of positive ω), optionally `gamma_axis_deg` [deg] (the
+measured axis angle). Other columns are ignored. Rows that repeat an operating point are replicates.
+
+Derived per row (DESIGN sec. 1): slip angle α = atan2(ω2·r2/r1, ω1) − γ_cmd (Kim eq 15/35), lateral load
+τ⊥ = −τ1 sin γ_cmd + τ2 cos γ_cmd (Kim eq 17), efficiency = power out / power in.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .units import InputError
+
+REQUIRED = ("gamma_cmd_deg", "omega_1", "omega_2", "tau_1", "tau_2")
+OPTIONAL = ("gamma_axis_deg",)
+GAMMA_TOL_DEG = 1e-6     # [deg] commanded angles closer than this are one operating point
+
+
+@dataclass
+class Measured:
+    """A validated dataset. `rows` has the DESIGN columns plus alpha_deg, tau_perp, efficiency, point
+    (operating-point index: replicates share it), gamma_bin and load_bin (the γ and τ⊥ levels)."""
+    file: str
+    rows: pd.DataFrame
+    has_axis: bool
+    dropped: dict = field(default_factory=dict)     # reason -> count (only with drop_bad)
+    gamma_levels: np.ndarray = None                 # [deg]
+    load_levels: np.ndarray = None                  # [N m]
+
+    @property
+    def replicated(self) -> bool:
+        return bool(self.rows.groupby("point").size().max() > 1)
+
+
+def _suggest(word, options):
+    from .variant import _suggest as s
+    return s(word, options)
+
+
+def _wrap_deg(x):
+    """Angle between two axis directions, wrapped to [−90°, 90°) (an axis is a line)."""
+    return (np.asarray(x) + 90.0) % 180.0 - 90.0
+
+
+def load_measured(path, layout, drop_bad: bool = False) -> Measured:
+    """Read a measured-data CSV for a variant: α with its drive radii, γ checked against its envelope."""
+    from .evaluate import ideal_ratio_gain
+
+    g = np.degrees(layout.gamma_grid)
+    return read_measured(path, ideal_ratio_gain(layout), (float(g.min()), float(g.max())), drop_bad)
+
+
+def read_measured(path, ratio_gain: float = 1.0, gamma_range_deg=None, drop_bad: bool = False) -> Measured:
+    """Read and check a measured-data CSV.
+
+    ratio_gain: r1/r2 of the primary drive rollers (α uses ω2·r2/r1); gamma_range_deg: (lo, hi) the
+    variant's operating range [deg]. Every problem is one InputError line naming the file, the line (the
+    header is line 1) or the column, and what was expected. With `drop_bad`, rows with empty or non-numeric
+    cells, a motor shaft at rest or γ outside the range are dropped and counted instead."""
+    where = str(path)
+    try:
+        raw = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+    except FileNotFoundError:
+        raise InputError(f"{where}: no such file") from None
+    except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
+        raise InputError(f"{where}: not a readable CSV file ({str(e).splitlines()[0] if str(e) else type(e).__name__})") from None
+    raw.columns = [str(c).strip() for c in raw.columns]
+    for c in REQUIRED:
+        if c not in raw.columns:
+            other = [x for x in raw.columns if x not in REQUIRED + OPTIONAL]
+            raise InputError(f"{where}: missing column '{c}'{_suggest(c, other)} "
+                             f"(required: {', '.join(REQUIRED)}; found: {', '.join(raw.columns) or 'none'})")
+    if raw.empty:
+        raise InputError(f"{where}: no data rows under the header")
+    cols = list(REQUIRED) + [c for c in OPTIONAL if c in raw.columns]
+    bad = pd.Series("", index=raw.index)      # the first problem of each row
+    kind = pd.Series("", index=raw.index)     # its category, for the count of dropped rows
+    num = pd.DataFrame(index=raw.index)
+    for c in cols:
+        text = raw[c].str.strip()
+        v = pd.to_numeric(text, errors="coerce")
+        for i in raw.index[v.isna() & bad.eq("")]:
+            cell = text[i]
+            empty = cell in ("", "nan", "NaN", "NA")
+            bad[i] = f"column '{c}' is empty" if empty else f"column '{c}': '{cell}' is not a number"
+            kind[i] = "empty cell" if empty else "non-numeric cell"
+        num[c] = v.astype(float)
+    if gamma_range_deg is not None:
+        lo, hi = gamma_range_deg
+        out = ~num["gamma_cmd_deg"].between(lo - 1e-9, hi + 1e-9) & bad.eq("") & num["gamma_cmd_deg"].notna()
+        for i in raw.index[out]:
+            bad[i] = (f"gamma_cmd_deg = {num['gamma_cmd_deg'][i]:g} is outside the variant's range "
+                      f"{lo:g}..{hi:g} deg")
+            kind[i] = "gamma out of range"
+    still = bad.eq("") & (num["omega_1"] == 0)
+    for i in raw.index[still]:
+        bad[i] = "omega_1 is 0: the motor shaft must turn for a slip angle to exist"
+        kind[i] = "motor at rest"
+    dropped = {}
+    if bad.ne("").any():
+        if not drop_bad:
+            i = raw.index[bad.ne("")][0]
+            n = int(bad.ne("").sum())
+            more = f" ({n - 1} more bad rows; --drop-bad drops and counts them)" if n > 1 else \
+                " (--drop-bad drops and counts such rows)"
+            raise InputError(f"{where}: line {i + 2}: {bad[i]}{more}")
+        dropped = {k: int(v) for k, v in kind[bad.ne("")].value_counts().items()}
+        num = num[bad.eq("")]
+        if num.empty:
+            raise InputError(f"{where}: every row was dropped as bad")
+    rows = num.reset_index(drop=True)
+    rows.insert(0, "line", (np.asarray(num.index) + 2).astype(int))
+    g = np.radians(rows["gamma_cmd_deg"].to_numpy())
+    rows["alpha_deg"] = _wrap_deg(np.degrees(np.arctan2(rows["omega_2"] / ratio_gain, rows["omega_1"]) - g))
+    rows["tau_perp"] = -rows["tau_1"] * np.sin(g) + rows["tau_2"] * np.cos(g)
+    from .evaluate import efficiency
+    rows["efficiency"] = efficiency(rows["tau_1"] * rows["omega_1"], rows["tau_2"] * rows["omega_2"])
+    m = Measured(where, rows, "gamma_axis_deg" in rows.columns, dropped)
+    _group(m)
+    return m
+
+
+def _levels(values, tol):
+    """Cluster sorted 1-D values into levels: a gap larger than `tol` starts a new level."""
+    order = np.argsort(values)
+    label = np.empty(len(values), int)
+    level, last, groups = 0, None, [[]]
+    for k in order:
+        if last is not None and values[k] - last > tol:
+            level += 1
+            groups.append([])
+        label[k] = level
+        groups[-1].append(values[k])
+        last = values[k]
+    return label, np.array([np.mean(g) for g in groups])
+
+
+def _group(m: Measured):
+    """Operating points: the same commanded γ and the same load level. Loads are measured, so replicates
+    differ by the torque noise; τ⊥ levels are clusters of the measured τ⊥ separated by more than 5 % of its
+    range (a rig's load levels are steps, Kim's 0.1-0.2 N m)."""
+    r = m.rows
+    gl, glev = _levels(r["gamma_cmd_deg"].to_numpy(), GAMMA_TOL_DEG)
+    tp = r["tau_perp"].to_numpy()
+    span = float(np.ptp(tp)) if len(tp) > 1 else 0.0
+    ll, llev = _levels(tp, max(0.05 * span, 1e-9))
+    r["gamma_bin"], r["load_bin"] = gl, ll
+    r["point"] = pd.factorize(pd.Series(gl * (len(llev) + 1) + ll))[0]
+    m.gamma_levels, m.load_levels = glev, llev
