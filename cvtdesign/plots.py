@@ -136,3 +136,70 @@ def pareto_figure(chains: list[tuple[str, list[dict], int]], path: Path):
     ax.legend(fontsize=8)
     fig.tight_layout()
     save(fig, path, dpi=110)
+
+
+def residual_map_figure(gamma_levels, load_levels, maps: list[tuple[str, np.ndarray]], regions: list[dict],
+                        path: Path, unit="deg"):
+    """Residual maps over commanded γ [deg] × lateral load τ⊥ [N·m] (mean over replicates per operating point),
+    one panel per (title, grid); the gap's regions outlined on the first panel."""
+    plt = _plt()
+    fig, axes = plt.subplots(1, len(maps), figsize=(6 * len(maps), 4.6), squeeze=False)
+    lim = max(float(np.nanmax(np.abs(m))) for _, m in maps) or 1.0
+    for ax, (title, grid) in zip(axes[0], maps):
+        pc = ax.pcolormesh(gamma_levels, load_levels, grid.T, cmap="RdBu_r", vmin=-lim, vmax=lim, shading="nearest")
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("commanded γ [deg]")
+        ax.set_ylabel("τ⊥ [N·m]")
+        fig.colorbar(pc, ax=ax, label=f"measured − model [{unit}]")
+    dg = np.min(np.diff(gamma_levels)) / 2 if len(gamma_levels) > 1 else 1
+    dl = np.min(np.diff(load_levels)) / 2 if len(load_levels) > 1 else 0.05
+    for k, r in enumerate(regions):
+        (g0, g1), (l0, l1) = r["gamma_deg"], r["load_Nm"]
+        axes[0][0].add_patch(plt.Rectangle((g0 - dg, l0 - dl), g1 - g0 + 2 * dg, l1 - l0 + 2 * dl, fill=False,
+                                           ec="k", lw=1.5, ls="--"))
+        axes[0][0].annotate(f"R{k + 1}: {r['mean_residual_deg']:+.2f}°", (g0 - dg, l1 + dl), fontsize=8)
+    fig.tight_layout()
+    save(fig, path, dpi=100)
+
+
+def diagnosis_fit_figure(curves: dict, path: Path):
+    """Slip angle and efficiency against commanded γ at a few loads: the data (points), the base model and
+    the diagnosed model (lines, held-out predictions). curves: {'loads': [...], 'panels': [(title, ylabel,
+    [(load, γ, data, base, final)])]}."""
+    plt = _plt()
+    panels = curves["panels"]
+    fig, axes = plt.subplots(1, len(panels), figsize=(7 * len(panels), 4.8), squeeze=False)
+    cmap = plt.get_cmap("coolwarm")
+    for ax, (title, ylabel, series) in zip(axes[0], panels):
+        lo, hi = min(s[0] for s in series), max(s[0] for s in series)
+        for load, g, d, b, f in series:
+            c = cmap((load - lo) / max(hi - lo, 1e-12))
+            ax.plot(g, d, "o", ms=4, color=c, label=f"data τ⊥ ≈ {load:+.2f} N·m")
+            ax.plot(g, b, ":", color=c)
+            ax.plot(g, f, "-", color=c)
+        ax.set_title(f"{title} (dotted: base model, solid: diagnosed model)", fontsize=10)
+        ax.set_xlabel("commanded γ [deg]")
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    save(fig, path, dpi=100)
+
+
+def resteer_figure(ratios, load, table: dict, path: Path):
+    """Brokowski Fig. 17: speed-ratio error by eq 23 [%] against the requested ratio, one line per method."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for m, row in table.items():
+        ax.plot(ratios, row["error_pct"], "o-", label=f"{m} (mean |error| {row['mean_abs_error_pct']:.1f} %)")
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_xscale("log")
+    ax.set_xticks(ratios)
+    ax.set_xticklabels([f"{q:g}" for q in ratios])
+    ax.set_xlabel("requested speed ratio ω2/ω1")
+    ax.set_ylabel("error (requested − achieved)/requested [%]")
+    ax.set_title(f"resteering under τ⊥ = {load:+.2f} N·m (Brokowski Fig. 17)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    save(fig, path, dpi=110)

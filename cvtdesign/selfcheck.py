@@ -1,0 +1,176 @@
+"""Proof of the diagnosis on withheld effects: the virtual rig makes data with an effect the base model lacks,
+the diagnosis must name it (and nothing on null data).
+
+The matrix (DESIGN.md sec. 3 effects, variants/existing.yaml, Kim's protocol, 187 rows):
+ * singles: each effect withheld in turn from a base that lacks it, at two parameter values, two noise levels
+   (the rig's default noise ×1 and ×3) and its own seed;
+ * nulls: the base model is the truth (nothing withheld), both noise levels, several seeds;
+ * pairs: two effects withheld at once; both must be accepted.
+The base is Kim's model (drive_longitudinal_creep + steering_lateral_creep) minus the withheld effect.
+"""
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
+# two values per effect, chosen as what a rig would plausibly show (Kim's and Gillespie's/Brokowski's ranges)
+VALUES = {
+    "drive_longitudinal_creep": ("scale", (1.0, 0.5)),          # Kim's ε_D and half of it
+    "steering_lateral_creep": ("scale", (1.0, 0.5)),            # Kim's ε_S and half of it
+    "drive_spin_creep": ("scale", (4.0, 9.0)),                  # Brokowski's fitted k / nominal: 4.0 and 9.0
+    "normal_force_variation": ("exponent", (2.0 / 3.0, 1.0)),   # Hertz + Kalker, and a stiffer law
+    "rolling_resistance": ("offset", (1e-4, 3e-4)),             # 0.1 and 0.3 mm pressure-centre offset
+    "steering_offset": ("offset", (np.radians(0.5), np.radians(-1.0))),
+    "drive_radius_mismatch": ("delta", (0.01, -0.02)),
+    "traction_saturation": ("mu_scale", (0.5, 0.35)),
+}
+PAIRS = [("steering_lateral_creep", "rolling_resistance"), ("steering_offset", "drive_radius_mismatch"),
+         ("drive_spin_creep", "steering_offset"), ("rolling_resistance", "traction_saturation")]
+NOISE_SCALES = (1.0, 3.0)
+
+
+def _base_without(effects):
+    return tuple(e for e in KIM if e not in effects)
+
+
+def make_cases(quick: bool = False, seeds: int = 3) -> list[dict]:
+    """The dataset matrix. `quick`: one value and one noise level per effect, two nulls, one pair."""
+    cases = []
+    seed = 100
+    for e, (p, vals) in VALUES.items():
+        for v in vals[:1] if quick else vals:
+            for k in NOISE_SCALES[:1] if quick else NOISE_SCALES:
+                seed += 1
+                cases.append({"id": f"single-{e}-{p}={v:.4g}-noise{k:g}", "kind": "single", "withheld": [e],
+                              "base": list(_base_without([e])), "truth": list(KIM) + [e] if e not in KIM else list(KIM),
+                              "params": {e: {p: v}}, "noise": k, "seed": seed})
+    for k in NOISE_SCALES[:1] if quick else NOISE_SCALES:
+        for s in range(2 if quick else seeds * 2):
+            seed += 1
+            cases.append({"id": f"null-noise{k:g}-seed{s}", "kind": "null", "withheld": [], "base": list(KIM),
+                          "truth": list(KIM), "params": {}, "noise": k, "seed": seed})
+    for a, b in PAIRS[:1] if quick else PAIRS:
+        seed += 1
+        params = {e: {VALUES[e][0]: VALUES[e][1][0]} for e in (a, b)}
+        truth = list(dict.fromkeys(list(KIM) + [a, b]))
+        cases.append({"id": f"pair-{a}+{b}", "kind": "pair", "withheld": [a, b], "base": list(_base_without([a, b])),
+                      "truth": truth, "params": params, "noise": 1.0, "seed": seed})
+    return cases
+
+
+def run_case(case: dict, variant: str = "variants/existing.yaml") -> dict:
+    """Make the dataset with the rig, diagnose it against its base, and score the verdict."""
+    from . import diagnose, measured, rig
+    from .variant import load_variant
+
+    L = load_variant(variant)
+    rows, failed = rig.simulate(L, case["truth"], case["params"], noise=rig.Noise().scaled(case["noise"]),
+                                seed=case["seed"])
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "data.csv"
+        path.write_text(rig.to_csv_text(rows))
+        data = measured.load_measured(path, L)
+    rep = diagnose.diagnose(L, data, case["base"])
+    accepted = rep["accepted"]
+    shrink = rep["how_far"]["shrink_alpha"]
+    if any(e in ("rolling_resistance",) for e in case["withheld"]):
+        shrink = max(shrink, rep["how_far"]["shrink_efficiency"])
+    if case["kind"] == "null":
+        correct = rep["verdict"] == "none"
+    elif case["kind"] == "single":
+        correct = rep["verdict"] == case["withheld"][0]
+    else:
+        correct = set(accepted) == set(case["withheld"])
+    return {"id": case["id"], "kind": case["kind"], "withheld": "+".join(case["withheld"]) or "-",
+            "noise": case["noise"], "verdict": rep["verdict"], "accepted": "+".join(accepted) or "-",
+            "correct": bool(correct), "shrink": float(shrink), "shrink_efficiency": rep["how_far"]["shrink_efficiency"],
+            "seconds": rep["seconds"], "not_measured": failed}
+
+
+def summary(results: list[dict]) -> dict:
+    """Top-1 accuracy on singles (overall and per effect), false positives on nulls, accuracy on pairs,
+    mean shrink where the effect was found."""
+    singles = [r for r in results if r["kind"] == "single"]
+    nulls = [r for r in results if r["kind"] == "null"]
+    pairs = [r for r in results if r["kind"] == "pair"]
+    found = [r for r in singles if r["correct"]]
+    per = {}
+    for r in singles:
+        d = per.setdefault(r["withheld"], {"cases": 0, "correct": 0, "shrink": []})
+        d["cases"] += 1
+        d["correct"] += r["correct"]
+        if r["correct"]:
+            d["shrink"].append(r["shrink"])
+    per = {e: {"cases": d["cases"], "top1": d["correct"] / d["cases"],
+               "mean_shrink": float(np.mean(d["shrink"])) if d["shrink"] else float("nan")} for e, d in per.items()}
+    return {
+        "top1_single": len(found) / len(singles) if singles else float("nan"),
+        "false_positive_null": sum(not r["correct"] for r in nulls) / len(nulls) if nulls else float("nan"),
+        "pair_accuracy": sum(r["correct"] for r in pairs) / len(pairs) if pairs else float("nan"),
+        "mean_shrink_found": float(np.mean([r["shrink"] for r in found])) if found else float("nan"),
+        "per_effect": per,
+        "targets": {"top1_single": 0.9, "false_positive_null": 0.05, "mean_shrink_found": 0.5},
+    }
+
+
+def run(variant="variants/existing.yaml", quick=False, seeds=3, scheduler=None, workers=None, progress=None):
+    """Every dataset of the matrix on Dask (a local cluster by default); results in completion order.
+    A dataset whose diagnosis raises is recorded with verdict 'error: …' and counted as wrong."""
+    from dask.distributed import as_completed
+
+    from .cluster import dask_client
+
+    cases = make_cases(quick, seeds)
+    results = []
+    if progress:
+        progress(0, len(cases), None)
+    with dask_client(scheduler, workers) as client:
+        futures = {client.submit(run_case, c, variant, pure=False): c for c in cases}
+        for fut in as_completed(futures):
+            c = futures[fut]
+            try:
+                r = fut.result()
+            except Exception as e:  # recorded, never swallowed
+                r = {"id": c["id"], "kind": c["kind"], "withheld": "+".join(c["withheld"]) or "-",
+                     "noise": c["noise"], "verdict": f"error: {type(e).__name__}: {e}", "accepted": "-",
+                     "correct": False, "shrink": float("nan"), "shrink_efficiency": float("nan"),
+                     "seconds": float("nan"), "not_measured": 0}
+            results.append(r)
+            if progress:
+                progress(len(results), len(cases), r)
+    order = {c["id"]: k for k, c in enumerate(cases)}
+    return sorted(results, key=lambda r: order[r["id"]])
+
+
+def meets_targets(s: dict) -> bool:
+    t = s["targets"]
+    return (s["top1_single"] >= t["top1_single"] and s["false_positive_null"] <= t["false_positive_null"]
+            and s["mean_shrink_found"] > t["mean_shrink_found"])
+
+
+def print_summary(s: dict, results: list[dict], console):
+    from rich.table import Table
+
+    t = Table(title="self-check per withheld effect (top-1 = the verdict names it)")
+    for c in ("withheld effect", "datasets", "top-1", "mean shrink (found)", "verdicts when missed"):
+        t.add_column(c, justify="right" if c != "withheld effect" else "left")
+    for e, d in s["per_effect"].items():
+        missed = [r["verdict"] for r in results if r["kind"] == "single" and r["withheld"] == e and not r["correct"]]
+        t.add_row(e, str(d["cases"]), f"{d['top1']:.0%}", f"{d['mean_shrink']:.2f}", ", ".join(missed) or "-")
+    console.print(t)
+    p = Table(title="pairs and nulls")
+    for c in ("dataset", "verdict", "accepted", "correct"):
+        p.add_column(c)
+    for r in results:
+        if r["kind"] != "single":
+            p.add_row(r["id"], r["verdict"], r["accepted"], "yes" if r["correct"] else "[red]no[/red]")
+    console.print(p)
+    ok = meets_targets(s)
+    tg = s["targets"]
+    console.print(f"top-1 on single effects {s['top1_single']:.1%} (target ≥ {tg['top1_single']:.0%}); false positives "
+                  f"on null sets {s['false_positive_null']:.1%} (≤ {tg['false_positive_null']:.0%}); pairs "
+                  f"{s['pair_accuracy']:.0%}; mean shrink where found {s['mean_shrink_found']:.2f} "
+                  f"(> {tg['mean_shrink_found']}) → " + ("[green]targets met[/green]" if ok else "[red]targets missed[/red]"))
