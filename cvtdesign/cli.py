@@ -8,6 +8,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
 from .units import InputError
 
 COLUMNS = [
@@ -201,6 +203,148 @@ def cmd_study(args):
     return 0 if df["success"].any() else 1
 
 
+def _effects_arg(text, default):
+    """'a,b' → effect names (checked, near names suggested); 'none' → no effects; None → default."""
+    from .rig import check_effects
+
+    if text is None:
+        return tuple(default)
+    if text.strip().lower() in ("", "none"):
+        return ()
+    return check_effects([e.strip() for e in text.split(",") if e.strip()])
+
+
+def cmd_rig(args):
+    from rich.console import Console
+
+    from . import rig
+    from .variant import load_variant
+
+    layout = load_variant(args.variant)
+    effects = _effects_arg(args.effects, layout.effects)
+    params = rig.parse_settings(args.set, effects)
+    protocol = rig.read_protocol(args.protocol, layout) if args.protocol else rig.kim_protocol(layout)
+    if args.replicates:
+        protocol = rig.Protocol(protocol.gammas, protocol.loads, protocol.speeds, protocol.load_kind, args.replicates)
+    noise = rig.parse_noise(args.noise)
+    rows, failed = rig.simulate(layout, effects, params, protocol, noise, args.seed, axis=not args.no_axis)
+    write_atomic(Path(args.out), rig.to_csv_text(rows))
+    console = Console()
+    console.print(f"{len(rows)} rows ({protocol.replicates} replicate(s)) of {layout.name} with "
+                  f"{', '.join(effects) or 'no effects'} written to {args.out}; noise σ: speed {noise.speed:g} rad/s, "
+                  f"torque {noise.torque:g} N·m, axis {noise.axis * 57.29577951308232:g}°")
+    if failed:
+        console.print(f"[yellow]{failed} operating points not measured: the model did not converge there "
+                      "(gross slip)[/yellow]")
+    return 0
+
+
+def cmd_diagnose(args):
+    from rich.console import Console
+
+    from . import diagnose, measured
+    from .variant import load_variant
+
+    layout = load_variant(args.variant)
+    base = _effects_arg(args.base, layout.effects)
+    candidates = _effects_arg(args.candidates, [])
+    data = measured.load_measured(args.data, layout, args.drop_bad)
+    console = Console(width=120)
+    with _progress_bar(console, "diagnosis", transient=True) as bar:
+        task = bar.add_task("", total=None)
+        rep = diagnose.diagnose(layout, data, base, candidates or None,
+                                progress=lambda d, t, m: bar.update(task, total=t, completed=d, description=m))
+    diagnose.print_report(rep, console)
+    if args.plots:
+        for f in diagnose.plot_report(rep, Path(args.plots)):
+            console.print(f"plot: {f}")
+    if args.json:
+        write_atomic(Path(args.json), json.dumps(diagnose.public(rep), indent=2) + "\n")
+        console.print(f"report written to {args.json}")
+    return 0
+
+
+def cmd_selfcheck(args):
+    from rich.console import Console
+
+    from . import selfcheck
+
+    console = Console(width=120)
+    with _progress_bar(console, "datasets") as bar:
+        task = bar.add_task("", total=None)
+
+        def progress(done, total, row):
+            desc = "" if row is None else f"last: {row['id']} → {row['verdict']}"
+            bar.update(task, total=total, completed=done, description=desc)
+
+        results = selfcheck.run(args.variant, args.quick, args.seeds, args.scheduler, args.workers, progress)
+    summ = selfcheck.summary(results)
+    selfcheck.print_summary(summ, results, console)
+    if args.json:
+        write_atomic(Path(args.json), json.dumps({"summary": summ, "datasets": results}, indent=2) + "\n")
+    return 0 if selfcheck.meets_targets(summ) else 1
+
+
+def cmd_resteer(args):
+    from rich.console import Console
+    from rich.table import Table
+
+    from . import measured, resteer, rig
+    from .model import compile_model
+    from .units import to_si
+    from .variant import load_variant
+
+    layout = load_variant(args.variant)
+    effects = _effects_arg(args.effects, layout.effects)
+    data = measured.load_measured(args.data, layout, args.drop_bad) if args.data else None
+    if args.load is not None:
+        load = to_si(args.load, "torque", "--load")
+    else:
+        load = float(data.load_levels.max()) if data is not None else float(layout.load_grid.max())
+    try:
+        ratios = [float(x) for x in args.ratios.split(",")] if args.ratios else list(resteer.RATIOS)
+    except ValueError:
+        raise InputError(f"--ratios: expected comma-separated numbers, got '{args.ratios}'") from None
+    if any(q <= 0 for q in ratios):
+        raise InputError("--ratios: expected positive speed ratios ω2/ω1")
+    cmds = resteer.commands(layout, effects, load, ratios, data)
+    console = Console(width=120)
+    table = None
+    if args.truth_effects is not None:
+        truth = _effects_arg(args.truth_effects, layout.effects)
+        tmodel = compile_model(layout.with_effects(truth, rig.parse_settings(args.truth_set, truth, "--truth-set")))
+        table = resteer.achieved(tmodel, cmds)
+    t = Table(title=f"resteering under τ⊥ = {load:+.3g} N·m: commanded γ \\[deg]"
+                    + (" / achieved ω2/ω1 / error by Brokowski eq 23 \\[%]" if table else ""))
+    t.add_column("requested ω2/ω1", justify="right")
+    for m in cmds["methods"]:
+        t.add_column(m, justify="right")
+    for i, q in enumerate(ratios):
+        cells = []
+        for m, gs in cmds["methods"].items():
+            c = f"{np.degrees(gs[i]):.2f}°"
+            if table:
+                c += f" / {table[m]['achieved'][i]:.3f} / {table[m]['error_pct'][i]:+.1f}"
+            cells.append(c)
+        t.add_row(f"{q:g}", *cells)
+    if table:
+        t.add_row("mean |error| \\[%]", *[f"{table[m]['mean_abs_error_pct']:.2f}" for m in cmds["methods"]])
+    console.print(t)
+    if cmds["fit"]:
+        console.print("fitted: " + ", ".join(f"{n} = {p['value']:.4g} ± {p['std']:.2g}" for n, p in cmds["fit"].items())
+                      + f"; lookup at the data's load level {cmds['lookup_load']:+.3g} N·m")
+    if args.plots and table:
+        from . import plots
+
+        f = Path(args.plots) / "resteer.png"
+        plots.resteer_figure(ratios, load, table, f)
+        console.print(f"plot: {f}")
+    if args.json:
+        write_atomic(Path(args.json), json.dumps({"commands": cmds, "achieved": table}, indent=2,
+                                                 default=float) + "\n")
+    return 0
+
+
 def build_parser():
     p = argparse.ArgumentParser(prog="cvtdesign", description="Design, optimise and compare spherical CVTs.")
     sub = p.add_subparsers(dest="command", required=True)
@@ -221,6 +365,48 @@ def build_parser():
     b.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a local cluster)")
     b.add_argument("--workers", type=int, help="local cluster size (default: one single-threaded worker per core)")
     b.set_defaults(func=cmd_study)
+    r = sub.add_parser("rig", help="virtual test rig: measured-like data (DESIGN.md sec. 2) from the full model")
+    r.add_argument("variant", help="variant YAML file")
+    r.add_argument("--effects", help="effects on, comma-separated (default: the variant's; 'none' for the ideal CVT)")
+    r.add_argument("--set", action="append", metavar="EFFECT.PARAM=VALUE",
+                   help="an effect parameter, e.g. steering_lateral_creep.scale=1.2 or 'rolling_resistance.offset=0.2 mm'")
+    r.add_argument("--noise", help="measurement noise σ, e.g. 'speed=0.01 rad/s,torque=0.005 N*m,axis=0.05 deg' "
+                                   "(these are the defaults; plain numbers are SI)")
+    r.add_argument("--protocol", help="protocol YAML (gamma, load, load_kind, motor_speed, replicates); default Kim's")
+    r.add_argument("--replicates", type=int, help="repeat every operating point this many times")
+    r.add_argument("--seed", type=int, default=0, help="random seed of the noise (default 0)")
+    r.add_argument("--no-axis", action="store_true", help="do not record the axis angle gamma_axis_deg")
+    r.add_argument("--out", required=True, help="CSV file to write")
+    r.set_defaults(func=cmd_rig)
+    d = sub.add_parser("diagnose", help="where the model and the data disagree, which effect causes it, how far it shrinks")
+    d.add_argument("data", help="measured data CSV (DESIGN.md sec. 2 format)")
+    d.add_argument("--variant", required=True, help="variant YAML file the data was measured on")
+    d.add_argument("--base", help="effects of the model to diagnose, comma-separated (default: the variant's)")
+    d.add_argument("--candidates", help="candidate effects to try (default: every effect not in the base)")
+    d.add_argument("--drop-bad", action="store_true", help="drop (and count) bad rows instead of stopping")
+    d.add_argument("--json", help="write the report to this JSON file")
+    d.add_argument("--plots", help="folder for the residual-map and fit plots")
+    d.set_defaults(func=cmd_diagnose)
+    s = sub.add_parser("selfcheck", help="prove the diagnosis on rig data with withheld effects; exit 1 if a target is missed")
+    s.add_argument("--variant", default="variants/existing.yaml", help="variant to test on (default: existing)")
+    s.add_argument("--quick", action="store_true", help="a reduced matrix (one value and noise level per effect)")
+    s.add_argument("--seeds", type=int, default=3, help="null datasets per noise level / 2 (default 3)")
+    s.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a local cluster)")
+    s.add_argument("--workers", type=int, help="local cluster size (default: one worker per core)")
+    s.add_argument("--json", help="write the per-dataset results and the summary to this JSON file")
+    s.set_defaults(func=cmd_selfcheck)
+    t = sub.add_parser("resteer", help="steering commands for requested speed ratios under a known load (Brokowski sec. 5)")
+    t.add_argument("data", nargs="?", help="measured data CSV: fit the model to it and add the inverted data lookup")
+    t.add_argument("--variant", required=True, help="variant YAML file")
+    t.add_argument("--effects", help="effects of the model (default: the variant's)")
+    t.add_argument("--load", help="lateral load τ⊥, e.g. '1 N*m' (default: the data's highest load level)")
+    t.add_argument("--ratios", help="requested ω2/ω1, comma-separated (default Brokowski's 0.4,0.5,0.8,1,1.25,2,2.5)")
+    t.add_argument("--truth-effects", help="score each command on the virtual rig with these effects (eq 23)")
+    t.add_argument("--truth-set", action="append", metavar="EFFECT.PARAM=VALUE", help="a parameter of the rig's effects")
+    t.add_argument("--drop-bad", action="store_true", help="drop (and count) bad data rows instead of stopping")
+    t.add_argument("--json", help="write the commands and scores to this JSON file")
+    t.add_argument("--plots", help="folder for the Fig. 17-style plot")
+    t.set_defaults(func=cmd_resteer)
     return p
 
 
