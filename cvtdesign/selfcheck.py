@@ -21,12 +21,17 @@ VALUES = {
     "drive_longitudinal_creep": ("scale", (1.0, 0.5)),          # Kim's ε_D and half of it
     "steering_lateral_creep": ("scale", (1.0, 0.5)),            # Kim's ε_S and half of it
     "drive_spin_creep": ("scale", (4.0, 9.0)),                  # Brokowski's fitted k / nominal: 4.0 and 9.0
-    "normal_force_variation": ("exponent", (2.0 / 3.0, 1.0)),   # Hertz + Kalker, and a stiffer law
+    # second order in the existing CVT (its steering pair's normal forces move in opposite directions, so
+    # their compliances compensate to first order): at the Hertz exponent 2/3 it changes α by 0.013° RMS,
+    # below the rig noise, so the visible cases use amplified exponents and 2/3 is a sub-noise case
+    "normal_force_variation": ("exponent", (2.0, 3.0)),
     "rolling_resistance": ("offset", (1e-4, 3e-4)),             # 0.1 and 0.3 mm pressure-centre offset
     "steering_offset": ("offset", (np.radians(0.5), np.radians(-1.0))),
     "drive_radius_mismatch": ("delta", (0.01, -0.02)),
-    "traction_saturation": ("mu_scale", (0.5, 0.35)),
+    "traction_saturation": ("mu_scale", (0.4, 0.3)),            # μ 0.32 and 0.24: at 0.3 the rig sees gross slip at 10 points
 }
+# effects at values whose signature is below the rig's noise: the right verdict is `none`, not a name
+SUBNOISE = [("normal_force_variation", "exponent", 2.0 / 3.0), ("drive_radius_mismatch", "delta", 0.0005)]
 PAIRS = [("steering_lateral_creep", "rolling_resistance"), ("steering_offset", "drive_radius_mismatch"),
          ("drive_spin_creep", "steering_offset"), ("rolling_resistance", "traction_saturation")]
 NOISE_SCALES = (1.0, 3.0)
@@ -52,6 +57,11 @@ def make_cases(quick: bool = False, seeds: int = 3) -> list[dict]:
             seed += 1
             cases.append({"id": f"null-noise{k:g}-seed{s}", "kind": "null", "withheld": [], "base": list(KIM),
                           "truth": list(KIM), "params": {}, "noise": k, "seed": seed})
+    for e, p, v in SUBNOISE[:1] if quick else SUBNOISE:
+        seed += 1
+        cases.append({"id": f"subnoise-{e}-{p}={v:.4g}", "kind": "subnoise", "withheld": [e],
+                      "base": list(_base_without([e])), "truth": list(KIM) + [e], "params": {e: {p: v}},
+                      "noise": 1.0, "seed": seed})
     for a, b in PAIRS[:1] if quick else PAIRS:
         seed += 1
         params = {e: {VALUES[e][0]: VALUES[e][1][0]} for e in (a, b)}
@@ -78,7 +88,8 @@ def run_case(case: dict, variant: str = "variants/existing.yaml") -> dict:
     shrink = rep["how_far"]["shrink_alpha"]
     if any(e in ("rolling_resistance",) for e in case["withheld"]):
         shrink = max(shrink, rep["how_far"]["shrink_efficiency"])
-    if case["kind"] == "null":
+    snr = _signal_to_noise(L, case, rep["noise"]["alpha"]["rms"])
+    if case["kind"] in ("null", "subnoise"):
         correct = rep["verdict"] == "none"
     elif case["kind"] == "single":
         correct = rep["verdict"] == case["withheld"][0]
@@ -87,7 +98,23 @@ def run_case(case: dict, variant: str = "variants/existing.yaml") -> dict:
     return {"id": case["id"], "kind": case["kind"], "withheld": "+".join(case["withheld"]) or "-",
             "noise": case["noise"], "verdict": rep["verdict"], "accepted": "+".join(accepted) or "-",
             "correct": bool(correct), "shrink": float(shrink), "shrink_efficiency": rep["how_far"]["shrink_efficiency"],
-            "seconds": rep["seconds"], "not_measured": failed}
+            "signal_to_noise": snr, "seconds": rep["seconds"], "not_measured": failed}
+
+
+def _signal_to_noise(layout, case, noise_alpha_deg) -> float:
+    """RMS change of α over the protocol that the withheld effects make (truth with and without them) over
+    the estimated α noise: how visible the withheld effects are."""
+    from .model import compile_model
+    from .rig import kim_protocol
+
+    if not case["withheld"]:
+        return 0.0
+    protocol = kim_protocol(layout)
+    G, T = np.meshgrid(protocol.gammas, protocol.loads, indexing="ij")
+    with_ = compile_model(layout.with_effects(case["truth"], case["params"])).evaluate(G, T)["alpha"]
+    without = compile_model(layout.with_effects([e for e in case["truth"] if e not in case["withheld"]],
+                                                case["params"])).evaluate(G, T)["alpha"]
+    return float(np.sqrt(np.nanmean(np.degrees(with_ - without) ** 2)) / noise_alpha_deg)
 
 
 def summary(results: list[dict]) -> dict:
@@ -96,19 +123,22 @@ def summary(results: list[dict]) -> dict:
     singles = [r for r in results if r["kind"] == "single"]
     nulls = [r for r in results if r["kind"] == "null"]
     pairs = [r for r in results if r["kind"] == "pair"]
+    subnoise = [r for r in results if r["kind"] == "subnoise"]
     found = [r for r in singles if r["correct"]]
     per = {}
     for r in singles:
-        d = per.setdefault(r["withheld"], {"cases": 0, "correct": 0, "shrink": []})
+        d = per.setdefault(r["withheld"], {"cases": 0, "correct": 0, "shrink": [], "snr": []})
         d["cases"] += 1
+        d["snr"].append(r["signal_to_noise"])
         d["correct"] += r["correct"]
         if r["correct"]:
             d["shrink"].append(r["shrink"])
-    per = {e: {"cases": d["cases"], "top1": d["correct"] / d["cases"],
+    per = {e: {"cases": d["cases"], "top1": d["correct"] / d["cases"], "signal_to_noise": [min(d["snr"]), max(d["snr"])],
                "mean_shrink": float(np.mean(d["shrink"])) if d["shrink"] else float("nan")} for e, d in per.items()}
     return {
         "top1_single": len(found) / len(singles) if singles else float("nan"),
         "false_positive_null": sum(not r["correct"] for r in nulls) / len(nulls) if nulls else float("nan"),
+        "subnoise_none": (sum(r["correct"] for r in subnoise) / len(subnoise)) if subnoise else float("nan"),
         "pair_accuracy": sum(r["correct"] for r in pairs) / len(pairs) if pairs else float("nan"),
         "mean_shrink_found": float(np.mean([r["shrink"] for r in found])) if found else float("nan"),
         "per_effect": per,
@@ -155,22 +185,23 @@ def print_summary(s: dict, results: list[dict], console):
     from rich.table import Table
 
     t = Table(title="self-check per withheld effect (top-1 = the verdict names it)")
-    for c in ("withheld effect", "datasets", "top-1", "mean shrink (found)", "verdicts when missed"):
+    for c in ("withheld effect", "datasets", "signal/noise", "top-1", "mean shrink (found)", "verdicts when missed"):
         t.add_column(c, justify="right" if c != "withheld effect" else "left")
     for e, d in s["per_effect"].items():
         missed = [r["verdict"] for r in results if r["kind"] == "single" and r["withheld"] == e and not r["correct"]]
-        t.add_row(e, str(d["cases"]), f"{d['top1']:.0%}", f"{d['mean_shrink']:.2f}", ", ".join(missed) or "-")
+        t.add_row(e, str(d["cases"]), "{:.1f}..{:.1f}".format(*d["signal_to_noise"]), f"{d['top1']:.0%}", f"{d['mean_shrink']:.2f}", ", ".join(missed) or "-")
     console.print(t)
-    p = Table(title="pairs and nulls")
-    for c in ("dataset", "verdict", "accepted", "correct"):
+    p = Table(title="pairs, nulls and sub-noise effects (right verdict: both named / none / none)")
+    for c in ("dataset", "signal/noise", "verdict", "accepted", "correct"):
         p.add_column(c)
     for r in results:
         if r["kind"] != "single":
-            p.add_row(r["id"], r["verdict"], r["accepted"], "yes" if r["correct"] else "[red]no[/red]")
+            p.add_row(r["id"], f"{r['signal_to_noise']:.1f}", r["verdict"], r["accepted"], "yes" if r["correct"] else "[red]no[/red]")
     console.print(p)
     ok = meets_targets(s)
     tg = s["targets"]
     console.print(f"top-1 on single effects {s['top1_single']:.1%} (target ≥ {tg['top1_single']:.0%}); false positives "
-                  f"on null sets {s['false_positive_null']:.1%} (≤ {tg['false_positive_null']:.0%}); pairs "
+                  f"on null sets {s['false_positive_null']:.1%} (≤ {tg['false_positive_null']:.0%}); sub-noise effects left "
+                  f"unnamed {s['subnoise_none']:.0%}; pairs "
                   f"{s['pair_accuracy']:.0%}; mean shrink where found {s['mean_shrink_found']:.2f} "
                   f"(> {tg['mean_shrink_found']}) → " + ("[green]targets met[/green]" if ok else "[red]targets missed[/red]"))

@@ -1,0 +1,69 @@
+"""Speed of the diagnosis, printed as figures and as ratios to baselines run in the same process.
+
+1. `diagnose` of a 187-row dataset (Kim's protocol on variants/existing.yaml, steering lateral creep withheld
+   from a drive-creep-only base) against every candidate of DESIGN.md sec. 3: the whole diagnosis (noise,
+   base fit, 7 candidates × (full fit + 5 cross-validation fits), the greedy second round) — target < 60 s —
+   against one evaluation of the base model at the 187 rows, the unit of work.
+2. One weighted fit of the base model with the model's exact Jacobian (CasADi through the Newton solves)
+   against the same fit with scipy's finite-difference Jacobian, from the same start to the same optimum.
+
+Run: python benchmarks/bench_diagnose.py   (the machine is shared and noisy: best of repeats)
+"""
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from cvtdesign import diagnose, measured, rig
+from cvtdesign.variant import load_variant
+
+ROOT = Path(__file__).resolve().parents[1]
+KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
+
+
+def best_of(fn, repeats):
+    times, out = [], None
+    for _ in range(repeats):
+        t = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t)
+    return min(times), out
+
+
+def main():
+    L = load_variant(ROOT / "variants/existing.yaml")
+    rows, _ = rig.simulate(L, KIM, seed=1)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "d.csv"
+        path.write_text(rig.to_csv_text(rows))
+        data = measured.load_measured(path, L)
+    base = ("drive_longitudinal_creep",)
+    t_diag, rep = best_of(lambda: diagnose.diagnose(L, data, base), 1)
+    P = diagnose.Predictor(L, base, data)
+    t_eval, _ = best_of(lambda: P(P.defaults), 20)
+    print(f"1. diagnose, {len(data.rows)} rows, {len(rep['candidates'])} candidates: {t_diag:.1f} s (target < 60 s), "
+          f"verdict {rep['verdict']}; one base-model evaluation at the rows {1e3 * t_eval:.1f} ms; "
+          f"ratio {t_diag / t_eval:.0f} evaluations' worth")
+
+    # 2. exact Jacobian vs finite differences, same weighted problem
+    P2 = diagnose.Predictor(L, KIM, data)
+    noise = diagnose.estimate_noise(P2, data)
+    t_exact, f_exact = best_of(lambda: diagnose.fit(P2, data, noise, multistart=False), 3)
+
+    def z(theta):
+        pred, ok = P2(theta)
+        res = diagnose.residuals(data, pred)
+        return np.concatenate([res[c] / noise[c] for c in res])
+
+    lo, hi = diagnose._bounds(P2.names)
+    t_fd, sol = best_of(lambda: least_squares(z, P2.defaults, jac="2-point", bounds=(lo, hi), method="trf",
+                                              x_scale=np.abs(P2.defaults), xtol=1e-10, ftol=1e-10), 3)
+    agree = np.max(np.abs(sol.x - f_exact.theta) / np.abs(f_exact.theta))
+    print(f"2. base fit ({len(P2.names)} parameters): exact Jacobian {1e3 * t_exact:.0f} ms vs finite differences "
+          f"{1e3 * t_fd:.0f} ms (ratio {t_fd / t_exact:.2f}); parameters agree to {agree:.1e} relative")
+
+
+if __name__ == "__main__":
+    main()

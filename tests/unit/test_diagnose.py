@@ -1,0 +1,111 @@
+"""The diagnosis in a reduced self-check: withheld effects are named, null data gives `none`, a gap no
+candidate removes is `unexplained`; the historical replays of the README; resteering."""
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cvtdesign import diagnose, measured, resteer, rig
+from cvtdesign.cli import main
+from cvtdesign.model import compile_model
+from cvtdesign.variant import load_variant
+
+ROOT = Path(__file__).resolve().parents[2]
+EXISTING = ROOT / "variants" / "existing.yaml"
+KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
+
+
+@pytest.fixture(scope="module")
+def layout():
+    return load_variant(EXISTING)
+
+
+def dataset(layout, tmp_path, effects, params=None, seed=0, protocol=None, noise=rig.Noise()):
+    rows, failed = rig.simulate(layout, effects, params, protocol, noise, seed)
+    assert failed == 0
+    path = tmp_path / f"data{seed}.csv"
+    path.write_text(rig.to_csv_text(rows))
+    return path
+
+
+def test_replay_kim_steering_creep_is_named(tmp_path):
+    """README replay 1 (Kim): a drive-creep-only model on rig data with steering lateral creep at Kim's
+    ε_S names steering_lateral_creep, says where the gap lies, and removes most of it (held out)."""
+    data = tmp_path / "kim.csv"
+    assert main(["rig", str(EXISTING), "--out", str(data), "--seed", "11"]) == 0
+    js, plots = tmp_path / "d.json", tmp_path / "plots"
+    assert main(["diagnose", str(data), "--variant", str(EXISTING), "--base", "drive_longitudinal_creep",
+                 "--json", str(js), "--plots", str(plots)]) == 0
+    rep = json.loads(js.read_text())
+    assert rep["verdict"] == "steering_lateral_creep" and rep["base"] == ["drive_longitudinal_creep"]
+    assert {"rms_alpha_deg", "regions"} <= set(rep["gap"]) and rep["gap"]["regions"]
+    assert {"gamma_deg", "load_Nm", "mean_residual_deg"} <= set(rep["gap"]["regions"][0])
+    top = rep["ranking"][0]
+    assert top["effect"] == "steering_lateral_creep" and top["accepted"]
+    assert {"heldout_rms_before", "heldout_rms_after", "shrink", "params"} <= set(top)
+    assert top["shrink"] > 0.8
+    # the fitted ε_S multiplier recovers Kim's value (truth 1.0) within 3σ
+    p = top["params"]["steering_lateral_creep.scale"]
+    assert p["identifiable"] and abs(p["value"] - 1.0) < 3 * p["std"] + 1e-3
+    # the gap is the steering part: once explained, no structure is left
+    assert rep["gap"]["structured"] and not rep["gap"]["structured_after"]
+    assert (plots / "residual_map.png").stat().st_size > 10_000 and (plots / "fit.png").exists()
+    # the noise estimate (no replicates) is the propagated rig noise: σ_α ≈ σ_ω cos γ / ω1 ... within 2×
+    assert 0.02 < rep["noise"]["alpha"]["rms"] < 0.12
+
+
+def test_replay_rolling_resistance_from_efficiency(layout, tmp_path):
+    """README replay 2 (Brokowski sec. 4.4.2): a creep-only model on data with rolling resistance names
+    rolling_resistance, and the efficiency gap shrinks."""
+    path = dataset(layout, tmp_path, KIM + ("rolling_resistance",), {"rolling_resistance": {"offset": 1e-4}}, seed=12)
+    rep = diagnose.diagnose(layout, measured.load_measured(path, layout), KIM)
+    assert rep["verdict"] == "rolling_resistance"
+    h = rep["how_far"]
+    assert h["shrink_efficiency"] > 0.5 and h["heldout_rms_efficiency"][1] < 0.5 * h["heldout_rms_efficiency"][0]
+    off = rep["final_fit"]["rolling_resistance.offset"]
+    assert abs(off["value"] - 1e-4) < 3 * off["std"] + 2e-6
+
+
+def test_null_data_with_replicates_gives_none(layout, tmp_path):
+    """Nothing withheld: the verdict is `none`, and the noise comes from the replicates."""
+    proto = rig.Protocol(np.radians(np.arange(-80, 81, 20.0)), np.array([-1, -0.5, 0, 0.5, 1.0]),
+                         np.array([10.0]), "tau_perp", 3)
+    path = dataset(layout, tmp_path, KIM, seed=13, protocol=proto)
+    data = measured.load_measured(path, layout)
+    assert data.replicated and data.rows["point"].nunique() == 45
+    rep = diagnose.diagnose(layout, data, KIM)
+    assert rep["verdict"] == "none" and rep["accepted"] == []
+    assert rep["noise"]["source"] == "replicates"
+    assert not any(r["accepted"] for r in rep["ranking"])
+
+
+def test_gap_no_candidate_removes_is_unexplained(layout, tmp_path):
+    """A 1° steering offset diagnosed with candidates that cannot produce it: `unexplained`, not a name."""
+    path = dataset(layout, tmp_path, KIM + ("steering_offset",), {"steering_offset": {"offset": np.radians(1.0)}}, seed=14)
+    rep = diagnose.diagnose(layout, measured.load_measured(path, layout), KIM,
+                            candidates=["rolling_resistance", "traction_saturation"])
+    assert rep["verdict"] == "unexplained" and rep["gap"]["structured"] and rep["gap"]["regions"]
+
+
+def test_resteer_fitted_model_and_lookup_beat_the_ideal(layout, tmp_path):
+    """Brokowski sec. 5 on rig data with Gillespie-type spin creep the model lacks: the fitted model and the
+    data lookup follow the requested ratio far better than the ideal and nominal commands (Fig. 17)."""
+    truth = KIM + ("drive_spin_creep",)
+    params = {"drive_spin_creep": {"scale": 4.0}}
+    path = dataset(layout, tmp_path, truth, params, seed=15)
+    data = measured.load_measured(path, layout)
+    cmds = resteer.commands(layout, KIM, 1.0, resteer.RATIOS, data)
+    table = resteer.achieved(compile_model(layout.with_effects(truth, params)), cmds)
+    err = {m: t["mean_abs_error_pct"] for m, t in table.items()}
+    assert err["ideal"] > 30 and err["nominal"] > 8
+    assert err["fitted"] < 0.5 * err["nominal"] and err["lookup"] < 0.5 * err["nominal"]
+
+
+def test_resteer_inverts_the_model_exactly(layout):
+    """The model command achieves the requested ratio on the same model (zero-noise consistency)."""
+    m = compile_model(layout, KIM)
+    for q in (0.4, 1.0, 2.5):
+        g = resteer.model_command(m, q, 0.8)
+        assert abs(resteer.ratio(m, g, 0.8)[0] / q - 1) < 1e-8
+    assert abs(resteer.ideal_command(layout, 1.0) - np.pi / 4) < 1e-15

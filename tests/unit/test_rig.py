@@ -1,0 +1,148 @@
+"""Virtual rig and the measured-data reader: format, noise, derived quantities, bad input."""
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from cvtdesign import measured, rig
+from cvtdesign.cli import main
+from cvtdesign.model import compile_model
+from cvtdesign.variant import load_variant
+
+ROOT = Path(__file__).resolve().parents[2]
+EXISTING = ROOT / "variants" / "existing.yaml"
+UNEQUAL = ROOT / "variants" / "unequal.yaml"
+KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
+
+
+@pytest.fixture(scope="module")
+def layout():
+    return load_variant(EXISTING)
+
+
+def test_rig_cli_writes_kims_protocol(tmp_path, capsys):
+    out = tmp_path / "d.csv"
+    assert main(["rig", str(EXISTING), "--out", str(out), "--seed", "1"]) == 0
+    df = pd.read_csv(out)
+    assert list(df.columns) == ["gamma_cmd_deg", "omega_1", "omega_2", "tau_1", "tau_2", "gamma_axis_deg"]
+    assert len(df) == 187                                       # 17 γ × 11 τ⊥ (Kim sec. 4.2)
+    assert sorted(df["gamma_cmd_deg"].unique()) == list(np.arange(-80, 81, 10.0))
+    assert "187 rows" in capsys.readouterr().out
+
+
+def test_noise_free_rig_reproduces_the_model(layout, tmp_path):
+    """With zero noise every column is the model's output and the derived α, τ⊥ are the model's."""
+    rows, failed = rig.simulate(layout, KIM, noise=rig.Noise(0, 0, 0))
+    assert failed == 0
+    path = tmp_path / "d.csv"
+    path.write_text(rig.to_csv_text(rows))
+    data = measured.load_measured(path, layout)
+    m = compile_model(layout, KIM)
+    G, T = np.meshgrid(np.radians(np.arange(-80, 81, 10.0)), np.round(np.arange(-1, 1.0001, 0.2), 12), indexing="ij")
+    res = m.evaluate(G, T)
+    np.testing.assert_allclose(data.rows["alpha_deg"], np.degrees(res["alpha"]).ravel(), atol=1e-6)
+    np.testing.assert_allclose(data.rows["tau_perp"], T.ravel(), atol=1e-7)
+    np.testing.assert_allclose(data.rows["gamma_axis_deg"], np.degrees(res["gamma_axis"]).ravel(), atol=1e-6)
+    assert data.rows["point"].nunique() == 187 and len(data.load_levels) == 11 and not data.replicated
+
+
+def test_unequal_radii_alpha_uses_the_radius_ratio(tmp_path):
+    """DESIGN sec. 1: with unequal radii ω2 is scaled by r2/r1 first, so the ideal CVT has α = 0 (up to the
+    model's rigid-direction compliance floor EPS_RIGID, under 3e-6° at 1 N·m)."""
+    L = load_variant(UNEQUAL)
+    rows, _ = rig.simulate(L, (), noise=rig.Noise(0, 0, 0))
+    path = tmp_path / "d.csv"
+    path.write_text(rig.to_csv_text(rows))
+    assert np.max(np.abs(measured.load_measured(path, L).rows["alpha_deg"])) < 3e-6
+
+
+def test_replicates_give_the_noise_level(layout):
+    """Replicated points: the scatter of ω2 is the rig's speed noise (1100 rows, ±10 % at 3σ)."""
+    p = rig.kim_protocol(layout, replicates=6)
+    noise = rig.Noise(speed=0.02, torque=0.01, axis=np.radians(0.1))
+    rows, _ = rig.simulate(layout, KIM, protocol=p, noise=noise, seed=4)
+    assert len(rows) == 6 * 187
+    key = rows["gamma_cmd_deg"].astype(str) + "/" + (rows.index % 187).astype(str)
+    for col, sigma in (("omega_2", 0.02), ("tau_1", 0.01), ("gamma_axis_deg", 0.1)):
+        s = rows.groupby(key)[col].std(ddof=1)
+        assert abs(np.sqrt(np.mean(s ** 2)) / sigma - 1) < 0.1, col
+
+
+def test_protocol_file_and_settings(layout, tmp_path):
+    proto = tmp_path / "p.yaml"
+    proto.write_text("gamma: [-30 deg, 0 deg, 30 deg]\nload: {start: 0 N*m, stop: 0.5 N*m, step: 0.25 N*m}\n"
+                     "motor_speed: [5 rad/s, 20 rad/s]\nreplicates: 2\n")
+    p = rig.read_protocol(proto, layout)
+    rows, _ = rig.simulate(layout, KIM + ("steering_offset",), rig.parse_settings(["steering_offset.offset=1 deg"],
+                                                                                  KIM + ("steering_offset",)), p)
+    assert len(rows) == 3 * 3 * 2 * 2
+    assert set(np.round(rows["omega_1"])) == {5.0, 20.0}
+
+
+BAD_RIG = {
+    "unknown effect": (["--effects", "steering_lateral_crep"], r"--effects: unknown effect 'steering_lateral_crep' \(did you mean 'steering_lateral_creep'\?\)"),
+    "unknown parameter": (["--set", "steering_lateral_creep.scal=2"], r"--set: effect steering_lateral_creep has no parameter 'scal'"),
+    "effect not on": (["--set", "steering_offset.offset=1 deg"], r"--set: steering_offset.offset is set but steering_offset is not among the effects"),
+    "bad unit": (["--effects", "steering_offset", "--set", "steering_offset.offset=1 N"], r"--set: steering_offset.offset: expected a angle like '10 deg', got '1 N'"),
+    "bad noise": (["--noise", "sped=0.1"], r"--noise: expected name=value with names speed, torque, axis, got 'sped=0.1' \(did you mean 'speed'\?\)"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_RIG)
+def test_rig_bad_input(case, tmp_path, capsys):
+    args, pattern = BAD_RIG[case]
+    out = tmp_path / "d.csv"
+    assert main(["rig", str(EXISTING), "--out", str(out), *args]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert __import__("re").search(pattern, err), err
+    assert not out.exists()
+
+
+# ------------------------------------------------------------------------------- bad measured data
+
+GOOD = ("gamma_cmd_deg,omega_1,omega_2,tau_1,tau_2\n"
+        "-30,10,-5.77,0.2,0.3\n0,10,0.01,0.1,0.5\n30,10,5.77,-0.2,0.4\n")
+
+BAD_DATA = {
+    "missing column": (GOOD.replace("omega_2", "omega2"), r"missing column 'omega_2' \(did you mean 'omega2'\?\)"),
+    "non-numeric cell": (GOOD.replace("0,10,0.01", "0,10,abc"), r"line 3: column 'omega_2': 'abc' is not a number"),
+    "empty cell": (GOOD.replace("30,10,5.77,-0.2,0.4", "30,10,5.77,,0.4"), r"line 4: column 'tau_1' is empty"),
+    "zero speed": (GOOD.replace("-30,10,", "-30,0,"), r"line 2: omega_1 is 0"),
+    "gamma out of range": (GOOD.replace("30,10,5.77", "85,10,5.77"), r"line 4: gamma_cmd_deg = 85 is outside the variant's range -80\.\.80 deg"),
+    "not a csv": ("\x00\x01\x02binary", r"missing column|not a readable CSV"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_DATA)
+def test_bad_measured_data_one_line_exit_2(case, tmp_path, capsys):
+    text, pattern = BAD_DATA[case]
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    js = tmp_path / "r.json"
+    assert main(["diagnose", str(path), "--variant", str(EXISTING), "--json", str(js)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith(f"cvtdesign: error: {path}: ") and __import__("re").search(pattern, err), err
+    assert not js.exists()
+
+
+def test_bad_base_effect_is_named(tmp_path, capsys):
+    path = tmp_path / "d.csv"
+    path.write_text(GOOD)
+    assert main(["diagnose", str(path), "--variant", str(EXISTING), "--base", "drive_longitudinal_creep,steering_lateral"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown effect 'steering_lateral' (did you mean 'steering_lateral_creep'?)" in err and err.count("\n") == 1
+
+
+def test_drop_bad_counts_rows(layout, tmp_path):
+    text = GOOD + "10,10,abc,0.1,0.1\n20,0,1,1,1\n,10,1,1,1\n70,10,nan,1,1\n"
+    path = tmp_path / "d.csv"
+    path.write_text(text)
+    with pytest.raises(measured.InputError, match=r"line 5: .*\(3 more bad rows; --drop-bad"):
+        measured.load_measured(path, layout)
+    data = measured.load_measured(path, layout, drop_bad=True)
+    assert len(data.rows) == 3
+    assert data.dropped == {"non-numeric cell": 1, "motor at rest": 1, "empty cell": 2}
+    assert list(data.rows["line"]) == [2, 3, 4]
