@@ -203,8 +203,9 @@ def _starts(P: Predictor, x0):
     return starts
 
 
-def fit(P: Predictor, data: Measured, noise: dict, rows=None, x0=None, multistart=True) -> Fit:
-    """Least-squares fit of P's parameters to the z-scored residuals of `rows` (default: all)."""
+def fit(P: Predictor, data: Measured, noise: dict, rows=None, x0=None, multistart=True, max_nfev=40) -> Fit:
+    """Least-squares fit of P's parameters to the z-scored residuals of `rows` (default: all); from x0 and,
+    with `multistart`, from sign-flipped starts (`_starts`)."""
     from scipy.optimize import least_squares
 
     rows = np.arange(P.n) if rows is None else np.asarray(rows)
@@ -229,23 +230,19 @@ def fit(P: Predictor, data: Measured, noise: dict, rows=None, x0=None, multistar
     if len(x0) == 0:
         z, pred, ok = zfun(x0)
         return Fit(P.effects, [], x0, x0, [], pred, ok, float(z @ z))
-    cache = {}
 
     def f(theta):
-        z, _ = cache.setdefault(theta.tobytes(), zfun(theta, True))
-        return z
+        return zfun(theta)[0]
 
     def j(theta):
-        _, J = cache.setdefault(theta.tobytes(), zfun(theta, True))
-        return J
+        return zfun(theta, True)[1]
 
     scale = np.maximum(np.abs(P.defaults), 1e-12)
     best = None
     for s in (_starts(P, x0) if multistart else [x0]):
         s = np.clip(s, lo + 1e-12 * scale, hi - 1e-12 * scale)
-        sol = least_squares(f, s, jac=j, bounds=(lo, hi), x_scale=scale, method="trf", xtol=1e-10,
-                            ftol=1e-10, max_nfev=60)
-        cache.clear()
+        sol = least_squares(f, s, jac=j, bounds=(lo, hi), x_scale=scale, method="trf", xtol=1e-8,
+                            ftol=1e-8, max_nfev=max_nfev)
         if best is None or sol.cost < best.cost:
             best = sol
     theta = best.x
@@ -293,7 +290,7 @@ def heldout(P: Predictor, data: Measured, noise: dict, full: Fit, fold: np.ndarr
     ok = np.zeros(P.n, bool)
     for k in np.unique(fold):
         test = fold == k
-        f = fit(P, data, noise, rows=np.flatnonzero(~test), x0=full.theta, multistart=False)
+        f = fit(P, data, noise, rows=np.flatnonzero(~test), x0=full.theta, multistart=False, max_nfev=15)
         for c in pred:
             pred[c][test] = f.pred[c][test]
         ok[test] = f.ok[test]
