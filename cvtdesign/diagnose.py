@@ -131,9 +131,13 @@ def noise_levels(data: Measured, resid: dict) -> dict:
                         dev.extend((v - v.mean()) * np.sqrt(v.size / (v.size - 1)))
                 samples[gl] = np.array(dev)
             else:
-                order = idx[np.argsort(r["tau_perp"].to_numpy()[idx])]
-                v = res[order]
-                samples[gl] = (v[:-2] - 2 * v[1:-1] + v[2:]) / np.sqrt(6) if v.size >= 3 else np.array([])
+                parts = []
+                for sb in np.unique(r["speed_bin"].to_numpy()[idx]):
+                    sub = idx[r["speed_bin"].to_numpy()[idx] == sb]
+                    v = res[sub[np.argsort(r["tau_perp"].to_numpy()[sub])]]
+                    if v.size >= 3:
+                        parts.append((v[:-2] - 2 * v[1:-1] + v[2:]) / np.sqrt(6))
+                samples[gl] = np.concatenate(parts) if parts else np.array([])
         sig = {}
         for k, gl in enumerate(levels):
             pool = np.concatenate([samples[levels[j]] for j in range(max(0, k - 1), min(len(levels), k + 2))])
@@ -572,11 +576,21 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
         "rounds": [[{"effect": r["effect"], "heldout_msz": r["score"].msz, "p_value": r["p"],
                      "gain": r["gain"], "significant": r["significant"]} for r in rd["rows"]] for rd in rounds],
         "how_far": how_far,
+        "by_speed": _by_speed(data, res_b["alpha"], res_a["alpha"]),
         "confounded": confounded,
         "seconds": time.perf_counter() - t0,
         "_base": base_score, "_final": final, "_noise": noise, "_data": data,
     }
     return report
+
+
+def _by_speed(data: Measured, before, after):
+    """The α residual per motor-speed level (only when the speed varies): where in speed the gap lies."""
+    if len(data.speed_levels) < 2:
+        return []
+    sb = data.rows["speed_bin"].to_numpy()
+    return [{"omega_1": float(w), "rows": int((sb == k).sum()), "mean_residual_deg": float(np.mean(before[sb == k])),
+             "rms_residual_deg": [_rms(before, sb == k), _rms(after, sb == k)]} for k, w in enumerate(data.speed_levels)]
 
 
 def _channels(data: Measured):
@@ -660,6 +674,10 @@ def print_report(rep: dict, console):
                        f"{r['load_Nm'][0]:+.2f} .. {r['load_Nm'][1]:+.2f}", str(r["points"]),
                        f"{r['mean_residual_deg']:+.3f}")
         console.print(rt)
+    if rep["by_speed"]:
+        console.print("by motor speed: " + "; ".join(
+            f"ω1 = {b['omega_1']:.3g} rad/s: RMS α residual {b['rms_residual_deg'][0]:.3f}° → {b['rms_residual_deg'][1]:.3f}°"
+            for b in rep["by_speed"]))
     k = Table(title="candidates, added one at a time to the base (held-out, cross-validated by operating point)")
     for c in ("effect", "RMS α \\[deg] before → after", "shrink", "RMS η before → after", "p", "ΔBIC", "fitted", "accepted"):
         k.add_column(c)

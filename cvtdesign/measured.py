@@ -25,13 +25,14 @@ GAMMA_TOL_DEG = 1e-6     # [deg] commanded angles closer than this are one opera
 @dataclass
 class Measured:
     """A validated dataset. `rows` has the DESIGN columns plus alpha_deg, tau_perp, efficiency, point
-    (operating-point index: replicates share it), gamma_bin and load_bin (the γ and τ⊥ levels)."""
+    (operating-point index: replicates share it), gamma_bin, load_bin and speed_bin (the γ, τ⊥ and ω1 levels)."""
     file: str
     rows: pd.DataFrame
     has_axis: bool
     dropped: dict = field(default_factory=dict)     # reason -> count (only with drop_bad)
     gamma_levels: np.ndarray = None                 # [deg]
     load_levels: np.ndarray = None                  # [N m]
+    speed_levels: np.ndarray = None                 # [rad/s]
 
     @property
     def replicated(self) -> bool:
@@ -142,14 +143,17 @@ def _levels(values, tol):
 
 
 def _group(m: Measured):
-    """Operating points: the same commanded γ and the same load level. Loads are measured, so replicates
-    differ by the torque noise; τ⊥ levels are clusters of the measured τ⊥ separated by more than 5 % of its
-    range (a rig's load levels are steps, Kim's 0.1-0.2 N m)."""
+    """Operating points: the same commanded γ, load level and motor-speed level. Loads and speeds are
+    measured, so replicates differ by the noise: τ⊥ levels are clusters of the measured τ⊥ separated by more
+    than 2.5 % of its range (a rig's load levels are steps, Kim's 0.1-0.2 N m), speed levels clusters of ω1
+    separated by more than 5 % of its largest magnitude."""
     r = m.rows
     gl, glev = _levels(r["gamma_cmd_deg"].to_numpy(), GAMMA_TOL_DEG)
     tp = r["tau_perp"].to_numpy()
     span = float(np.ptp(tp)) if len(tp) > 1 else 0.0
-    ll, llev = _levels(tp, max(0.05 * span, 1e-9))
-    r["gamma_bin"], r["load_bin"] = gl, ll
-    r["point"] = pd.factorize(pd.Series(gl * (len(llev) + 1) + ll))[0]
-    m.gamma_levels, m.load_levels = glev, llev
+    ll, llev = _levels(tp, max(0.025 * span, 1e-9))
+    w = r["omega_1"].to_numpy()
+    sl, slev = _levels(w, 0.05 * float(np.max(np.abs(w))))
+    r["gamma_bin"], r["load_bin"], r["speed_bin"] = gl, ll, sl
+    r["point"] = pd.factorize(pd.Series((sl * len(glev) + gl) * (len(llev) + 1) + ll))[0]
+    m.gamma_levels, m.load_levels, m.speed_levels = glev, llev, slev

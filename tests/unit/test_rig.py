@@ -146,3 +146,14 @@ def test_drop_bad_counts_rows(layout, tmp_path):
     assert len(data.rows) == 3
     assert data.dropped == {"non-numeric cell": 1, "motor at rest": 1, "empty cell": 2}
     assert list(data.rows["line"]) == [2, 3, 4]
+
+
+def test_operating_points_separate_speeds_and_keep_replicates(layout, tmp_path):
+    """Rows at two motor speeds are different operating points; repeated rows are replicates of one."""
+    p = rig.Protocol(np.radians([-40.0, 0.0, 40.0]), np.array([-0.5, 0.0, 0.5]), np.array([5.0, 20.0]), "tau_perp", 2)
+    rows, _ = rig.simulate(layout, KIM, protocol=p, noise=rig.Noise().scaled(3), seed=9)
+    path = tmp_path / "d.csv"
+    path.write_text(rig.to_csv_text(rows))
+    data = measured.load_measured(path, layout)
+    assert data.rows["point"].nunique() == 18 and data.replicated
+    assert len(data.speed_levels) == 2 and len(data.load_levels) == 3
