@@ -277,7 +277,8 @@ def cmd_selfcheck(args):
             desc = "" if row is None else f"last: {row['id']} → {row['verdict']}"
             bar.update(task, total=total, completed=done, description=desc)
 
-        results = selfcheck.run(args.variant, args.quick, args.seeds, args.scheduler, args.workers, progress)
+        only = [x.strip() for x in args.only.split(",")] if args.only else None
+        results = selfcheck.run(args.variant, args.quick, args.seeds, args.scheduler, args.workers, progress, only)
     summ = selfcheck.summary(results)
     selfcheck.print_summary(summ, results, console)
     if args.json:
@@ -393,6 +394,7 @@ def build_parser():
     s.add_argument("--seeds", type=int, default=3, help="null datasets per noise level / 2 (default 3)")
     s.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a local cluster)")
     s.add_argument("--workers", type=int, help="local cluster size (default: one worker per core)")
+    s.add_argument("--only", help="run only the datasets whose id contains one of these comma-separated texts")
     s.add_argument("--json", help="write the per-dataset results and the summary to this JSON file")
     s.set_defaults(func=cmd_selfcheck)
     t = sub.add_parser("resteer", help="steering commands for requested speed ratios under a known load (Brokowski sec. 5)")

@@ -16,7 +16,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None):
         client = Client(scheduler)
     else:
         cluster = LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=40)
+                               dashboard_address=":0", silence_logs=40)
         client = Client(cluster)
     try:
         yield client

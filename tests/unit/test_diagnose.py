@@ -109,3 +109,19 @@ def test_resteer_inverts_the_model_exactly(layout):
         g = resteer.model_command(m, q, 0.8)
         assert abs(resteer.ratio(m, g, 0.8)[0] / q - 1) < 1e-8
     assert abs(resteer.ideal_command(layout, 1.0) - np.pi / 4) < 1e-15
+
+
+def test_selfcheck_cli_on_a_dask_cluster(tmp_path):
+    """`cvtdesign selfcheck` on a real local Dask cluster, reduced to a withheld steering offset and a null set."""
+    js = tmp_path / "sc.json"
+    assert main(["selfcheck", "--quick", "--only", "single-steering_offset,null-noise1-seed0", "--workers", "2",
+                 "--json", str(js)]) == 0
+    rep = json.loads(js.read_text())
+    ids = [d["id"] for d in rep["datasets"]]
+    assert len(ids) == 2 and ids[1] == "null-noise1-seed0"
+    single, null = rep["datasets"]
+    assert single["verdict"] == "steering_offset" and single["shrink"] > 0.5 and single["signal_to_noise"] > 3
+    assert null["verdict"] == "none"
+    s = rep["summary"]
+    assert s["top1_single"] == 1.0 and s["false_positive_null"] == 0.0
+    assert s["per_effect"]["steering_offset"]["cases"] == 1
