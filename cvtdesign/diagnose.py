@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import functools
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -45,7 +45,7 @@ P_ACCEPT = 0.01        # family-wise significance of accepting an effect (Bonfer
 MIN_GAIN = 0.05        # and at least this relative drop of the held-out mean squared z
 AUTO_Z = 3.1           # spatial autocorrelation z above which a residual field is structured (p < 0.001)
 REGION_Z = 3.0         # operating points whose mean residual is beyond this many σ form the gap's regions
-MAX_ADDED = 2
+MAX_ADDED = 2          # greedy rounds: at most two effects are accepted (each round refits every candidate)
 
 
 # ---------------------------------------------------------------------------------------------- predictor
@@ -324,7 +324,6 @@ def point_grid(data: Measured, values: np.ndarray, reduce=np.nanmean) -> np.ndar
     """Per-row values → (γ level, load level) grid of their mean over replicates (NaN where no point)."""
     r = data.rows
     grid = np.full((len(data.gamma_levels), len(data.load_levels)), np.nan)
-    gb, lb = r["gamma_bin"].to_numpy(), r["load_bin"].to_numpy()
     for (i, j), idx in r.groupby(["gamma_bin", "load_bin"]).indices.items():
         grid[i, j] = reduce(values[idx])
     return grid
@@ -399,7 +398,6 @@ class Score:
     rms_alpha: float        # [deg]
     rms_efficiency: float   # [-]
     bic: float
-    extra: dict = field(default_factory=dict)
 
 
 def score(P: Predictor, data: Measured, noise: dict, fold, x0=None) -> Score:
@@ -488,7 +486,7 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
     structured = autocorrelation_z(data, z_base[0])
     regs = regions(data, residuals(data, base_score.fit.pred)["alpha"], noise["alpha"])
 
-    accepted, rounds, ranking = [], [], []
+    accepted, rounds = [], []
     remaining = list(candidates)
     while remaining and len(accepted) < MAX_ADDED:
         scores = {}

@@ -10,7 +10,6 @@ Derived per row (DESIGN sec. 1): slip angle α = atan2(ω2·r2/r1, ω1) − γ_c
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
