@@ -1,9 +1,12 @@
 """The sim-to-real gap: where it lies, which unmodelled effect causes it, how far it shrinks.
 
 Method (each step is a plain function below):
- 1. Prediction. Every row is an operating point (γ_cmd, ω1, brake torque τ2 as measured); the model with a
-    set of effects (DESIGN.md sec. 3) predicts the slip angle α, the motor torque τ1 (which carries the
-    efficiency) and the axis angle γ_axis. Residuals = measured − predicted, in ° and N·m.
+ 1. Prediction. Every row is an operating point (γ_cmd, ω1 and the lateral load τ⊥ = −τ1 sin γ + τ2 cos γ
+    from the measured torques, Kim eq 17: the load the rig controls); the model with a set of effects
+    (DESIGN.md sec. 3) predicts the slip angle α, the parallel torque τ∥ = τ1 cos γ + τ2 sin γ (the other,
+    orthogonal torque component: ω1 τ∥ / cos γ is the power loss, so it carries the efficiency) and the axis
+    angle γ_axis. Residuals = measured − predicted, in ° and N·m. Both torque components see the same
+    torque noise, so the channels' noise does not grow with tan γ as τ1 given τ2 would.
  2. Noise. From replicates (pooled within-point scatter) or, without replicates, from second differences of
     the base fit's residuals along the load at each γ (a gap that is smooth in load cancels, noise does not),
     robust (MAD) and pooled over neighbouring γ, since the noise of α and τ1 depends on γ through the
@@ -36,8 +39,8 @@ from .measured import Measured
 from .model import RES_TOL, compile_model
 from .variant import Layout
 
-CHANNELS = ("alpha", "tau_1", "axis")          # [deg], [N m], [deg]
-UNITS = {"alpha": "deg", "tau_1": "N*m", "axis": "deg"}
+CHANNELS = ("alpha", "tau_par", "axis")        # [deg], [N m], [deg]
+UNITS = {"alpha": "deg", "tau_par": "N*m", "axis": "deg"}
 FAIL_Z = 1e3           # z-score of a row whose model solve fails (gross slip where the rig measured creep):
                        # far above any misfit, so a fit never buys its way out of residuals by failing rows
 FOLDS = 5
@@ -64,24 +67,26 @@ class Predictor:
         phi0, _ = self.model.steering_guess(g)
         th = ca.MX.sym("theta", len(self.names))
         F = self.model.point.map(n, "thread", 2)
-        out = dict(zip(self.model.point.name_out(), F(g, r["omega_1"].to_numpy(), r["tau_2"].to_numpy(), 1.0,
+        out = dict(zip(self.model.point.name_out(), F(g, r["omega_1"].to_numpy(), r["tau_perp"].to_numpy(), 0.0,
                                                      phi0, th, np.zeros(0))))
-        y = ca.vertcat(out["alpha"].T, out["tau_1"].T, out["gamma_axis"].T, out["omega_2"].T)
+        tau_par = out["tau_1"].T * np.cos(g) + out["tau_2"].T * np.sin(g)
+        y = ca.vertcat(out["alpha"].T, tau_par, out["gamma_axis"].T, out["omega_2"].T, out["tau_1"].T, out["tau_2"].T)
         self.n = n
         self._f = ca.Function("predict", [th], [y, out["residual"].T])
         self._fj = ca.Function("predict_jac", [th], [y, out["residual"].T, ca.jacobian(y, th)])
 
     def __call__(self, theta, jacobian=False):
-        """Predictions {alpha [deg], tau_1 [N m], axis [deg], omega_2 [rad/s]}, converged mask (and dY/dθ,
-        shape (4, n, p), with `jacobian`)."""
+        """Predictions {alpha [deg], tau_par [N m], axis [deg], omega_2 [rad/s], tau_1, tau_2 [N m]}, converged
+        mask (and dY/dθ, shape (6, n, p), with `jacobian`)."""
         theta = np.asarray(theta, float)
         outs = (self._fj if jacobian else self._f)(theta)
-        y = np.asarray(outs[0]).reshape(4, self.n)
+        y = np.asarray(outs[0]).reshape(6, self.n)
         ok = np.isfinite(np.asarray(outs[1]).ravel()) & (np.asarray(outs[1]).ravel() < RES_TOL)
-        pred = {"alpha": np.degrees(y[0]), "tau_1": y[1], "axis": np.degrees(y[2]), "omega_2": y[3]}
+        pred = {"alpha": np.degrees(y[0]), "tau_par": y[1], "axis": np.degrees(y[2]), "omega_2": y[3],
+                "tau_1": y[4], "tau_2": y[5]}
         if not jacobian:
             return pred, ok
-        J = np.asarray(outs[2]).reshape(4, self.n, -1)
+        J = np.asarray(outs[2]).reshape(6, self.n, -1)
         J[[0, 2]] = np.degrees(J[[0, 2]])
         return pred, ok, J
 
@@ -94,7 +99,7 @@ def residuals(data: Measured, pred: dict) -> dict:
     """Measured − predicted per channel (the axis only when measured)."""
     r = data.rows
     out = {"alpha": _wrap_deg(r["alpha_deg"].to_numpy() - pred["alpha"]),
-           "tau_1": r["tau_1"].to_numpy() - pred["tau_1"]}
+           "tau_par": r["tau_par"].to_numpy() - pred["tau_par"]}
     if data.has_axis:
         out["axis"] = _wrap_deg(r["gamma_axis_deg"].to_numpy() - pred["axis"])
     return out
@@ -290,7 +295,7 @@ def folds(data: Measured, k: int = FOLDS, seed: int = 0) -> np.ndarray:
 
 def heldout(P: Predictor, data: Measured, noise: dict, full: Fit, fold: np.ndarray) -> dict:
     """Held-out predictions: each fold predicted by the fit on the other folds (warm-started at the full fit)."""
-    pred = {c: np.full(P.n, np.nan) for c in ("alpha", "tau_1", "axis", "omega_2")}
+    pred = {c: np.full(P.n, np.nan) for c in ("alpha", "tau_par", "axis", "omega_2", "tau_1", "tau_2")}
     ok = np.zeros(P.n, bool)
     for k in np.unique(fold):
         test = fold == k
@@ -382,7 +387,7 @@ def _efficiency_mask(data: Measured):
 def _model_efficiency(data: Measured, pred: dict):
     from .evaluate import efficiency
     r = data.rows
-    return efficiency(pred["tau_1"] * r["omega_1"].to_numpy(), r["tau_2"].to_numpy() * pred["omega_2"])
+    return efficiency(pred["tau_1"] * r["omega_1"].to_numpy(), pred["tau_2"] * pred["omega_2"])
 
 
 @dataclass
@@ -601,7 +606,7 @@ def _efficiency_noise(data, noise):
     m = _efficiency_mask(data)
     eta = r["efficiency"].to_numpy()
     with np.errstate(divide="ignore", invalid="ignore"):
-        d = np.abs(eta / r["tau_1"].to_numpy()) * noise["tau_1"]
+        d = np.abs(eta / r["tau_1"].to_numpy()) * noise["tau_par"]
     return _rms(d, m)
 
 
@@ -626,7 +631,7 @@ def _confounded(first_rows, base: Score, noise, data, cos_limit=0.9):
             row = int(np.argmax(diff[:2].max(axis=0)))
             r = data.rows.iloc[row]
             hint = ("measure the axis angle (gamma_axis_deg)" if not data.has_axis and
-                    by_channel["axis"] > 2 * max(by_channel["alpha"], by_channel["tau_1"]) else
+                    by_channel["axis"] > 2 * max(by_channel["alpha"], by_channel["tau_par"]) else
                     f"more points near γ = {r['gamma_cmd_deg']:.0f}°, τ⊥ = {r['tau_perp']:.2f} N·m")
             out.append({"effects": [a["effect"], b["effect"]], "cosine": cos,
                         "separation_z_rms": {c: v for c, v in by_channel.items()},
@@ -650,7 +655,7 @@ def print_report(rep: dict, console):
     dropped = sum(rep["dropped_rows"].values())
     console.print(f"{rep['rows']} rows, {rep['operating_points']} operating points"
                   + (f", {dropped} bad rows dropped ({rep['dropped_rows']})" if dropped else "")
-                  + f"; noise ({n['source']}): α {n['alpha']['rms']:.3f}°, τ1 {n['tau_1']['rms']:.4f} N·m"
+                  + f"; noise ({n['source']}): α {n['alpha']['rms']:.3f}°, τ∥ {n['tau_par']['rms']:.4f} N·m"
                   + (f", axis {n['axis']['rms']:.3f}°" if "axis" in n else ""))
     t = Table(title=f"base model fit: {' + '.join(rep['base']) or 'ideal CVT'}")
     for c in ("parameter", "value", "±1σ", "identifiable"):

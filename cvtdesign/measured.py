@@ -5,7 +5,8 @@ One operating point per CSV row: `gamma_cmd_deg` [deg], `omega_1`, `omega_2` [ra
 measured axis angle). Other columns are ignored. Rows that repeat an operating point are replicates.
 
 Derived per row (DESIGN sec. 1): slip angle α = atan2(ω2·r2/r1, ω1) − γ_cmd (Kim eq 15/35), lateral load
-τ⊥ = −τ1 sin γ_cmd + τ2 cos γ_cmd (Kim eq 17), efficiency = power out / power in.
+τ⊥ = −τ1 sin γ_cmd + τ2 cos γ_cmd and parallel torque τ∥ = τ1 cos γ_cmd + τ2 sin γ_cmd (Kim eq 17),
+efficiency = power out / power in.
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ GAMMA_TOL_DEG = 1e-6     # [deg] commanded angles closer than this are one opera
 
 @dataclass
 class Measured:
-    """A validated dataset. `rows` has the DESIGN columns plus alpha_deg, tau_perp, efficiency, point
+    """A validated dataset. `rows` has the DESIGN columns plus alpha_deg, tau_perp, tau_par, efficiency, point
     (operating-point index: replicates share it), gamma_bin, load_bin and speed_bin (the γ, τ⊥ and ω1 levels)."""
     file: str
     rows: pd.DataFrame
@@ -119,6 +120,7 @@ def read_measured(path, ratio_gain: float = 1.0, gamma_range_deg=None, drop_bad:
     g = np.radians(rows["gamma_cmd_deg"].to_numpy())
     rows["alpha_deg"] = _wrap_deg(np.degrees(np.arctan2(rows["omega_2"] / ratio_gain, rows["omega_1"]) - g))
     rows["tau_perp"] = -rows["tau_1"] * np.sin(g) + rows["tau_2"] * np.cos(g)
+    rows["tau_par"] = rows["tau_1"] * np.cos(g) + rows["tau_2"] * np.sin(g)
     from .evaluate import efficiency
     rows["efficiency"] = efficiency(rows["tau_1"] * rows["omega_1"], rows["tau_2"] * rows["omega_2"])
     m = Measured(where, rows, "gamma_axis_deg" in rows.columns, dropped)
