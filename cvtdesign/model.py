@@ -120,7 +120,8 @@ def _steering_solver(layout: Layout, design: ca.SX):
     g = ca.jacobian(ca.sumsqr(res) / 2, phi)
     f = ca.Function("steer_res", [phi, ca.vertcat(gamma, design)], [g])
     misfit = ca.Function("steer_misfit", [phi, ca.vertcat(gamma, design)], [ca.sqrt(ca.sumsqr(res) + 1e-30)])
-    return ca.rootfinder("steer", "newton", f, {"abstol": 1e-14, "max_iter": 30, "error_on_fail": False}), misfit
+    return ca.rootfinder("steer", "newton", f, {"abstol": 1e-14, "max_iter": 30, "error_on_fail": False,
+                                                  "show_eval_warnings": False}), misfit
 
 
 def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> CompiledModel:
@@ -256,7 +257,8 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
     resid = ca.vertcat(*slip_res, moment / (R * F_SCALE), *idle_res, load_res)
     params = ca.vertcat(gamma, w1, load, brake, phi_cmd, theta, design)
     G = ca.Function("residual", [x, params], [resid])
-    solver = ca.rootfinder("cvt", "newton", G, {"abstol": 1e-12, "max_iter": 40, "error_on_fail": False})
+    solver = ca.rootfinder("cvt", "newton", G, {"abstol": 1e-12, "max_iter": 40, "error_on_fail": False,
+                                                  "show_eval_warnings": False})
 
     # initial guess: ideal kinematics about the commanded axis, no forces
     gains = {s: -R / (primary[s].ratio * primary[s].radius) * vec(primary[s].axle) for s in (1, 2)}
