@@ -120,7 +120,7 @@ def test_selfcheck_cli_on_a_dask_cluster(tmp_path):
     ids = [d["id"] for d in rep["datasets"]]
     assert len(ids) == 2 and ids[1] == "null-noise1-seed0"
     single, null = rep["datasets"]
-    assert single["verdict"] == "steering_offset" and single["shrink"] > 0.5 and single["signal_to_noise"] > 3
+    assert single["verdict"] == "steering_offset" and single["shrink"] > 0.5 and single["signal_chi"] > 10
     assert null["verdict"] == "none"
     s = rep["summary"]
     assert s["top1_single"] == 1.0 and s["false_positive_null"] == 0.0
