@@ -38,6 +38,7 @@ import functools
 import itertools
 import os
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -200,13 +201,20 @@ class Crowned(_Prim):
         return float(np.linalg.norm(self.centre) + np.hypot(self.radius, self.width / 2))
 
     def solid(self, cq):
-        h, edge = self.width / 2, self.rho(self.width / 2)
-        # axial section in the local XZ plane (x = radial, z = axial), revolved about local z = axle
-        section = (cq.Workplane("XZ").moveTo(self.bore, -h).lineTo(edge, -h)
-                   .threePointArc((self.radius, 0.0), (edge, h)).lineTo(self.bore, h).close())
-        wheel = section.revolve(360, (0, 0, 0), (0, 1, 0)).val()
+        wheel = _wheel_solid(cq, self.radius, self.crown, self.width, self.bore)
         # local x (where the apex is) → −normal, towards the sphere; local z → axle
         return wheel.moved(cq.Location(cq.Plane(tuple(self.centre), tuple(-self.normal), tuple(self.axle))))
+
+
+@functools.lru_cache(maxsize=32)
+def _wheel_solid(cq, radius, crown, width, bore):
+    """A crowned wheel about the local z axis, its tread's apex on the local +x axis (one per size)."""
+    h = width / 2
+    edge = radius - crown + np.sqrt(crown ** 2 - h ** 2)
+    # axial section in the local XZ plane (x = radial, z = axial), revolved about local z
+    section = (cq.Workplane("XZ").moveTo(bore, -h).lineTo(edge, -h)
+               .threePointArc((radius, 0.0), (edge, h)).lineTo(bore, h).close())
+    return section.revolve(360, (0, 0, 0), (0, 1, 0)).val()
 
 
 @dataclass(frozen=True)
@@ -690,7 +698,7 @@ def view_mesh(p: Plan, shapes: dict, view=VIEW):
     light = _unit(d + 0.6 * up + 0.3 * right)
     tris, ids, shades = [], [], []
     for i, part in enumerate(p.parts):
-        verts, idx = shapes[part.name].tessellate(0.5, 0.3)
+        verts, idx = shapes[part.name].tessellate(0.5, 0.4)             # [mm], [rad]
         tri = np.array([v.toTuple() for v in verts])[np.array(idx)]
         normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         normal /= np.linalg.norm(normal, axis=1, keepdims=True) + 1e-12
@@ -698,7 +706,7 @@ def view_mesh(p: Plan, shapes: dict, view=VIEW):
         tris.append(tri[facing] @ np.array([right, up, d]).T)
         shades.append(0.35 + 0.65 * np.clip(normal[facing] @ light, 0, 1))
         ids.append(np.full(int(facing.sum()), i))
-    return np.concatenate(tris), np.concatenate(ids), np.concatenate(shades)
+    return np.concatenate(tris).astype(np.float32), np.concatenate(ids), np.concatenate(shades).astype(np.float32)
 
 
 def rasterise(tri, ids, shade, colours, pixels: int = 800):
@@ -875,9 +883,13 @@ def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, c
         paths = [out / f"{layout.name}.{ext}" for ext in ("step", "svg", "png")]
         mesh = view_mesh(p, shapes)
         with atomic_paths(*paths) as tmps:
-            painter.draw("cad_picture", *mesh, [part.colour for part in p.parts], picture_caption(p), tmps[2])
+            # hand the mesh over from a thread: the pipe blocks until the plotting process reads it
+            sender = threading.Thread(target=painter.draw, args=("cad_picture", *mesh, [part.colour for part in p.parts],
+                                                                  picture_caption(p), tmps[2]))
+            sender.start()
             write_step(assembly(p, shapes), tmps[0])
             write_svg(p, shapes, tmps[1])
+            sender.join()
             error = painter.wait()
             if error:
                 raise RuntimeError(f"PNG rendering failed: {error}")
