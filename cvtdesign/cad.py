@@ -649,10 +649,10 @@ def atomic_paths(*paths: Path):
             path.parent.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
             os.close(fd)
-            os.chmod(tmp, 0o666 & ~umask)         # mkstemp's 0600 would make the review files private
             tmps.append(Path(tmp))
         yield tmps
         for tmp, path in zip(tmps, paths):
+            os.chmod(tmp, 0o666 & ~umask)         # mkstemp's 0600 would make the review files private
             os.replace(tmp, path)
     finally:
         for tmp in tmps:
@@ -699,12 +699,19 @@ def view_mesh(p: Plan, shapes: dict, view=VIEW):
     tris, ids, shades = [], [], []
     for i, part in enumerate(p.parts):
         verts, idx = shapes[part.name].tessellate(0.5, 0.4)             # [mm], [rad]
-        tri = np.array([v.toTuple() for v in verts])[np.array(idx)]
-        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        normal /= np.linalg.norm(normal, axis=1, keepdims=True) + 1e-12
+        verts, idx = np.array([v.toTuple() for v in verts]), np.array(idx)
+        tri = verts[idx]
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])   # area-weighted, outward
+        # smooth shading: average the normals at each vertex (cadquery does not share vertices between
+        # faces, so edges between faces stay sharp)
+        vn = np.zeros_like(verts)
+        for k in range(3):
+            np.add.at(vn, idx[:, k], normal)
+        smooth = (vn / (np.linalg.norm(vn, axis=1, keepdims=True) + 1e-12))[idx].mean(axis=1)
+        smooth /= np.linalg.norm(smooth, axis=1, keepdims=True) + 1e-12
         facing = normal @ d > 0                                          # back faces are hidden
         tris.append(tri[facing] @ np.array([right, up, d]).T)
-        shades.append(0.35 + 0.65 * np.clip(normal[facing] @ light, 0, 1))
+        shades.append(0.35 + 0.65 * np.clip(smooth[facing] @ light, 0, 1))
         ids.append(np.full(int(facing.sum()), i))
     return np.concatenate(tris).astype(np.float32), np.concatenate(ids), np.concatenate(shades).astype(np.float32)
 

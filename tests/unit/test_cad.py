@@ -1,7 +1,9 @@
 """`cvtdesign export`: the STEP assembly re-read and checked, the drawings, bad geometry refused, cadquery
 kept off the model's import path."""
 import dataclasses
+import os
 import re
+import stat
 import subprocess
 import sys
 from pathlib import Path
@@ -40,6 +42,10 @@ def test_step_svg_png_written_and_nothing_else(exported):
         visible = svg.split("<!-- solid lines -->")[1]
         assert svg.startswith("<?xml") and visible.count("<path") >= len(r["parts"])   # an outline per part at least
         assert Path(r["png"]).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        umask = os.umask(0)
+        os.umask(umask)
+        for key in ("step", "svg", "png"):                     # readable like any new file, not mkstemp's 0600
+            assert stat.S_IMODE(Path(r[key]).stat().st_mode) == 0o666 & ~umask
 
 
 @pytest.mark.parametrize("name, parts", [("box", BOX_PARTS), ("existing", EXISTING_PARTS)])
