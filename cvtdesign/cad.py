@@ -96,6 +96,11 @@ def _unit(v):
     return v / np.linalg.norm(v)
 
 
+def _vec3(v) -> np.ndarray:
+    """A numeric 3-vector (numpy array, list or CasADi DM) as a flat numpy array."""
+    return np.asarray(v.full() if hasattr(v, "full") else v, float).ravel()
+
+
 def _perp(v):
     """A unit vector perpendicular to unit v."""
     e = np.eye(3)[np.argmin(np.abs(v))]
@@ -389,7 +394,7 @@ def steering_angle(layout: Layout, gamma: float) -> float:
 def _forks(layout: Layout):
     """[(index, fork axis, [rollers])] of the variant's steering forks."""
     by_name = {r.name: r for r in layout.rollers}
-    return [(i, _unit(np.ravel(by_name[f.rollers[0]].fork_axis)), [by_name[n] for n in f.rollers])
+    return [(i, _unit(_vec3(by_name[f.rollers[0]].fork_axis)), [by_name[n] for n in f.rollers])
             for i, f in enumerate(layout.spec.steering.forks)]
 
 
@@ -477,7 +482,7 @@ def _frame_spec(layout: Layout):
     if spec is None:
         return None
     where, names = f"{layout.file}: frame", layout.parameters
-    side = _unit(np.ravel(_vector(spec.side, f"{where}.side", names)))
+    side = _unit(_vec3(_vector(spec.side, f"{where}.side", names)))
     dist = _mm(to_si(spec.distance, "length", f"{where}.distance", names))
     thick = _mm(to_si(spec.thickness, "length", f"{where}.thickness", names))
     if not thick > 0:
