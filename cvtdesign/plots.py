@@ -203,3 +203,14 @@ def resteer_figure(ratios, load, table: dict, path: Path):
     ax.legend(fontsize=8)
     fig.tight_layout()
     save(fig, path, dpi=110)
+def cad_picture(tri, ids, shade, colours, caption: str, path):
+    """Shaded picture of a CAD assembly (cad.rasterise of its view mesh) with a caption, as PNG."""
+    from .cad import rasterise
+
+    plt = _plt()
+    fig = plt.figure(figsize=(8, 8.4))
+    ax = fig.add_axes((0, 0, 1, 8 / 8.4))
+    ax.imshow(rasterise(tri, ids, shade, colours), interpolation="none")
+    ax.axis("off")
+    fig.text(0.5, 0.975, caption, ha="center", va="center", fontsize=10)
+    save(fig, Path(path), dpi=100)

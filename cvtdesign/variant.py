@@ -92,6 +92,14 @@ class EnvelopeSpec(Strict):
     motor_speed: Num = "10 rad/s"
 
 
+class FrameSpec(Strict):
+    """A mounting plate, drawn by `cvtdesign export` only: perpendicular to `side` (a vector from the sphere
+    centre), its near face `distance` from the centre, sized to the assembly's outline."""
+    side: Union[str, list[float], Spherical]
+    distance: Num
+    thickness: Num = "10 mm"
+
+
 class VariantSpec(Strict):
     name: str
     description: str = ""
@@ -105,6 +113,7 @@ class VariantSpec(Strict):
     effects: list[str] = ["drive_longitudinal_creep", "steering_lateral_creep"]
     effect_parameters: dict[str, dict[str, Num]] = {}
     envelope: EnvelopeSpec = EnvelopeSpec()
+    frame: FrameSpec | None = None
 
 
 @dataclass(frozen=True)

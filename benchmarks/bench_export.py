@@ -1,0 +1,79 @@
+"""Speed of `cvtdesign export`, printed next to baselines run in the same process, as ratios.
+
+1. Cold start: `cvtdesign export variants/box.yaml` (STEP + SVG + PNG) in a new process, against
+   `python -c "import cadquery"`, what merely loading cadquery costs on this machine now. Target: < 10 s.
+2. Warm (cadquery loaded): `cad.export_variant` for box.yaml and existing.yaml against the bare assembly of
+   the same layout (the sphere and plain cylinders of the rollers' radius and width at their poses, no
+   crowns, bores, axles, forks, couplings, screen or drawings, written to STEP), and the `--check` time.
+
+Run: python benchmarks/bench_export.py   (the machine is shared and noisy: best of several repeats)
+"""
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from cvtdesign import cad
+from cvtdesign.geometry import pose
+from cvtdesign.variant import load_variant
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def best_of(fn, repeats):
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t)
+    return min(times), out
+
+
+def bare_assembly(path, out):
+    """The baseline: sphere and plain roller cylinders where the model puts them, as a STEP assembly."""
+    cq = cad._cq()
+    layout = load_variant(path)
+    phi = cad.steering_angle(layout, np.radians(45.0))
+    R = 1000 * layout.sphere_radius
+    assy = cq.Assembly(name=layout.name)
+    assy.add(cq.Solid.makeSphere(R, angleDegrees1=-90, angleDegrees2=90), name="sphere")
+    for r in layout.rollers:
+        n, a = pose(r, phi)
+        w = 1000 * r.width
+        base = (R + 1000 * r.radius) * n - w / 2 * a
+        assy.add(cq.Solid.makeCylinder(1000 * r.radius, w, cq.Vector(*base), cq.Vector(*a)), name=r.name)
+    cad.write_step(assy, Path(out) / f"{layout.name}_bare.step")
+
+
+def cold_start(tmp):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    run = lambda c: subprocess.run(c, cwd=ROOT, env=env, check=True, capture_output=True)
+    t_exp, _ = best_of(lambda: run([sys.executable, "-m", "cvtdesign.cli", "export", "variants/box.yaml", "--out", tmp]), 3)
+    t_cq, _ = best_of(lambda: run([sys.executable, "-c", "import cadquery"]), 3)
+    print("cold start (new process)")
+    print(f"  cvtdesign export variants/box.yaml       {t_exp:6.2f} s   target < 10 s")
+    print(f"  python -c 'import cadquery' (baseline)   {t_cq:6.2f} s   ratio {t_exp / t_cq:.1f} ×")
+
+
+def warm(tmp):
+    cad._cq()
+    print("warm (cadquery loaded), best of 3")
+    for name in ("box", "existing"):
+        path = ROOT / "variants" / f"{name}.yaml"
+        t_bare, _ = best_of(lambda: bare_assembly(path, tmp), 3)
+        t_exp, res = best_of(lambda: cad.export_variant(path, tmp), 3)
+        t_chk, res_c = best_of(lambda: cad.export_variant(path, tmp, check=True), 1)
+        ok = all(r["ok"] for r in res_c["checks"])
+        print(f"  {name:9s} export {t_exp:5.2f} s ({len(res['parts'])} parts)   bare sphere + cylinders "
+              f"{t_bare:5.2f} s   ratio {t_exp / t_bare:5.1f} ×   check {res_c['check_seconds']:5.2f} s "
+              f"({'all pass' if ok else 'FAILED'})")
+
+
+if __name__ == "__main__":
+    with tempfile.TemporaryDirectory() as tmp:
+        cold_start(tmp)
+        warm(tmp)

@@ -1,0 +1,219 @@
+"""`cvtdesign export`: the STEP assembly re-read and checked, the drawings, bad geometry refused, cadquery
+kept off the model's import path."""
+import dataclasses
+import os
+import re
+import stat
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cvtdesign import cad
+from cvtdesign.cli import main
+from cvtdesign.geometry import pose
+from cvtdesign.model import compile_model
+from cvtdesign.variant import load_variant
+
+ROOT = Path(__file__).resolve().parents[2]
+BOX, EXISTING = ROOT / "variants/box.yaml", ROOT / "variants/existing.yaml"
+
+# written out by hand from the variant files: sphere, rollers, axles, forks, couplings
+BOX_PARTS = (["sphere", "A", "A_", "B", "B_", "N1", "N2", "S1", "S2"]
+             + [f"axle_{n}" for n in ("A", "A_", "B", "B_", "N1", "N2", "S1", "S2")]
+             + ["fork_N1+N2", "fork_S1+S2", "coupling_A_", "coupling_B_"])
+EXISTING_PARTS = ["sphere", "D1", "D2", "S1", "S2", "axle_D1", "axle_D2", "axle_S1", "axle_S2", "fork_S1", "fork_S2"]
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cad")
+    return out, {name: cad.export_variant(path, out, check=True) for name, path in (("box", BOX), ("existing", EXISTING))}
+
+
+def test_step_svg_png_written_and_nothing_else(exported):
+    out, res = exported
+    assert sorted(p.name for p in out.iterdir()) == sorted(f"{n}.{e}" for n in res for e in ("png", "step", "svg"))
+    for name, r in res.items():
+        assert Path(r["step"]).read_text()[:13] == "ISO-10303-21;"
+        svg = Path(r["svg"]).read_text()
+        visible = svg.split("<!-- solid lines -->")[1]
+        assert svg.startswith("<?xml") and visible.count("<path") >= len(r["parts"])   # an outline per part at least
+        assert Path(r["png"]).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        umask = os.umask(0)
+        os.umask(umask)
+        for key in ("step", "svg", "png"):                     # readable like any new file, not mkstemp's 0600
+            assert stat.S_IMODE(Path(r[key]).stat().st_mode) == 0o666 & ~umask
+
+
+@pytest.mark.parametrize("name, parts", [("box", BOX_PARTS), ("existing", EXISTING_PARTS)])
+def test_reimported_names_count_colours(exported, name, parts):
+    _, res = exported
+    assert res[name]["parts"] == parts
+    back = cad.read_step(Path(res[name]["step"]))
+    assert list(back) == parts
+    for part, (shape, colour) in back.items():
+        assert len(shape.Solids()) == 1 and shape.Solids()[0].isValid(), part
+        assert colour is not None
+    assert np.allclose(back["A" if name == "box" else "D1"][1], cad.COLOURS["drive"], atol=1e-3)
+    assert np.allclose(back["S1"][1], cad.COLOURS["steering"], atol=1e-3)
+
+
+@pytest.mark.parametrize("name", ["box", "existing"])
+def test_all_checks_pass(exported, name):
+    _, res = exported
+    rows = {r["check"]: r for r in res[name]["checks"]}
+    assert set(rows) == {"names and count", "one valid solid per part", "colours", "rollers touch the sphere at R·n",
+                         "no interference", "attached parts touch", "bounding box"}
+    assert all(r["ok"] for r in rows.values()), [r for r in rows.values() if not r["ok"]]
+
+
+def _bore_axis(shape):
+    """(point, direction) of the wheel's hub bore (its one cylindrical face) [mm]."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+
+    (bore,) = [f for f in shape.Faces() if f.geomType() == "CYLINDER"]
+    ax = BRepAdaptor_Surface(bore.wrapped).Cylinder().Axis()
+    return np.array(ax.Location().Coord()), np.array(ax.Direction().Coord())
+
+
+def test_cli_end_to_end_wheels_where_the_model_puts_them(tmp_path, capsys):
+    """Kim's CVT at γ = 30°: the linkage turns the forks by φ ≈ −20.75°; every wheel in the STEP file has its
+    axis along the model's axle at that φ, through (R + r)·n, and all checks pass."""
+    assert main(["export", str(EXISTING), "--out", str(tmp_path), "--gamma", "30", "--check"]) == 0
+    out = capsys.readouterr().out
+    assert "11 parts at γ = 30°" in out and "FAILED" not in out
+    layout = load_variant(EXISTING)
+    phi = float(compile_model(layout).evaluate(np.radians([30.0]), [0.0])["phi"][0])
+    assert abs(np.degrees(phi) + 20.75) < 0.01
+    back = cad.read_step(tmp_path / "existing.step")
+    R = 1000 * layout.sphere_radius
+    for r in layout.rollers:
+        n, a = pose(r, phi)
+        point, direction = _bore_axis(back[r.name][0])
+        centre = (R + 1000 * r.radius) * n
+        assert abs(abs(direction @ a) - 1) < 1e-9, r.name
+        assert np.linalg.norm(np.cross(point - centre, direction)) < 1e-6, r.name
+
+
+def test_steering_angle_is_the_models():
+    for path, gammas in ((EXISTING, [-30, 0, 30, 45, 70]), (BOX, [-60, 45])):
+        layout = load_variant(path)
+        model_phi = compile_model(layout).evaluate(np.radians(gammas), np.zeros(len(gammas)))["phi"]
+        ours = [cad.steering_angle(layout, g) for g in np.radians(gammas)]
+        assert np.max(np.abs(np.array(ours) - model_phi)) < 1e-9
+
+
+def _moved_roller(p, name, shift):
+    """The plan with roller `name` moved by `shift` [mm] along its contact normal (a geometry fault)."""
+    parts = []
+    for part in p.parts:
+        if part.name == name:
+            w = part.prims[0]
+            part = dataclasses.replace(part, prims=[dataclasses.replace(w, centre=w.centre + shift * w.normal)])
+        parts.append(part)
+    return dataclasses.replace(p, parts=parts)
+
+
+def test_checks_catch_a_roller_pushed_into_the_sphere(tmp_path):
+    """The checks are not vacuous: D1 pushed 1 mm into the sphere overlaps it, hits its own axle (the bore's
+    clearance is 0.5 mm) and moves the bounding box; a missing part is reported by name."""
+    p = cad.plan(load_variant(EXISTING))
+    faulty = _moved_roller(p, "D1", -1.0)
+    shapes, _ = cad.build(faulty)
+    cad.write_step(cad.assembly(faulty, shapes), tmp_path / "faulty.step")
+    rows = {r["check"]: r for r in cad.check_step(tmp_path / "faulty.step", p)}
+    assert not rows["rollers touch the sphere at R·n"]["ok"] and "D1" in rows["rollers touch the sphere at R·n"]["detail"]
+    assert not rows["no interference"]["ok"] and "(D1/axle_D1)" in rows["no interference"]["detail"]
+    assert not rows["bounding box"]["ok"]
+    assert rows["names and count"]["ok"] and rows["one valid solid per part"]["ok"]
+
+    short = dataclasses.replace(p, parts=p.parts[:-1])
+    cad.write_step(cad.assembly(short, shapes), tmp_path / "short.step")
+    rows = {r["check"]: r for r in cad.check_step(tmp_path / "short.step", p)}
+    assert not rows["names and count"]["ok"] and "missing ['fork_S2']" in rows["names and count"]["detail"]
+
+
+def test_hull_gap_is_a_lower_bound_of_the_distance():
+    """The fast screen may only pass pairs that are really apart: its gap never exceeds OpenCascade's distance."""
+    cq = cad._cq()
+    p = cad.plan(load_variant(BOX))
+    prims = {part.name: part.prims for part in p.parts}
+    for a, b in [("A", "axle_B"), ("N1", "fork_S1+S2"), ("coupling_A_", "N2"), ("B_", "coupling_B_"), ("N1", "N2")]:
+        for pa in prims[a]:
+            for pb in prims[b]:
+                exact = pa.solid(cq).distance(pb.solid(cq))
+                assert cad.hull_gap(pa, pb) <= exact + 1e-6, (a, b)
+
+
+def _variant(tmp_path, base, *pairs, extra=""):
+    text = base.read_text()
+    for old, new in pairs:
+        assert old in text, old
+        text = text.replace(old, new)
+    path = tmp_path / "bad.yaml"
+    path.write_text(text + extra)
+    return path
+
+
+ONE_FORK = ("    - {rollers: [N1, N2], axis: z, sign: 1}\n    - {rollers: [S1, S2], axis: z, sign: 1}\n",
+            "    - {rollers: [N1, N2, S1, S2], axis: z, sign: 1}\n")
+BAD = {
+    # one fork for both pole pairs with the pairs close to the poles: its rods from the lower pair run up
+    # along the fork axis through the sphere
+    "fork through the sphere": (BOX, [ONE_FORK, ("d: 60 mm", "d: 50 mm")], "",
+                                r"steering\.forks\[0\]: part fork_N1\+N2\+S1\+S2 runs into sphere at γ = 45°"),
+    "fork through a roller": (BOX, [ONE_FORK], "", r"steering\.forks\[0\]: part fork_N1\+N2\+S1\+S2 runs into N1 \(rollers\.N1\)"),
+    "roller inside another": (EXISTING, [("S2: {role: steering, contact: c2, axle: c1,", "S2: {role: steering, contact: c1, axle: c2,"),
+                                         ("{rollers: [S2], axis: c2, sign: -1}", "{rollers: [S2], axis: c1, sign: 1}")], "",
+                              r"rollers\.S1, rollers\.S2: the two rollers overlap"),
+    "plate through the assembly": (BOX, [], "frame: {side: -z, distance: 120 mm}\n",
+                                   r"frame\.distance: the plate at 120 mm would cut part \w+ .*expected at least 1\d\d\.\d mm"),
+    "crown narrower than the wheel": (EXISTING, [("radius: 40 mm, crown_radius: 15 mm", "radius: 40 mm, crown_radius: 10 mm")], "",
+                                      r"rollers\.D1\.crown_radius: a crown of 10 mm cannot span the 24 mm wide wheel"),
+}
+
+
+@pytest.mark.parametrize("case", BAD)
+def test_impossible_geometry_refused_before_writing(case, tmp_path, capsys):
+    base, pairs, extra, pattern = BAD[case]
+    path = _variant(tmp_path, base, *pairs, extra=extra)
+    out = tmp_path / "cad"
+    assert main(["export", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith(f"cvtdesign: error: {path}: ")
+    assert re.search(pattern, err), err
+    assert not out.exists()
+
+
+def test_mounting_plate_from_the_variant(tmp_path):
+    path = tmp_path / "framed.yaml"
+    path.write_text(BOX.read_text() + "frame: {side: -z, distance: 200 mm, thickness: 12 mm}\n")
+    p = cad.plan(load_variant(path))
+    plate = p.parts[-1]
+    assert plate.name == "frame" and p.names()[:-1] == BOX_PARTS
+    assert abs(plate.support(np.array([0.0, 0.0, 1.0])) + 200.0) < 1e-9     # near face 200 mm below the centre
+    assert abs(plate.support(np.array([0.0, 0.0, -1.0])) - 212.0) < 1e-9    # 12 mm thick
+    rest = np.array([q.bbox() for q in p.parts[:-1]])                       # it covers the rest's outline
+    assert np.allclose(plate.bbox()[0][:2], rest[:, 0, :2].min(axis=0) - cad.FRAME_MARGIN)
+    assert np.allclose(plate.bbox()[1][:2], rest[:, 1, :2].max(axis=0) + cad.FRAME_MARGIN)
+
+
+def test_failed_drawing_leaves_no_file(tmp_path, monkeypatch):
+    def broken(*args, **kwargs):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(cad, "write_svg", broken)
+    with pytest.raises(RuntimeError, match="disk full"):
+        cad.export_variant(EXISTING, tmp_path / "cad")
+    assert list((tmp_path / "cad").iterdir()) == []
+
+
+def test_model_path_does_not_import_cadquery():
+    code = ("import sys, cvtdesign.cli, cvtdesign.model, cvtdesign.optimise, cvtdesign.study, cvtdesign.cad; "
+            "print(sorted(m for m in ('cadquery', 'OCP') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
