@@ -110,6 +110,19 @@ def _progress_bar(console, label: str, transient: bool = False):
                     TextColumn("{task.description}"), console=console, transient=transient)
 
 
+def _export_steps(console, variant_files, out_dir: Path):
+    """The STEP assembly (+ SVG, PNG) of each variant file, for mechanical review (`--step`)."""
+    from .cad import export_variant
+
+    files = list(dict.fromkeys(str(f) for f in variant_files if f))
+    with _progress_bar(console, "STEP export") as bar:
+        task = bar.add_task("", total=len(files))
+        for f in files:
+            res = export_variant(f, out_dir)
+            bar.update(task, advance=1, description=f"{Path(res['step']).name} ({len(res['parts'])} parts)")
+    console.print(f"STEP assemblies of {len(files)} design(s) in {out_dir}")
+
+
 def cmd_optimise(args):
     from rich.console import Console
     from rich.table import Table
@@ -143,6 +156,8 @@ def cmd_optimise(args):
                       f"{r['multiplier']:.3g}", "yes" if r["active"] else "")
         console.print(c)
         console.print(f"optimised variant: {res['variant_file']}  (try: cvtdesign compare {res['variant_file']})")
+        if args.step:
+            _export_steps(console, [res["variant_file"]], Path(res["variant_file"]).parent / "step")
     else:
         console.print(f"[red]no successful solve: IPOPT status {res['status']}[/red]")
     if args.json:
@@ -200,6 +215,10 @@ def cmd_study(args):
         figure = Path(res["out_dir"]) / "pareto.png"
         plots.pareto_figure(chains, figure)
         console.print(f"Pareto plot: {figure}")
+    if args.step:
+        chosen = list(best["variant_file"]) if len(starts_) else []
+        chosen += list(pareto[pareto["success"]]["variant_file"]) if len(pareto) else []
+        _export_steps(console, [f for f in chosen if isinstance(f, str) and f], Path(res["out_dir"]) / "step")
     return 0 if df["success"].any() else 1
 
 
@@ -378,12 +397,15 @@ def build_parser():
     o.add_argument("--out", help="folder for the optimised variant (default: results/<study name>)")
     o.add_argument("--starts", type=int, help="number of multistart points (default: the study's)")
     o.add_argument("--json", help="also write the result to this JSON file")
+    o.add_argument("--step", action="store_true", help="also export the optimum as a STEP assembly (+ SVG, PNG)")
     o.set_defaults(func=cmd_optimise)
     b = sub.add_parser("study", help="run a study's cases (sweeps, multistarts, Pareto fronts) in batch on Dask")
     b.add_argument("study", help="study YAML file (studies/*.yaml)")
     b.add_argument("--out", help="results store (default: results/<study name>)")
     b.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a local cluster)")
     b.add_argument("--workers", type=int, help="local cluster size (default: one single-threaded worker per core)")
+    b.add_argument("--step", action="store_true",
+                   help="also export the best optimum of each variant/sweep point and every Pareto point as STEP")
     b.set_defaults(func=cmd_study)
     r = sub.add_parser("rig", help="virtual test rig: measured-like data (DESIGN.md sec. 2) from the full model")
     r.add_argument("variant", help="variant YAML file")

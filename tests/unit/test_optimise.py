@@ -61,8 +61,12 @@ def test_steering_pair_moves_to_the_largest_moment_arm(tmp_path):
 def test_optimise_cli_improves_box(tmp_path):
     path = study(tmp_path, constraints={"clearance": "2 mm", "envelope_radius": "143.5 mm"},
                  design={"d": {"lower": "30 mm", "upper": "110 mm"}, "r_steer": {"lower": "20 mm", "upper": "60 mm"}})
-    assert main(["optimise", str(path), "--out", str(tmp_path / "res"), "--json", str(tmp_path / "o.json")]) == 0
+    assert main(["optimise", str(path), "--out", str(tmp_path / "res"), "--json", str(tmp_path / "o.json"), "--step"]) == 0
     res = json.loads((tmp_path / "o.json").read_text())
+    # --step: the optimum's assembly for mechanical review, next to its variant file
+    name = Path(res["variant_file"]).stem
+    step = Path(res["variant_file"]).parent / "step" / f"{name}.step"
+    assert step.stat().st_size > 10_000 and (step.parent / f"{name}.svg").exists()
     assert res["status"] == "Solve_Succeeded"
     assert res["objective"] < 4.166 - 0.3                       # variants/box.yaml: max |α| = 4.166°
     assert {"worst_alpha", "clearance"} <= set(res["active_constraints"])
