@@ -39,6 +39,7 @@ from .variant import EnvelopeSpec, Num, Strict, _grid, _param, _suggest, load_sp
 class DesignVar(Strict):
     lower: Num
     upper: Num
+    variants: list[str] | None = None   # free only in these variant files (of batch.variants); default: all
 
 
 class DutyPoint(Strict):
@@ -181,6 +182,19 @@ def _nlpsol(x, f, g, p, max_iter):
     return ca.nlpsol("design", "ipopt", {"x": x, "f": f, "g": g, "p": p}, opts)
 
 
+def _free_in(spec: StudySpec, name: str, base_file: Path, study_path) -> bool:
+    """Whether design variable `name` is free in the variant `base_file` (its `variants` list, if any, names
+    variant files next to the study, as batch.variants does)."""
+    only = spec.design[name].variants
+    if only is None:
+        return True
+    files = [Path(study_path).parent / v for v in only]
+    for v, f in zip(only, files):
+        if not f.exists():
+            raise InputError(f"{study_path}: design.{name}.variants: no variant file '{v}' next to the study")
+    return any(f.resolve() == Path(base_file).resolve() for f in files)
+
+
 def _unit_of(raw) -> str | None:
     if isinstance(raw, str) and not raw.strip().startswith("="):
         return str(registry().Quantity(raw.strip()).units)
@@ -204,9 +218,9 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
             raise InputError(f"{where}: batch.sweep.{n}: '{n}' is a design variable; sweep fixed parameters only")
     base = resolve(vspec, str(base_file), overrides=fixed)
     check_layout(base)
-    names = list(spec.design)
+    names = [n for n in spec.design if _free_in(spec, n, base_file, study_path)]
     if not names:
-        raise InputError(f"{where}: design: no design variables")
+        raise InputError(f"{where}: design: no design variables" + (f" for {base_file.name}" if spec.design else ""))
     lower, upper = [], []
     for n in names:
         if n not in vspec.parameters:

@@ -131,3 +131,21 @@ def test_constraint_labels_name_their_roller_and_point(tmp_path):
             gam, load = lab.split("γ=")[1].split("° τ⊥=")
             res = m.evaluate(np.radians(float(gam)), float(load))
             assert g[i] == pytest.approx(float(res[key][m.roller_names.index(roller)]) / scale, rel=1e-9), lab
+
+
+def test_design_variable_free_in_some_variants_only(tmp_path, capsys):
+    """A design variable with `variants` is free only in those variant files; the others optimise without it."""
+    path = study(tmp_path, design={"r_steer": {"lower": "20 mm", "upper": "60 mm"},
+                                   "d": {"lower": "30 mm", "upper": "110 mm", "variants": [str(ROOT / "variants/box.yaml")]}},
+                 batch={"variants": [str(ROOT / "variants/existing.yaml"), str(ROOT / "variants/box.yaml")]},
+                 envelope={"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
+                           "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "2 N*m"}})
+    from cvtdesign.optimise import load_study
+    spec, _ = load_study(path)
+    assert build_problem(path, spec, ROOT / "variants/existing.yaml").names == ["r_steer"]
+    assert sorted(build_problem(path, spec, ROOT / "variants/box.yaml").names) == ["d", "r_steer"]
+    data = yaml.safe_load(path.read_text())
+    data["design"]["d"]["variants"] = ["bx.yaml"]
+    path.write_text(yaml.safe_dump(data, allow_unicode=True))
+    assert main(["optimise", str(path)]) == 2
+    assert "design.d.variants: no variant file" in capsys.readouterr().err
