@@ -25,7 +25,7 @@ import numpy as np
 import yaml
 from scipy.optimize import minimize
 
-from cvtdesign.optimise import build_problem, solve_from, starts
+from cvtdesign.optimise import _rows_at, build_problem, solve_from, starts
 from cvtdesign.study import run_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -52,6 +52,9 @@ def ipopt_vs_slsqp():
     t_build = time.perf_counter() - t
     z0 = starts(pr)[0]
     x0 = np.append(z0, float(pr.start_t(z0)) * 1.05 + 1e-3)
+    # IPOPT's working set takes t0 from the largest |load| only: the same start if the worst |α| is there
+    screen = _rows_at(pr, np.append(z0, 0.0), pr.parts.screen)
+    assert abs(np.max(np.abs(screen[0])) * 1.05 + 1e-3 - x0[-1]) < 1e-12, "not the same start"
 
     t = time.perf_counter()
     solve_from(pr, z0)                                      # builds the working-set solvers it needs

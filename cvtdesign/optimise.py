@@ -108,6 +108,7 @@ IPOPT_OPTIONS = {"tol": 1e-8, "acceptable_tol": 1e-6, "hessian_approximation": "
                  "limited_memory_aug_solver": "extended"}   # few variables, many rows: cheaper than Sherman-Morrison
 ACTIVE_TOL = 1e-7   # a constraint within this (relative) slack of its bound counts as active
 NEAR_BINDING = 0.01  # working set: envelope points with a row within this fraction of its bound's scale
+WORKING_SET_MAX = 2_000_000   # entries of the working set's row-selection matrix beyond which every row is used
 VIOLATION_TOL = 1e-8  # a row beyond its bound by more than this (× max(1, |bound|)) is violated (IPOPT relaxes
 #                      its bounds by bound_relax_factor = 1e-8 the same way)
 
@@ -497,13 +498,17 @@ def solve_from(problem: Problem, z0, start_index=0, eps: float = 0.0, warm: Solu
     lbx = [0.0] * n + ([0.0] if problem.epigraph else [])
     ubx = [1.0] * n + ([np.inf] if problem.epigraph else [])
     z0 = np.asarray(z0, float)
-    if method == "full":
-        x0 = list(z0) + ([float(problem.start_t(z0)) * 1.05 + 1e-3] if problem.epigraph else [])
-        extra = {} if warm is None else {"lam_g0": warm.lam_g}
+
+    def every_row(x0, lam, iters=0, rounds=0):
+        extra = {} if lam is None else {"lam_g0": lam}
         sol = problem.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=problem.g_lb, ubg=problem.g_ub, p=eps, **extra)
         st = problem.solver.stats()
         return _solution(problem, sol, st, np.asarray(sol["g"]).ravel(), np.asarray(sol["lam_g"]).ravel(),
-                         int(st["iter_count"]), start_index, 1, pt.gamma.size)
+                         iters + int(st["iter_count"]), start_index, rounds + 1, pt.gamma.size)
+
+    if method == "full":
+        return every_row(list(z0) + ([float(problem.start_t(z0)) * 1.05 + 1e-3] if problem.epigraph else []),
+                         None if warm is None else warm.lam_g)
 
     # the start: the rows at the largest |load| give t0 and the first working set
     m = pt.pt_lb.size
@@ -524,6 +529,8 @@ def solve_from(problem: Problem, z0, start_index=0, eps: float = 0.0, warm: Solu
         rounds += 1
         points = np.unique(pt.row_k[work])
         npoints, nrows = _bucket(points.size), _bucket(work.size)
+        if nrows * m * npoints > WORKING_SET_MAX:      # most rows bind somewhere: every row at once is cheaper
+            return every_row(x0, lam_full, iters, rounds - 1)
         slots = np.concatenate([points, np.full(npoints - points.size, points[0] if points.size else 0, int)])
         select = np.zeros((nrows, m * npoints))
         select[np.arange(work.size), np.searchsorted(points, pt.row_k[work]) * m + pt.row_r[work]] = 1
