@@ -1,13 +1,24 @@
 """Optimisation speed, printed side by side in one run.
 
-1. The box placement-and-radii study (studies/box_placement.yaml, 17 × 21 envelope) solved by IPOPT with
-   the model's exact derivatives, against scipy.optimize.minimize (SLSQP, finite-difference gradients) on
-   the same formulation (same variables, objective and constraints, evaluated by the same compiled
-   functions) from the same start: both optima and the wall-time ratio.
-2. A 16-case study on a Dask LocalCluster with 2 workers against 1 worker.
+1. The box placement-and-radii study (studies/box_placement.yaml: 3 design variables and the epigraph
+   variable t, every constraint row at every point of the 17 × 21 envelope) solved from the base design by
+   - IPOPT, exact derivatives, over a working set of envelope rows (`solve_from`: the rows near their bound
+     at the largest |load| first, every row checked after each solve, violated rows added, solved again);
+   - scipy.optimize.minimize, SLSQP with finite-difference gradients, on the same formulation: the same
+     variables, bounds, objective and every constraint row, evaluated by the same compiled function, from
+     the same start (z0 and t0 = 1.05 · worst |α| + 0.001);
+   - IPOPT on every row at once (`method="full"`), to show what the working set buys.
+   Both optima are checked against every row. Timings: wall time of the solve only; building the NLP
+   (model compilation and the CasADi functions, shared by both methods) is shown separately, and so is the
+   one-off construction IPOPT's working-set solvers need on a problem's first solve (a multistart or a
+   study case reuses them). Best of several repeats: the machine is shared and noisy.
+2. A 16-case study on a Dask LocalCluster, 2 workers against 1: cluster start-up (processes, imports) shown
+   separately from the run of the cases, both ratios printed; and, as the reference of what the machine
+   gives, the same cases in 1 and 2 plain processes without Dask.
 
 Run: python benchmarks/bench_optimise.py
 """
+import multiprocessing
 import tempfile
 import time
 from pathlib import Path
@@ -16,64 +27,132 @@ import numpy as np
 import yaml
 from scipy.optimize import minimize
 
-from cvtdesign.optimise import build_problem, solve_from, starts
-from cvtdesign.study import run_study
+from cvtdesign.optimise import _rows_at, build_problem, solve_from, starts
+from cvtdesign.study import run_case, run_study, warm_worker
 
 ROOT = Path(__file__).resolve().parents[1]
+REPEATS = 5
+
+
+def best_of(fn, repeats=REPEATS):
+    times, out = [], None
+    for _ in range(repeats):
+        t = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t)
+    return min(times), out
+
+
+def violation(pr, g):
+    """Largest violation of any row (0 if every row holds)."""
+    return float(np.max(np.maximum(0, np.maximum(g - pr.g_ub, pr.g_lb - g))))
 
 
 def ipopt_vs_slsqp():
-    pr = build_problem(ROOT / "studies/box_placement.yaml")
-    z0 = starts(pr)[0]
     t = time.perf_counter()
-    sol = solve_from(pr, z0)
-    t_ipopt = time.perf_counter() - t
-
+    pr = build_problem(ROOT / "studies/box_placement.yaml")
+    t_build = time.perf_counter() - t
+    z0 = starts(pr)[0]
     x0 = np.append(z0, float(pr.start_t(z0)) * 1.05 + 1e-3)
+    # IPOPT's working set takes t0 from the largest |load| only: the same start if the worst |α| is there
+    screen = _rows_at(pr, np.append(z0, 0.0), pr.parts.screen)
+    assert abs(np.max(np.abs(screen[0])) * 1.05 + 1e-3 - x0[-1]) < 1e-12, "not the same start"
+
+    t = time.perf_counter()
+    solve_from(pr, z0)                                      # builds the working-set solvers it needs
+    t_ipopt_first = time.perf_counter() - t
+    t_ipopt, sol = best_of(lambda: solve_from(pr, z0))
+    t_full, full = best_of(lambda: solve_from(pr, z0, method="full"), 1)
+
     fin_lo, fin_hi = np.isfinite(pr.g_lb), np.isfinite(pr.g_ub)
     calls = {"n": 0}
 
-    def g(x):
+    def cons(x):
         calls["n"] += 1
-        return np.asarray(pr.evaluate(x)[1]).ravel()
+        g = np.asarray(pr.evaluate(x)[1]).ravel()
+        return np.concatenate([g[fin_lo] - pr.g_lb[fin_lo], pr.g_ub[fin_hi] - g[fin_hi]])
 
-    cons = [{"type": "ineq", "fun": lambda x: np.concatenate([g(x)[fin_lo] - pr.g_lb[fin_lo], pr.g_ub[fin_hi] - g(x)[fin_hi]])}]
     bounds = [(0, 1)] * len(pr.names) + [(0, None)]
+
+    def slsqp():
+        calls["n"] = 0
+        return minimize(lambda x: x[-1], x0, method="SLSQP", bounds=bounds,
+                        constraints=[{"type": "ineq", "fun": cons}], options={"ftol": 1e-10, "maxiter": 500})
+
     t = time.perf_counter()
-    res = minimize(lambda x: x[-1], x0, method="SLSQP", bounds=bounds, constraints=cons,
-                   options={"ftol": 1e-10, "maxiter": 500})
-    t_slsqp = time.perf_counter() - t
-    z_s = res.x[:-1]
-    d_ip = pr.lower + (pr.upper - pr.lower) * sol.z
-    d_sl = pr.lower + (pr.upper - pr.lower) * z_s
+    slsqp()
+    t_slsqp_first = time.perf_counter() - t
+    t_slsqp, res = best_of(slsqp)
+
+    span = pr.upper - pr.lower
+    d_ip, d_sl, d_full = (pr.lower + span * z for z in (sol.z, res.x[:-1], full.z))
+    g_sl = np.asarray(pr.evaluate(res.x)[1]).ravel()
     rel = np.max(np.abs(d_ip - d_sl) / np.abs(d_ip))
-    print(f"box placement and radii ({len(pr.names)} variables, {len(pr.g_lb)} constraints, 17 × 21 envelope)")
-    print(f"  IPOPT, exact derivatives     {t_ipopt:7.2f} s   objective {sol.objective:.8f}   {sol.status}, {sol.iterations} it")
-    print(f"  SLSQP, finite differences    {t_slsqp:7.2f} s   objective {res.fun:.8f}   {res.message}, {res.nit} it, {calls['n']} constraint evaluations")
-    print(f"  speed-up {t_slsqp / t_ipopt:.1f} ×   optimum: max relative design difference {rel:.1e}, "
-          f"objective difference {abs(res.fun - sol.objective) / sol.objective:.1e}")
-    for n, a, b in zip(pr.names, d_ip, d_sl):
-        print(f"    {n:8s} IPOPT {a:.8g}   SLSQP {b:.8g}")
+    print(f"box placement and radii: {len(pr.names)} design variables + t, {len(pr.g_lb)} constraint rows "
+          f"({pr.parts.gamma.size} envelope points), from the base design")
+    print(f"  NLP construction (model, CasADi functions; shared by both methods) {t_build:6.2f} s")
+    print(f"  {'method':44s} {'wall':>8s}  {'objective':>12s}  {'max row violation':>17s}")
+    print(f"  {'IPOPT, exact derivatives, working set':44s} {t_ipopt * 1e3:6.0f} ms  {sol.objective:12.8f}  "
+          f"{violation(pr, sol.g):17.1e}   {sol.status}, {sol.iterations} it, {sol.rounds} round(s), "
+          f"{sol.points} of {pr.parts.gamma.size} points")
+    print(f"  {'SLSQP, finite differences, every row':44s} {t_slsqp * 1e3:6.0f} ms  {res.fun:12.8f}  "
+          f"{violation(pr, g_sl):17.1e}   {res.message}, {res.nit} it, {calls['n']} evaluations of all rows")
+    print(f"  {'IPOPT, exact derivatives, every row':44s} {t_full * 1e3:6.0f} ms  {full.objective:12.8f}  "
+          f"{violation(pr, full.g):17.1e}   {full.status}, {full.iterations} it")
+    print(f"  first solve on a fresh problem: IPOPT {t_ipopt_first * 1e3:.0f} ms (incl. building its working-set "
+          f"solvers), SLSQP {t_slsqp_first * 1e3:.0f} ms")
+    print(f"  speed-up IPOPT (working set) over SLSQP: {t_slsqp / t_ipopt:.1f} × (first solves: "
+          f"{t_slsqp_first / t_ipopt_first:.1f} ×)   target ≥ 10 ×")
+    print(f"  optimum: objective difference {abs(res.fun - sol.objective) / sol.objective:.1e} relative, "
+          f"designs {rel:.1e} (largest relative difference)   target ≤ 1e-4")
+    for n, a, b, c in zip(pr.names, d_ip, d_sl, d_full):
+        print(f"    {n:8s} IPOPT {a:.8g}   SLSQP {b:.8g}   IPOPT every row {c:.8g}")
 
 
-def scaling():
+def _group(args):
+    """The 8 starts of one preload, one after the other, in this process (the reference without Dask)."""
+    study, preload, out = args
+    t = time.perf_counter()
+    for k in range(8):
+        run_case(study, {"id": f"p{preload:g}_start{k}", "kind": "start", "variant": str(ROOT / "variants/box.yaml"),
+                         "fixed": {"preload": preload}, "start": k}, out)
+    return time.perf_counter() - t
+
+
+def scaling(repeats=5):
     data = yaml.safe_load((ROOT / "studies/box_placement.yaml").read_text())
     data["base"] = str(ROOT / "variants/box.yaml")
     data["multistart"] = {"starts": 8, "seed": 3}
     data["batch"] = {"sweep": {"preload": ["80 N", "120 N"]}}     # 2 × 8 = 16 cases
-    data["envelope"] = {"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "20 deg"},
-                        "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "0.5 N*m"}}
     with tempfile.TemporaryDirectory() as tmp:
         study = Path(tmp) / "scaling.yaml"
         study.write_text(yaml.safe_dump(data, allow_unicode=True))
-        times = {}
-        for w in (1, 2):
-            t = time.perf_counter()
-            res = run_study(study, Path(tmp) / f"w{w}", workers=w)
-            times[w] = time.perf_counter() - t
-            ok = res["table"]["success"].sum()
-            print(f"16-case study, {w} worker(s): {times[w]:6.1f} s ({ok}/16 succeeded)")
-        print(f"  speed-up on 2 workers: {times[1] / times[2]:.2f} ×   target ≥ 1.7 ×")
+        # reference: the same 16 cases in 1 and 2 plain processes (warmed the same way), no Dask
+        ref = {}
+        ctx = multiprocessing.get_context("spawn")
+        for _ in range(repeats):
+            for w in (1, 2):
+                with ctx.Pool(w, initializer=warm_worker) as pool:
+                    pool.map(time.sleep, [0.3] * (2 * w), chunksize=1)     # every process has started and warmed
+                    t = time.perf_counter()
+                    pool.map(_group, [(str(study), 80.0, tmp), (str(study), 120.0, tmp)], chunksize=1)
+                    ref[w] = min(ref.get(w, np.inf), time.perf_counter() - t)
+        best = {}
+        for rep in range(repeats):
+            for w in (1, 2):
+                t = time.perf_counter()
+                res = run_study(study, Path(tmp) / f"w{w}_{rep}", workers=w)
+                total = time.perf_counter() - t
+                ok = int(res["table"]["success"].sum())
+                if w not in best or res["seconds"] < best[w][1]:
+                    best[w] = (res["startup_seconds"], res["seconds"], total, ok)
+        print(f"16-case study (box placement, 8 starts × 2 preloads, 17 × 21 envelope), best of {repeats}:")
+        for w, (s, r, tot, ok) in best.items():
+            print(f"  {w} worker(s): cluster start-up {s:5.2f} s, cases {r:5.2f} s, total {tot:5.2f} s ({ok}/16 succeeded)")
+        print(f"  speed-up on 2 workers: cases {best[1][1] / best[2][1]:.2f} ×, total with start-up "
+              f"{best[1][2] / best[2][2]:.2f} ×   target ≥ 1.7 ×")
+        print(f"  reference without Dask, the same cases in 1 and 2 plain processes: {ref[1]:.2f} s → {ref[2]:.2f} s, "
+              f"{ref[1] / ref[2]:.2f} × (what these 2 cores give this workload)")
 
 
 if __name__ == "__main__":

@@ -184,7 +184,7 @@ def cmd_study(args):
         res = study.run_study(args.study, args.out, args.scheduler, args.workers, progress)
     df = res["table"]
     console.print(f"{res['cases']} cases: {res['skipped']} already in {res['out_dir']}, {res['ran']} run in "
-                  f"{res['seconds']:.1f} s")
+                  f"{res['seconds']:.1f} s (cluster start-up {res['startup_seconds']:.1f} s)")
     t = Table(title="cases by status")
     t.add_column("status")
     t.add_column("cases", justify="right")

@@ -73,6 +73,15 @@ class CompiledModel:
     initial_guess: ca.Function     # params → x0 (ideal kinematics, no forces)
     outputs: ca.Function           # (x, params) → the point outputs
     _maps: dict = field(default_factory=dict)
+    _point_builder: object = None  # names → a `point` function with only those outputs
+    hertz_p0: ca.Function = None       # design → Hertz peak pressure of each contact at its preload [Pa]
+    peak_pressure: ca.Function = None  # (N, p0, design) → Hertz peak pressure p0·(max(N, 0)/preload)^(1/3) [Pa]
+
+    def point_function(self, outputs) -> ca.Function:
+        """`point` restricted to the named outputs (POINT_OUTPUTS, CONTACT_OUTPUTS, 'steer_misfit'): same
+        inputs and the same expressions, but only what those outputs need is evaluated and differentiated
+        (the Newton solve is left out when only 'steer_misfit' is asked for)."""
+        return self._point_builder(list(outputs))
 
     def steering_guess(self, gammas):
         return steering_angle_guess(*steering_data(self.layout), np.asarray(gammas, float))
@@ -250,13 +259,22 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
         eta.append(s_a / V)
         spin.append(w_spin / V)
         util.append(ca.sqrt(Ft[i] ** 2 + Fa[i] ** 2 + 1e-6) / (mu * N[i]))   # smooth on a 1 mN scale at F = 0
-        pmax.append(c["p0"] * (ca.fmax(N[i], 0) / r.preload) ** (1.0 / 3.0))
+
+    # Hertz peak pressure p0·(N/P)^(1/3): p0, the peak at the preload P, depends on the design only, so an
+    # optimiser evaluates it once per design (hertz_p0) and per operating point only the cheap scaling
+    n_sym, p0_sym = ca.SX.sym("N", nc), ca.SX.sym("p0", nc)
+    peak_pressure = ca.Function("peak_pressure", [n_sym, p0_sym, design], [ca.vertcat(*[
+        p0_sym[i] * (ca.fmax(n_sym[i], 0) / r.preload) ** (1.0 / 3.0) for i, r in enumerate(rollers)])],
+        ["N", "p0", "design"], ["p_max"])
+    p0_all = ca.vertcat(*[c["p0"] for c in const])
+    hertz_p0 = ca.Function("hertz_p0", [design], [ca.cse(p0_all)], ["design"], ["p0"])
+    pmax = ca.vertsplit(peak_pressure(ca.vertcat(*N), p0_all, design))
 
     # the load: lateral torque τ⊥ = −τ1 sin γ + τ2 cos γ (Kim eq 17), or the brake-shaft torque τ2 itself
     load_res = (1 - brake) * (-tau[1] * ca.sin(gamma) + tau[2] * ca.cos(gamma) - load) + brake * (tau[2] - load)
     resid = ca.vertcat(*slip_res, moment / (R * F_SCALE), *idle_res, load_res)
     params = ca.vertcat(gamma, w1, load, brake, phi_cmd, theta, design)
-    G = ca.Function("residual", [x, params], [resid])
+    G = ca.Function("residual", [x, params], [ca.cse(resid)])
     solver = ca.rootfinder("cvt", "newton", G, {"abstol": 1e-12, "max_iter": 40, "error_on_fail": False,
                                                   "show_eval_warnings": False})
 
@@ -286,19 +304,32 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
     }
     names = list(POINT_OUTPUTS) + list(CONTACT_OUTPUTS)
     post = ca.Function("post", [x, params], [outs[k] for k in names])
-
-    # one operating point: φ from the linkage's inverse kinematics, then the Newton solve, then outputs
-    in_names = ["gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_guess", "theta", "design"]
-    ins = [ca.MX.sym(n, *(theta.shape if n == "theta" else design.shape if n == "design" else (1, 1))) for n in in_names]
-    g_m, w_m, l_m, b_m, pg_m, th_m, d_m = ins
     steer, misfit = _steering_solver(layout, design)
-    phi_m = steer(pg_m, ca.vertcat(g_m, d_m))
-    p_m = ca.vertcat(g_m, w_m, l_m, b_m, phi_m, th_m, d_m)
-    out_m = list(post(solver(x0_fn(p_m), p_m), p_m))
-    # how far the linkage is from rolling about the commanded axis (0 where it reaches γ)
-    out_m.append(misfit(phi_m, ca.vertcat(g_m, d_m)))
-    point = ca.Function("point", ins, out_m, in_names, names + ["steer_misfit"])
-    return CompiledModel(layout, effects, pnames, pvalues, design, point, [r.name for r in rollers], G, x0_fn, post)
+
+    def build_point(selected, name="point"):
+        """One operating point: φ from the linkage's inverse kinematics, then the Newton solve, then the
+        selected outputs (only the expressions they need)."""
+        in_names = ["gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_guess", "theta", "design"]
+        ins = [ca.MX.sym(n, *(theta.shape if n == "theta" else design.shape if n == "design" else (1, 1)))
+               for n in in_names]
+        g_m, w_m, l_m, b_m, pg_m, th_m, d_m = ins
+        phi_m = steer(pg_m, ca.vertcat(g_m, d_m))
+        p_m = ca.vertcat(g_m, w_m, l_m, b_m, phi_m, th_m, d_m)
+        model_names = [k for k in selected if k != "steer_misfit"]
+        out_m = []
+        if model_names:
+            sel = post if model_names == names else \
+                ca.Function("post_sel", [x, params], ca.cse([outs[k] for k in model_names]))
+            out_m = sel.call([solver(x0_fn(p_m), p_m), p_m])
+        res = dict(zip(model_names, out_m))
+        # how far the linkage is from rolling about the commanded axis (0 where it reaches γ)
+        res["steer_misfit"] = misfit(phi_m, ca.vertcat(g_m, d_m))
+        return ca.Function(name, ins, [res[k] for k in selected], in_names, list(selected))
+
+    point = build_point(names + ["steer_misfit"])
+    return CompiledModel(layout, effects, pnames, pvalues, design, point, [r.name for r in rollers], G, x0_fn, post,
+                         _point_builder=lambda sel: build_point(sel, "point_" + "_".join(sel)),
+                         hertz_p0=hertz_p0, peak_pressure=peak_pressure)
 
 
 def ca_fmin_sqrt(ft, fa, limit):

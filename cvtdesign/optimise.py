@@ -11,6 +11,11 @@ Constraints: Hertz peak pressure ≤ the material's allowable, traction utilisat
 (no gross slip), roller–roller clearance (distance of roller centres minus both radii: exact for rollers in
 one plane such as a tandem pair, conservative otherwise), an assembly envelope radius, and the steering
 linkage still reaching every γ of the envelope.
+
+The formulation has a row per constraint per envelope point (6559 for the box placement study), but at an
+optimum only a handful bind. `solve_from` therefore gives IPOPT a working set of envelope rows, checks
+every row of the whole formulation at its solution, adds the violated ones and solves again (see there):
+the same optimum as IPOPT on every row at once (`method="full"`), much faster (benchmarks/bench_optimise.py).
 """
 from __future__ import annotations
 
@@ -25,7 +30,7 @@ import numpy as np
 import yaml
 
 from .checks import check_layout
-from .geometry import roller_pose, steering_angle_guess, steering_data
+from .geometry import _np, roller_pose, steering_angle_guess, steering_data
 from .model import compile_model
 from .units import InputError, registry
 from .variant import EnvelopeSpec, Num, Strict, _grid, _param, _suggest, load_spec, read_spec, resolve
@@ -34,6 +39,7 @@ from .variant import EnvelopeSpec, Num, Strict, _grid, _param, _suggest, load_sp
 class DesignVar(Strict):
     lower: Num
     upper: Num
+    variants: list[str] | None = None   # free only in these variant files (of batch.variants); default: all
 
 
 class DutyPoint(Strict):
@@ -98,29 +104,96 @@ def load_study(path) -> tuple[StudySpec, Path]:
     return spec, base
 
 
-IPOPT_OPTIONS = {"tol": 1e-8, "acceptable_tol": 1e-6, "hessian_approximation": "limited-memory"}
+IPOPT_OPTIONS = {"tol": 1e-8, "acceptable_tol": 1e-6, "hessian_approximation": "limited-memory",
+                 "limited_memory_aug_solver": "extended"}   # few variables, many rows: cheaper than Sherman-Morrison
 ACTIVE_TOL = 1e-7   # a constraint within this (relative) slack of its bound counts as active
+NEAR_BINDING = 0.01  # working set: envelope points with a row within this fraction of its bound's scale
+WORKING_SET_MAX = 2_000_000   # entries of the working set's row-selection matrix beyond which every row is used
+VIOLATION_TOL = 1e-8  # a row beyond its bound by more than this (× max(1, |bound|)) is violated (IPOPT relaxes
+#                      its bounds by bound_relax_factor = 1e-8 the same way)
 
 
 @dataclass
 class Problem:
-    """The NLP of one study, in normalised design variables z ∈ [0, 1]^n (p = lower + (upper − lower)·z)."""
+    """The NLP of one study, in normalised design variables z ∈ [0, 1]^n (p = lower + (upper − lower)·z),
+    with the epigraph variable t appended for worst-|α| objectives: x = (z, t).
+
+    g (bounds g_lb ≤ g ≤ g_ub, one label and family per row) is the whole formulation: every constraint
+    row at every point of the envelope. `solve_from` solves it with IPOPT over a working set of envelope
+    points (see there); `solver` is IPOPT on all rows at once."""
     spec: StudySpec
     study_file: str
     base_file: Path
     names: list
     lower: np.ndarray
     upper: np.ndarray
-    solver: ca.Function
     nx: int
     g_lb: np.ndarray
     g_ub: np.ndarray
     g_labels: list          # one label per constraint row
     g_family: list          # constraint family per row
-    evaluate: ca.Function   # z → (objective, g)
+    evaluate: ca.Function   # x (, eps) → (objective, g), all rows
     epigraph: bool
     start_t: ca.Function | None = None
     base_values: np.ndarray = field(default=None)
+    parts: "_Parts" = None
+    _solvers: dict = field(default_factory=dict)
+
+    @property
+    def solver(self) -> ca.Function:
+        """IPOPT on the whole formulation (every row at every envelope point), built on first use."""
+        if "full" not in self._solvers:
+            pt = self.parts
+            self._solvers["full"] = _nlpsol(pt.x, pt.f, pt.g_full, pt.eps, self.spec.max_iter)
+        return self._solvers["full"]
+
+
+@dataclass
+class _Parts:
+    """The pieces both NLPs are built from. Per envelope point k, `point_rows` gives m rows (epigraph
+    α ∓ t, Hertz p_max/p_allow per roller, traction F/(μN) per roller, linkage misfit); row r of point k is
+    row `pt_index[r] + k` of the whole formulation (the misfit row only depends on γ: it is row
+    `reach_index[γ]`, taken at the γ's first point). Design rows (clearance, envelope radius, ε) depend on
+    the design alone: `design_index`."""
+    x: ca.MX
+    eps: ca.MX
+    f: ca.MX
+    g_full: ca.MX
+    g_design: ca.MX
+    P0: ca.MX                 # Hertz peak pressure at the preload, per roller (design only)
+    point_rows: ca.Function   # (x, γ, load, φ guess, p0) → m rows
+    pt_lb: np.ndarray
+    pt_ub: np.ndarray
+    pt_index: np.ndarray      # per row of point_rows: offset in g (−1 for the misfit row)
+    misfit_row: int | None
+    reach_index: np.ndarray   # per γ: the row of its linkage misfit in g
+    design_index: np.ndarray
+    row_r: np.ndarray         # per row of g: its row of point_rows (−1: a design row)
+    row_k: np.ndarray         # per row of g: its envelope point (the misfit row: the γ's first point)
+    row_scale: np.ndarray     # per row of g: scale of its near-binding margin (NaN: the epigraph t)
+    gamma: np.ndarray         # the envelope points
+    load: np.ndarray
+    phi0: np.ndarray
+    gamma_of: np.ndarray      # γ index of each point
+    screen: np.ndarray        # the points at the envelope's largest |load|, evaluated first
+
+
+def _nlpsol(x, f, g, p, max_iter):
+    opts = {"ipopt": IPOPT_OPTIONS | {"print_level": 0, "max_iter": max_iter, "sb": "yes"}, "print_time": False}
+    return ca.nlpsol("design", "ipopt", {"x": x, "f": f, "g": g, "p": p}, opts)
+
+
+def _free_in(spec: StudySpec, name: str, base_file: Path, study_path) -> bool:
+    """Whether design variable `name` is free in the variant `base_file` (its `variants` list, if any, names
+    variant files next to the study, as batch.variants does)."""
+    only = spec.design[name].variants
+    if only is None:
+        return True
+    files = [Path(study_path).parent / v for v in only]
+    for v, f in zip(only, files):
+        if not f.exists():
+            raise InputError(f"{study_path}: design.{name}.variants: no variant file '{v}' next to the study")
+    return any(f.resolve() == Path(base_file).resolve() for f in files)
 
 
 def _unit_of(raw) -> str | None:
@@ -146,9 +219,9 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
             raise InputError(f"{where}: batch.sweep.{n}: '{n}' is a design variable; sweep fixed parameters only")
     base = resolve(vspec, str(base_file), overrides=fixed)
     check_layout(base)
-    names = list(spec.design)
+    names = [n for n in spec.design if _free_in(spec, n, base_file, study_path)]
     if not names:
-        raise InputError(f"{where}: design: no design variables")
+        raise InputError(f"{where}: design: no design variables" + (f" for {base_file.name}" if spec.design else ""))
     lower, upper = [], []
     for n in names:
         if n not in vspec.parameters:
@@ -175,92 +248,167 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
     g_pts, l_pts = G.ravel(), T.ravel()
     phi0, _ = steering_angle_guess(*steering_data(base), g_pts)
     theta = np.array(model.param_values)
-    npts = g_pts.size
+    npts, nload = g_pts.size, G.shape[1]
+    w1 = base.motor_speed
+    rn = model.roller_names
+    nc = len(rn)
 
+    kind = objective or spec.objective.kind
+    epigraph = kind in ("worst_alpha", "pareto")
     z = ca.MX.sym("z", len(names))
+    t = ca.MX.sym("t") if epigraph else ca.MX(0, 1)
+    eps = ca.MX.sym("eps")          # ε of the Pareto sweep: worst |α| ≤ ε [deg]
+    x = ca.vertcat(z, t)
     P = ca.DM(lower) + ca.DM(upper - lower) * z
-    out = dict(zip(model.point.name_out(),
-                   model.point.map(npts, "serial")(g_pts, base.motor_speed, l_pts, 0.0, phi0, theta, P)))
-    alpha_deg = out["alpha"] * (180 / np.pi)
+    P0 = model.hertz_p0(P)
+    duty = spec.objective.duty_cycle if kind in ("power_loss", "pareto") else None
+    grid_objective = kind == "rms_alpha" or (kind in ("power_loss", "pareto") and not duty)
 
+    # ---- the rows of one envelope point, as a function of (x, γ, load, φ guess, p0)
+    cs = spec.constraints
+    margin = None if cs.traction_margin is None else \
+        float(_param(cs.traction_margin, f"{where}: constraints.traction_margin", {}))
+    allow = [r.material.p_allow if cs.hertz_pressure else None for r in layout.rollers]
+    need = (["alpha"] if epigraph else []) + (["N"] if any(a is not None for a in allow) else []) + \
+        (["utilisation"] if margin is not None else []) + (["steer_misfit"] if cs.reach_gamma else [])
+    obj_name = "alpha" if kind == "rms_alpha" else "power_loss"
+
+    def point_function(outputs):
+        """(x, γ, load, φ guess, p0) → the point's rows (and the objective's per-point value), evaluating
+        only the model outputs they need; blocks: (lb, ub, family, label of a point, margin scale)."""
+        xs, gs, ls, ps = ca.MX.sym("x", x.shape[0]), ca.MX.sym("gamma"), ca.MX.sym("load"), ca.MX.sym("phi0")
+        p0s = ca.MX.sym("p0", nc)
+        Ps = ca.DM(lower) + ca.DM(upper - lower) * xs[:len(names)]
+        out = dict(zip(outputs, model.point_function(outputs).call([gs, w1, ls, 0.0, ps, theta, Ps]))) \
+            if outputs else {}
+        rows_, blocks = [], []
+        if epigraph:
+            a_deg = out["alpha"] * (180 / np.pi)
+            rows_ += [a_deg - xs[len(names)], -a_deg - xs[len(names)]]
+            blocks += [(-np.inf, 0.0, "worst_alpha", lambda s: f"α ≤ t at {s}", None),
+                       (-np.inf, 0.0, "worst_alpha", lambda s: f"−α ≤ t at {s}", None)]
+        if "N" in out:
+            pm = model.peak_pressure(out["N"], p0s, Ps)
+            for i, a in enumerate(allow):
+                if a is not None:
+                    rows_.append(pm[i] / a)
+                    blocks.append((-np.inf, 1.0, "hertz_pressure", lambda s, i=i: f"p_max/p_allow of {rn[i]} at {s}", 1.0))
+        if margin is not None:
+            for i in range(nc):
+                rows_.append(out["utilisation"][i])
+                blocks.append((-np.inf, 1 - margin, "traction", lambda s, i=i: f"F/(μN) of {rn[i]} at {s}", 1 - margin))
+        if cs.reach_gamma:
+            rows_.append(out["steer_misfit"])
+            blocks.append((-np.inf, 1e-6, "reach_gamma", None, 1e-6))
+        res = [ca.vertcat(*rows_) if rows_ else ca.MX(0, 1)]
+        if obj_name in outputs and grid_objective:
+            res.append(out[obj_name] * (180 / np.pi if obj_name == "alpha" else 1))
+        return ca.Function("point_rows", [xs, gs, ls, ps, p0s], res), blocks
+
+    point_rows, blocks = point_function(need)
+    point_all = point_function(list(dict.fromkeys(need + [obj_name])))[0] if grid_objective else None
+    misfit_row = len(blocks) - 1 if cs.reach_gamma else None
+    m = len(blocks)
+
+    # ---- the whole formulation: every row at every point, then the design-only rows
     rows, lb, ub, labels, family = [], [], [], [], []
 
     def add(expr, lo, hi, fam, labs):
         expr = ca.vec(expr)
+        start = len(lb)
         rows.append(expr)
         lb.extend(np.broadcast_to(lo, expr.shape[0]))
         ub.extend(np.broadcast_to(hi, expr.shape[0]))
         labels.extend(labs)
         family.extend([fam] * expr.shape[0])
+        return start
 
     pt_label = [f"γ={np.degrees(g):+.0f}° τ⊥={l:+.2g}" for g, l in zip(g_pts, l_pts)]
-    rn = model.roller_names
-    kind = objective or spec.objective.kind
-    epigraph = kind in ("worst_alpha", "pareto")
-    t = ca.MX.sym("t") if epigraph else ca.MX(0, 1)
-    eps = ca.MX.sym("eps")          # ε of the Pareto sweep: worst |α| ≤ ε [deg]
+    grid_args = [x, g_pts[None, :], l_pts[None, :], phi0[None, :], P0]
+    if grid_objective:              # the objective's values come from the same Newton solves as the rows
+        M, obj_grid = point_all.map(npts, "serial").call(grid_args)
+    else:
+        M, obj_grid = point_rows.map(npts, "serial").call(grid_args)[0], None
+    first = np.arange(0, npts, nload)          # one point per γ (the linkage misfit depends on γ only)
+    pt_index = np.full(m, -1)
+    reach_index = np.zeros(0, int)
+    for r, (lo, hi, fam, lab, _) in enumerate(blocks):
+        if r == misfit_row:
+            start = add(M[r, first].T, lo, hi, fam, [f"linkage misfit at γ={np.degrees(g_pts[k]):+.0f}°" for k in first])
+            reach_index = start + np.arange(first.size)
+        else:
+            pt_index[r] = add(M[r, :].T, lo, hi, fam, [lab(s) for s in pt_label])
+    design_start, n_point_blocks = len(lb), len(rows)
+    R = layout.sphere_radius
+    design_rows, design_spec = [], []     # SX rows in p, compiled into one function below
+    if cs.clearance is not None:
+        c = float(_param(cs.clearance, f"{where}: constraints.clearance", {}))
+        phis = np.unique(np.round(phi0, 12))[:: max(1, len(np.unique(phi0)) // 5)]
+        for (a, ra), (b, rb) in itertools.combinations(enumerate(layout.rollers), 2):
+            # two fixed rollers, or two turned by the same angle about the same fork axis, keep their
+            # distance at every φ: one row (the same row at each φ would be a duplicate constraint)
+            rigid = (ra.fork_axis is None and rb.fork_axis is None) or (
+                ra.fork_axis is not None and rb.fork_axis is not None and ra.fork_sign == rb.fork_sign
+                and np.allclose(_np(ra.fork_axis), _np(rb.fork_axis)))
+            gaps, labs = [], []
+            for ph in phis[:1] if rigid else phis:
+                ca_ = (R + ra.radius) * roller_pose(ra, ph)[0]
+                cb = (R + rb.radius) * roller_pose(rb, ph)[0]
+                gaps.append(ca.norm_2(ca_ - cb) - ra.radius - rb.radius)
+                labs.append(f"clearance {rn[a]}–{rn[b]}" + ("" if rigid else f" at φ={np.degrees(ph):+.0f}°"))
+            design_rows += gaps
+            design_spec.append((len(gaps), c, np.inf, "clearance", labs))
+    if cs.envelope_radius is not None:
+        e = float(_param(cs.envelope_radius, f"{where}: constraints.envelope_radius", {}))
+        design_rows += [R + 2 * r.radius for r in layout.rollers]
+        design_spec.append((len(rn), -np.inf, e, "envelope_radius", [f"extent of {r}" for r in rn]))
+    if design_rows:
+        D = ca.Function("design_rows", [p], [ca.cse(ca.vertcat(*design_rows))])(P)
+        at = 0
+        for size, lo, hi, fam, labs in design_spec:
+            add(D[at: at + size], lo, hi, fam, labs)
+            at += size
+    if kind == "pareto":
+        add(t - eps, -np.inf, 0, "epsilon", ["worst |α| ≤ ε"])
+    g_full = ca.vertcat(*rows)
+    design_index = np.arange(design_start, len(lb))
+    # the design rows on their own (a slice of g_full would still depend on every envelope point)
+    g_design = ca.vertcat(*rows[n_point_blocks:]) if design_index.size else ca.MX(0, 1)
+
+    # ---- the objective
     if epigraph:
         f = t
-        add(alpha_deg.T - t, -np.inf, 0, "worst_alpha", [f"α ≤ t at {s}" for s in pt_label])
-        add(-alpha_deg.T - t, -np.inf, 0, "worst_alpha", [f"−α ≤ t at {s}" for s in pt_label])
     if kind == "rms_alpha":
-        f = ca.sqrt(ca.sumsqr(alpha_deg) / npts)
+        f = ca.sqrt(ca.sumsqr(obj_grid) / npts)
     elif kind in ("power_loss", "pareto"):
-        duty = spec.objective.duty_cycle
         if duty:
             dg = np.array([_param(d.gamma, f"{where}: objective.duty_cycle.gamma", {}) for d in duty])
             dl = np.array([_param(d.load, f"{where}: objective.duty_cycle.load", {}) for d in duty])
             w = np.array([d.weight for d in duty])
             dphi, _ = steering_angle_guess(*steering_data(base), dg)
-            dout = dict(zip(model.point.name_out(), model.point.map(len(dg), "serial")(
-                dg, base.motor_speed, dl, 0.0, dphi, theta, P)))
-            f = ca.dot(ca.DM(w / w.sum()), ca.vec(dout["power_loss"]))
+            loss = model.point_function(["power_loss"]).map(len(dg), "serial")(dg, w1, dl, 0.0, dphi, theta, P)
+            f = ca.dot(ca.DM(w / w.sum()), ca.vec(loss))
         else:
-            f = ca.sum2(out["power_loss"]) / npts
+            f = ca.sum2(obj_grid) / npts
 
-    cs = spec.constraints
-    if cs.hertz_pressure:
-        for i, r in enumerate(layout.rollers):
-            allow = r.material.p_allow
-            if allow is not None:
-                add(out["p_max"][i, :] / allow, -np.inf, 1.0, "hertz_pressure",
-                    [f"p_max/p_allow of {rn[i]} at {s}" for s in pt_label])
-    if cs.traction_margin is not None:
-        margin = float(_param(cs.traction_margin, f"{where}: constraints.traction_margin", {}))
-        add(out["utilisation"].T.reshape((-1, 1)), -np.inf, 1 - margin, "traction",
-            [f"F/(μN) of {rn[i]} at {s}" for s in pt_label for i in range(len(rn))])
-    if cs.reach_gamma:
-        first = np.arange(0, npts, G.shape[1])          # one point per γ
-        add(out["steer_misfit"][first], -np.inf, 1e-6, "reach_gamma",
-            [f"linkage misfit at γ={np.degrees(g_pts[k]):+.0f}°" for k in first])
-    R = layout.sphere_radius
-    if cs.clearance is not None:
-        c = float(_param(cs.clearance, f"{where}: constraints.clearance", {}))
-        phis = np.unique(np.round(phi0, 12))[:: max(1, len(np.unique(phi0)) // 5)]
-        for (a, ra), (b, rb) in itertools.combinations(enumerate(layout.rollers), 2):
-            gaps, labs = [], []
-            for ph in phis:
-                ca_ = (R + ra.radius) * roller_pose(ra, ph)[0]
-                cb = (R + rb.radius) * roller_pose(rb, ph)[0]
-                gaps.append(ca.norm_2(ca_ - cb) - ra.radius - rb.radius)
-                labs.append(f"clearance {rn[a]}–{rn[b]} at φ={np.degrees(ph):+.0f}°")
-            gfun = ca.Function("gap", [p], [ca.vertcat(*gaps)])
-            add(gfun(P), c, np.inf, "clearance", labs)
-    if cs.envelope_radius is not None:
-        e = float(_param(cs.envelope_radius, f"{where}: constraints.envelope_radius", {}))
-        ext = ca.Function("extent", [p], [ca.vertcat(*[R + 2 * r.radius for r in layout.rollers])])
-        add(ext(P), -np.inf, e, "envelope_radius", [f"extent of {r}" for r in rn])
-
-    if kind == "pareto":
-        add(t - eps, -np.inf, 0, "epsilon", ["worst |α| ≤ ε"])
-    g = ca.vertcat(*rows)
-    x = ca.vertcat(z, t)
-    opts = {"ipopt": IPOPT_OPTIONS | {"print_level": 0, "max_iter": spec.max_iter, "sb": "yes"}, "print_time": False}
-    solver = ca.nlpsol("design", "ipopt", {"x": x, "f": f, "g": g, "p": eps}, opts)
-    evaluate = ca.Function("evaluate", [x, eps], [f, g]) if kind == "pareto" else ca.Function("evaluate", [x], [f, g])
-    start_t = ca.Function("start_t", [z], [ca.mmax(ca.fabs(alpha_deg))]) if epigraph else None
-    return Problem(spec, where, base_file, names, lower, upper, solver, x.shape[0], np.array(lb), np.array(ub),
-                   labels, family, evaluate, epigraph, start_t, base_values)
+    evaluate = ca.Function("evaluate", [x, eps], [f, g_full]) if kind == "pareto" else ca.Function("evaluate", [x], [f, g_full])
+    start_t = None
+    if epigraph:
+        alpha_grid = model.point_function(["alpha"]).map(npts, "serial")(g_pts, w1, l_pts, 0.0, phi0, theta, P)
+        start_t = ca.Function("start_t", [z], [ca.mmax(ca.fabs(alpha_grid)) * (180 / np.pi)])
+    # which point row (r) of which point (k) each row of g is; −1 for the design rows
+    row_r, row_k, row_scale = np.full(len(lb), -1), np.full(len(lb), -1), np.full(len(lb), np.nan)
+    for r, b in enumerate(blocks):
+        idx = reach_index if r == misfit_row else pt_index[r] + np.arange(npts)
+        row_r[idx], row_k[idx] = r, first if r == misfit_row else np.arange(npts)
+        row_scale[idx] = np.nan if b[4] is None else b[4]
+    big = np.abs(l_pts) >= np.max(np.abs(l_pts)) * (1 - 1e-12)
+    parts = _Parts(x, eps, f, g_full, g_design, P0, point_rows, np.array([b[0] for b in blocks], float),
+                   np.array([b[1] for b in blocks], float), pt_index, misfit_row, reach_index, design_index,
+                   row_r, row_k, row_scale, g_pts, l_pts, phi0, np.arange(npts) // nload,
+                   np.flatnonzero(big))
+    return Problem(spec, where, base_file, names, lower, upper, x.shape[0], np.array(lb), np.array(ub),
+                   labels, family, evaluate, epigraph, start_t, base_values, parts)
 
 
 @dataclass
@@ -275,27 +423,154 @@ class Solution:
     lam_x: np.ndarray
     iterations: int
     start: int
+    rounds: int = 1          # working-set rounds (IPOPT solves)
+    points: int = 0          # envelope points in the final working set
 
 
-def solve_from(problem: Problem, z0, start_index=0, eps: float = 0.0, warm: Solution | None = None) -> Solution:
+def _bucket(k: int) -> int:
+    """Capacity for k working-set points or rows: a few sizes, so that solvers are reused across rounds
+    and starts (padding costs a little evaluation, a new size a new solver)."""
+    if k == 0:
+        return 0
+    size = 1
+    while size < k:
+        size = size + 1 if size < 4 else int(size * 1.5)
+    return size
+
+
+def _ws_solver(problem: Problem, npoints: int, nrows: int) -> ca.Function:
+    """IPOPT on the design rows and `nrows` rows of `npoints` envelope points: the points' (γ, load,
+    φ guess) and a 0/1 matrix selecting the rows are parameters, so one solver serves every working set of
+    that capacity."""
+    key = ("ws", npoints, nrows)
+    if key not in problem._solvers:
+        pt = problem.parts
+        m = pt.pt_lb.size
+        data = ca.MX.sym("points", 3, npoints)
+        select = ca.MX.sym("select", nrows, m * npoints)
+        g = pt.g_design
+        if npoints and nrows:
+            rows = pt.point_rows.map(npoints, "serial").call([pt.x, data[0, :], data[1, :], data[2, :], pt.P0])[0]
+            g = ca.vertcat(g, ca.mtimes(select, ca.vec(rows)))
+        problem._solvers[key] = _nlpsol(pt.x, pt.f, g, ca.vertcat(pt.eps, ca.vec(data), ca.vec(select)),
+                                        problem.spec.max_iter)
+    return problem._solvers[key]
+
+
+def _rows_at(problem: Problem, x, points) -> np.ndarray:
+    """The point rows (m × len(points)) at x for the given envelope points."""
+    pt = problem.parts
+    key = ("rows", len(points))
+    if key not in problem._solvers:
+        data = ca.MX.sym("points", 3, len(points))
+        rows = pt.point_rows.map(len(points), "serial").call([pt.x, data[0, :], data[1, :], data[2, :], pt.P0])[0]
+        problem._solvers[key] = ca.Function("rows_at", [pt.x, data], [rows])
+    data = np.vstack([pt.gamma[points], pt.load[points], pt.phi0[points]])
+    return np.asarray(problem._solvers[key](x, data)).reshape(-1, len(points), order="F")
+
+
+def _near_binding(problem: Problem, g: np.ndarray, t: float, rows=None) -> np.ndarray:
+    """Mask over g (or over the full rows listed in `rows`): point rows within NEAR_BINDING of their bound's
+    scale, or beyond it (the epigraph rows α ∓ t: within NEAR_BINDING·t of t)."""
+    pt = problem.parts
+    rows = np.arange(problem.g_lb.size) if rows is None else rows
+    scale = np.where(np.isnan(pt.row_scale[rows]), max(abs(t), 1e-6), pt.row_scale[rows])
+    with np.errstate(invalid="ignore"):
+        slack = np.minimum(problem.g_ub[rows] - g, g - problem.g_lb[rows])
+    return (pt.row_k[rows] >= 0) & (slack <= NEAR_BINDING * scale)
+
+
+def solve_from(problem: Problem, z0, start_index=0, eps: float = 0.0, warm: Solution | None = None,
+               method: Literal["working_set", "full"] = "working_set") -> Solution:
     """Solve from normalised design z0 (and, for the Pareto problem, bound ε on worst |α| [deg]);
-    `warm` passes a neighbouring solution's multipliers as a warm start."""
-    x0 = list(z0)
-    if problem.epigraph:
-        x0.append(float(problem.start_t(z0)) * 1.05 + 1e-3)
+    `warm` passes a neighbouring solution's multipliers as a warm start.
+
+    method 'working_set': IPOPT on the objective, the design rows and a working set of envelope rows only,
+    an active-set / cutting-plane scheme. The first working set: the rows near their bound at the
+    envelope's largest |load| (where slip, forces and pressures peak; near: within NEAR_BINDING of the
+    bound's scale, the epigraph rows within NEAR_BINDING·t of the worst |α|). After each solve every row of
+    the whole formulation is evaluated; the violated rows (with the rows now near their bound) join the
+    set and IPOPT solves again from there, until no row anywhere is violated by more than VIOLATION_TOL.
+    The result is then an optimum of the whole formulation (the rows left out are inactive: multiplier 0);
+    g and lam_g are returned for every row. 'full': IPOPT on every row at once."""
+    pt = problem.parts
     n = len(problem.names)
     lbx = [0.0] * n + ([0.0] if problem.epigraph else [])
     ubx = [1.0] * n + ([np.inf] if problem.epigraph else [])
-    extra = {} if warm is None else {"lam_g0": warm.lam_g}
-    sol = problem.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=problem.g_lb, ubg=problem.g_ub, p=eps, **extra)
-    st = problem.solver.stats()
+    z0 = np.asarray(z0, float)
+
+    def every_row(x0, lam, iters=0, rounds=0):
+        extra = {} if lam is None else {"lam_g0": lam}
+        sol = problem.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=problem.g_lb, ubg=problem.g_ub, p=eps, **extra)
+        st = problem.solver.stats()
+        return _solution(problem, sol, st, np.asarray(sol["g"]).ravel(), np.asarray(sol["lam_g"]).ravel(),
+                         iters + int(st["iter_count"]), start_index, rounds + 1, pt.gamma.size)
+
+    if method == "full":
+        return every_row(list(z0) + ([float(problem.start_t(z0)) * 1.05 + 1e-3] if problem.epigraph else []),
+                         None if warm is None else warm.lam_g)
+
+    # the start: the rows at the largest |load| give t0 and the first working set
+    m = pt.pt_lb.size
+    rows = _rows_at(problem, np.append(z0, 0.0) if problem.epigraph else z0, pt.screen)
+    t0 = worst = 0.0
+    if problem.epigraph:
+        worst = float(np.max(np.abs(rows[0])))                # rows[0] = α − t at t = 0
+        rows[:2] -= worst                                       # the epigraph rows at t = worst |α|
+        t0 = worst * 1.05 + 1e-3
+    full = np.array([[pt.pt_index[r] + k if r != pt.misfit_row else pt.reach_index[pt.gamma_of[k]]
+                      for k in pt.screen] for r in range(m)], int)
+    work = np.unique(full[_near_binding(problem, rows.ravel(), worst, full.ravel()).reshape(full.shape)])
+    x0 = np.append(z0, t0) if problem.epigraph else z0
+    lam_full = None if warm is None else warm.lam_g
+    nd = pt.design_index.size
+    iters, rounds = 0, 0
+    while True:
+        rounds += 1
+        points = np.unique(pt.row_k[work])
+        npoints, nrows = _bucket(points.size), _bucket(work.size)
+        if nrows * m * npoints > WORKING_SET_MAX:      # most rows bind somewhere: every row at once is cheaper
+            return every_row(x0, lam_full, iters, rounds - 1)
+        slots = np.concatenate([points, np.full(npoints - points.size, points[0] if points.size else 0, int)])
+        select = np.zeros((nrows, m * npoints))
+        select[np.arange(work.size), np.searchsorted(points, pt.row_k[work]) * m + pt.row_r[work]] = 1
+        pad = nrows - work.size
+        lbg = np.concatenate([problem.g_lb[pt.design_index], problem.g_lb[work], np.full(pad, -np.inf)])
+        ubg = np.concatenate([problem.g_ub[pt.design_index], problem.g_ub[work], np.full(pad, np.inf)])
+        data = np.vstack([pt.gamma[slots], pt.load[slots], pt.phi0[slots]])
+        extra = {} if lam_full is None else \
+            {"lam_g0": np.concatenate([lam_full[pt.design_index], lam_full[work], np.zeros(pad)])}
+        solver = _ws_solver(problem, npoints, nrows)
+        sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg,
+                     p=np.concatenate([[eps], data.ravel(order="F"), select.ravel(order="F")]), **extra)
+        st = solver.stats()
+        iters += int(st["iter_count"])
+        xs = np.asarray(sol["x"]).ravel()
+        lam_ws = np.asarray(sol["lam_g"]).ravel()
+        lam = np.zeros(problem.g_lb.size)
+        lam[pt.design_index] = lam_ws[:nd]
+        lam[work] = lam_ws[nd: nd + work.size]
+        g = np.asarray(problem.evaluate(*([xs, eps] if len(problem.evaluate.name_in()) == 2 else [xs]))[1]).ravel()
+        ok = bool(st["success"]) or st["return_status"] == "Solved_To_Acceptable_Level"
+        tol = VIOLATION_TOL * np.maximum(1.0, np.minimum(np.abs(problem.g_lb), np.abs(problem.g_ub)))
+        violated = (g > problem.g_ub + tol) | (g < problem.g_lb - tol)
+        violated[work] = False
+        violated[pt.design_index] = False
+        if not ok or not violated.any():
+            return _solution(problem, sol, st, g, lam, iters, start_index, rounds, points.size)
+        # the violated rows join, with every row now near its bound; solve again from here
+        near = _near_binding(problem, g, xs[-1] if problem.epigraph else 0.0)
+        work = np.union1d(work, np.flatnonzero(violated | near))
+        x0, lam_full = xs, lam
+
+
+def _solution(problem, sol, st, g, lam_g, iterations, start_index, rounds, points) -> Solution:
+    n = len(problem.names)
     zs = np.asarray(sol["x"]).ravel()[:n]
     values = problem.lower + (problem.upper - problem.lower) * zs
     return Solution(st["return_status"], bool(st["success"]) or st["return_status"] == "Solved_To_Acceptable_Level",
-                    float(sol["f"]), zs,
-                    dict(zip(problem.names, values.tolist())), np.asarray(sol["g"]).ravel(),
-                    np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel()[:n], int(st["iter_count"]),
-                    start_index)
+                    float(sol["f"]), zs, dict(zip(problem.names, values.tolist())), g, lam_g,
+                    np.asarray(sol["lam_x"]).ravel()[:n], iterations, start_index, rounds, points)
 
 
 def starts(problem: Problem) -> np.ndarray:

@@ -8,7 +8,9 @@ import pytest
 import yaml
 
 from cvtdesign.cli import main
-from cvtdesign.optimise import build_problem, solve_from, starts
+from cvtdesign.model import compile_model
+from cvtdesign.optimise import build_problem, constraint_report, solve_from, starts
+from cvtdesign.variant import load_spec, resolve
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -86,3 +88,68 @@ def test_bad_study(tmp_path, capsys, fields, message):
     assert main(["optimise", str(study(tmp_path, **fields))]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
+
+
+def test_working_set_reaches_the_optimum_of_every_row(tmp_path):
+    """IPOPT on a working set of envelope rows (violated rows added, solved again) ends where IPOPT on every
+    row at once does, with every row of the whole formulation satisfied; here the traction limit binds at
+    points the first working set leaves out, so it takes more than one round."""
+    pr = build_problem(study(tmp_path, design={"d": {"lower": "30 mm", "upper": "110 mm"},
+                                               "preload": {"lower": "50 N", "upper": "200 N"}},
+                             effects=["drive_longitudinal_creep", "steering_lateral_creep", "normal_force_variation",
+                                      "rolling_resistance"],
+                             objective={"kind": "power_loss", "duty_cycle": [
+                                 {"gamma": "30 deg", "load": "0.5 N*m", "weight": 2}, {"gamma": "-60 deg", "load": "-1 N*m"}]},
+                             constraints={"traction_margin": 0.75, "clearance": "2 mm"},
+                             envelope={"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "20 deg"},
+                                       "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "0.5 N*m"}}))
+    z0 = starts(pr)[0]
+    ws, full = solve_from(pr, z0), solve_from(pr, z0, method="full")
+    assert ws.success and full.success and ws.rounds >= 2 and ws.points < 45
+    assert ws.objective == pytest.approx(full.objective, rel=1e-7)
+    np.testing.assert_allclose(ws.z, full.z, atol=1e-6)
+    g = np.asarray(pr.evaluate(np.asarray(ws.z))[1]).ravel()
+    np.testing.assert_allclose(g, ws.g)
+    tol = 1e-8 * np.maximum(1, np.minimum(np.abs(pr.g_lb), np.abs(pr.g_ub)))
+    assert np.all(g <= pr.g_ub + tol) and np.all(g >= pr.g_lb - tol)
+    report = {r["name"]: r for r in constraint_report(pr, ws)}
+    assert report["traction"]["active"] and report["traction"]["multiplier"] > 0
+
+
+def test_constraint_labels_name_their_roller_and_point(tmp_path):
+    """Each row's label names the roller and operating point whose value it holds (checked against a direct
+    evaluation of the model at the same design)."""
+    pr = build_problem(study(tmp_path, envelope={"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "30 deg"},
+                                                 "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}))
+    z = np.array([0.3])
+    g = np.asarray(pr.evaluate(np.append(z, 0.0))[1]).ravel()
+    d = pr.lower[0] + (pr.upper[0] - pr.lower[0]) * z[0]
+    box = ROOT / "variants/box.yaml"
+    m = compile_model(resolve(load_spec(box), str(box), overrides={"d": d}))
+    for fam, key, scale in (("traction", "utilisation", 1.0), ("hertz_pressure", "p_max", 6e6)):
+        rows = [i for i, f in enumerate(pr.g_family) if f == fam]
+        assert len(rows) == 8 * 15
+        for i in rows[::7]:
+            lab = pr.g_labels[i]
+            roller = lab.split(" of ")[1].split(" at ")[0]
+            gam, load = lab.split("γ=")[1].split("° τ⊥=")
+            res = m.evaluate(np.radians(float(gam)), float(load))
+            assert g[i] == pytest.approx(float(res[key][m.roller_names.index(roller)]) / scale, rel=1e-9), lab
+
+
+def test_design_variable_free_in_some_variants_only(tmp_path, capsys):
+    """A design variable with `variants` is free only in those variant files; the others optimise without it."""
+    path = study(tmp_path, design={"r_steer": {"lower": "20 mm", "upper": "60 mm"},
+                                   "d": {"lower": "30 mm", "upper": "110 mm", "variants": [str(ROOT / "variants/box.yaml")]}},
+                 batch={"variants": [str(ROOT / "variants/existing.yaml"), str(ROOT / "variants/box.yaml")]},
+                 envelope={"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
+                           "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "2 N*m"}})
+    from cvtdesign.optimise import load_study
+    spec, _ = load_study(path)
+    assert build_problem(path, spec, ROOT / "variants/existing.yaml").names == ["r_steer"]
+    assert sorted(build_problem(path, spec, ROOT / "variants/box.yaml").names) == ["d", "r_steer"]
+    data = yaml.safe_load(path.read_text())
+    data["design"]["d"]["variants"] = ["bx.yaml"]
+    path.write_text(yaml.safe_dump(data, allow_unicode=True))
+    assert main(["optimise", str(path)]) == 2
+    assert "design.d.variants: no variant file" in capsys.readouterr().err

@@ -42,10 +42,16 @@ def test_cases_are_the_product(tmp_path):
 
 
 def test_study_resumes_after_kill(tmp_path):
-    study = small_study(tmp_path)
+    # enough work that the kill lands mid-study: 16 cases on Kim's envelope (a case takes ~0.06 s once its
+    # worker has built the problem, so the 6 small cases above all finish within one poll of the kill loop)
+    study = small_study(tmp_path, multistart={"starts": 8, "seed": 2},
+                        envelope={"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "10 deg"},
+                                  "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "0.1 N*m"}})
+    n = len(make_cases(study))
+    assert n == 16
     # uninterrupted reference
     ref = run_study(study, tmp_path / "ref", workers=2)["table"]
-    assert len(ref) == 6 and ref["success"].all()
+    assert len(ref) == n and ref["success"].all()
     # the real thing: the command killed with SIGKILL (workers too) once two cases are stored
     out = tmp_path / "killed"
     proc = subprocess.Popen([sys.executable, "-m", "cvtdesign.cli", "study", str(study), "--out", str(out),
@@ -57,9 +63,9 @@ def test_study_resumes_after_kill(tmp_path):
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     partial = len(list((out / "cases").glob("[!.]*.parquet")))
-    assert 2 <= partial < 6
+    assert 2 <= partial < n
     res = run_study(study, out, workers=2)
-    assert res["skipped"] == partial and res["ran"] == 6 - partial
+    assert res["skipped"] == partial and res["ran"] == n - partial
     pd.testing.assert_frame_equal(comparable(res["table"]), comparable(ref), rtol=1e-9)
     # the optimum: the closed form of test_optimise for each steering radius
     for rs, d in zip((0.030, 0.038), sorted(ref.groupby("fixed")["design.d"].mean())):
