@@ -138,6 +138,7 @@ class Problem:
     base_values: np.ndarray = field(default=None)
     parts: "_Parts" = None
     _solvers: dict = field(default_factory=dict)
+    fixed: dict = field(default_factory=dict)     # sweep parameters (SI) set for this case
 
     @property
     def solver(self) -> ca.Function:
@@ -408,7 +409,7 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
                    row_r, row_k, row_scale, g_pts, l_pts, phi0, np.arange(npts) // nload,
                    np.flatnonzero(big))
     return Problem(spec, where, base_file, names, lower, upper, x.shape[0], np.array(lb), np.array(ub),
-                   labels, family, evaluate, epigraph, start_t, base_values, parts)
+                   labels, family, evaluate, epigraph, start_t, base_values, parts, fixed=dict(fixed))
 
 
 @dataclass
@@ -622,11 +623,16 @@ def constraint_report(problem: Problem, sol: Solution) -> list[dict]:
 
 def write_variant(problem: Problem, sol: Solution, out_dir: Path, name: str | None = None) -> Path:
     """The optimised design as a variant file `compare` reads, with a provenance header
-    (name: default '<base variant>_<study>')."""
+    (name: default '<base variant>_<study>'): the base variant with the optimised design variables, the
+    case's sweep parameters and the study's envelope (when it sets one)."""
     from .cli import write_atomic
 
     data = yaml.safe_load(problem.base_file.read_text())
-    for n, v in sol.design.items():
+    # the design variables, the case's sweep parameters, and the envelope the design was optimised over
+    # (a study's narrower envelope is what the clearance and reach constraints held for)
+    if problem.spec.envelope is not None:
+        data["envelope"] = problem.spec.envelope.model_dump(exclude_unset=True)
+    for n, v in (problem.fixed | sol.design).items():
         unit = _unit_of(data["parameters"][n])
         if unit:
             q = registry().Quantity(v, registry().Quantity(1, unit).to_base_units().units).to(unit)

@@ -233,8 +233,10 @@ def prepare_store(study_file, spec, base: Path, out_dir: Path) -> dict:
 def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: int | None = None,
               progress=None) -> dict:
     """Run every case not yet in the store on Dask; returns a summary dict."""
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import as_completed
     from distributed.scheduler import KilledWorker
+
+    from .cluster import dask_client
 
     from .optimise import load_study
 
@@ -246,15 +248,8 @@ def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: i
     todo = [c for c in cases if c["id"] not in finished]
     if progress:
         progress(len(finished), len(cases), None)
-    cluster = None
     t_start = time.perf_counter()
-    if scheduler:
-        client = Client(scheduler)
-    else:
-        cluster = LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=40)
-        client = Client(cluster)
-    try:
+    with dask_client(scheduler, workers) as client:
         client.run(warm_worker)
         t0 = time.perf_counter()
         startup = t0 - t_start
@@ -277,9 +272,5 @@ def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: i
             if progress:
                 progress(done, len(cases), rows[0])
         seconds = time.perf_counter() - t0
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
     return {"out_dir": str(out_dir), "cases": len(cases), "skipped": len(finished), "ran": len(todo),
             "seconds": seconds, "startup_seconds": startup, "table": read_store(out_dir)}

@@ -153,3 +153,25 @@ def test_design_variable_free_in_some_variants_only(tmp_path, capsys):
     path.write_text(yaml.safe_dump(data, allow_unicode=True))
     assert main(["optimise", str(path)]) == 2
     assert "design.d.variants: no variant file" in capsys.readouterr().err
+
+
+def test_written_variant_carries_sweep_parameters_and_study_envelope(tmp_path):
+    """A sweep case's optimum is written with its fixed parameters and the envelope it was optimised over,
+    so the variant file reproduces the optimum (it kept the base's r_steer and envelope before)."""
+    from cvtdesign.optimise import load_study, write_variant
+    from cvtdesign.variant import load_variant
+
+    env = {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "30 deg"},
+           "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}
+    path = study(tmp_path, constraints={"clearance": "2 mm"}, envelope=env)
+    spec, base = load_study(path)
+    pr = build_problem(path, spec, base, {"r_steer": 0.030})
+    sol = solve_from(pr, starts(pr)[0])
+    assert sol.success
+    L = load_variant(write_variant(pr, sol, tmp_path, "swept"))
+    steer = [r for r in L.rollers if r.role == "steering"]
+    assert all(abs(r.radius - 0.030) < 1e-9 for r in steer)
+    np.testing.assert_allclose(np.degrees(L.gamma_grid), [-60, -30, 0, 30, 60], atol=1e-12)
+    m = compile_model(L)
+    G, T = np.meshgrid(L.gamma_grid, L.load_grid, indexing="ij")
+    assert np.degrees(np.nanmax(np.abs(m.evaluate(G, T)["alpha"]))) == pytest.approx(sol.objective, rel=1e-5)
