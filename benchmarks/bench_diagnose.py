@@ -10,7 +10,6 @@
 Run: python benchmarks/bench_diagnose.py   (the machine is shared and noisy: best of repeats)
 """
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -18,18 +17,11 @@ from scipy.optimize import least_squares
 
 from cvtdesign import diagnose, measured, rig
 from cvtdesign.variant import load_variant
+from timing import best_of
 
 ROOT = Path(__file__).resolve().parents[1]
 KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
 
-
-def best_of(fn, repeats):
-    times, out = [], None
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return min(times), out
 
 
 def main():

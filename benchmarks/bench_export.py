@@ -12,7 +12,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -20,17 +19,10 @@ import numpy as np
 from cvtdesign import cad
 from cvtdesign.geometry import pose
 from cvtdesign.variant import load_variant
+from timing import best_of
 
 ROOT = Path(__file__).resolve().parents[1]
 
-
-def best_of(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return min(times), out
 
 
 def bare_assembly(path, out):

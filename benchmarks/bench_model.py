@@ -18,17 +18,10 @@ from scipy.optimize import root
 
 from cvtdesign.model import compile_model
 from cvtdesign.variant import load_variant
+from timing import best_of
 
 ROOT = Path(__file__).resolve().parents[1]
 
-
-def best_of(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return min(times), out
 
 
 def grid_benchmark():

@@ -29,18 +29,14 @@ from scipy.optimize import minimize
 
 from cvtdesign.optimise import _rows_at, build_problem, solve_from, starts
 from cvtdesign.study import run_case, run_study, warm_worker
+import timing
 
 ROOT = Path(__file__).resolve().parents[1]
 REPEATS = 5
 
 
 def best_of(fn, repeats=REPEATS):
-    times, out = [], None
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return min(times), out
+    return timing.best_of(fn, repeats)
 
 
 def violation(pr, g):
