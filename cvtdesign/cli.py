@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
@@ -102,12 +103,18 @@ def _compare(args, painter):
     return 0
 
 
-def _progress_bar(console, label: str, transient: bool = False):
-    """A rich progress bar: label, bar, done/total, elapsed time and a description of the last item."""
+@contextlib.contextmanager
+def _progress(console, label: str, describe, transient: bool = False):
+    """A rich progress bar (label, bar, done/total, elapsed time, the last item) as the callback
+    progress(done, total, item) that long computations take; `describe(item)` says what the item was
+    (item None: nothing finished yet)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    return Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                    TextColumn("{task.description}"), console=console, transient=transient)
+    with Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.description}"), console=console, transient=transient) as bar:
+        task = bar.add_task("", total=None)
+        yield lambda done, total, item: bar.update(task, total=total, completed=done,
+                                                   description="" if item is None else describe(item))
 
 
 def _export_steps(console, variant_files, out_dir: Path):
@@ -115,11 +122,9 @@ def _export_steps(console, variant_files, out_dir: Path):
     from .cad import export_variant
 
     files = list(dict.fromkeys(str(f) for f in variant_files if f))
-    with _progress_bar(console, "STEP export") as bar:
-        task = bar.add_task("", total=len(files))
-        for f in files:
-            res = export_variant(f, out_dir)
-            bar.update(task, advance=1, description=f"{Path(res['step']).name} ({len(res['parts'])} parts)")
+    with _progress(console, "STEP export", lambda res: f"{Path(res['step']).name} ({len(res['parts'])} parts)") as progress:
+        for k, f in enumerate(files):
+            progress(k + 1, len(files), export_variant(f, out_dir))
     console.print(f"STEP assemblies of {len(files)} design(s) in {out_dir}")
 
 
@@ -130,12 +135,8 @@ def cmd_optimise(args):
     from . import optimise
 
     console = Console(width=110)
-    with _progress_bar(console, "multistart", transient=True) as bar:
-        task = bar.add_task("", total=None)
-
-        def progress(done, total, sol):
-            bar.update(task, total=total, completed=done, description=f"last: {sol.status}, f = {sol.objective:.5g}")
-
+    with _progress(console, "multistart", lambda sol: f"last: {sol.status}, f = {sol.objective:.5g}",
+                   transient=True) as progress:
         res = optimise.run(args.study, args.out, args.starts, progress)
     statuses = ", ".join(f"{s} ×{res['statuses'].count(s)}" for s in dict.fromkeys(res["statuses"]))
     console.print(f"study {res['study']}: {res['starts']} starts ({statuses}); "
@@ -174,13 +175,7 @@ def cmd_study(args):
     from . import study
 
     console = Console(width=120)
-    with _progress_bar(console, "cases") as bar:
-        task = bar.add_task("", total=None)
-
-        def progress(done, total, row):
-            desc = "" if row is None else f"last: {row['case_id']} {row['status']}"
-            bar.update(task, total=total, completed=done, description=desc)
-
+    with _progress(console, "cases", lambda row: f"last: {row['case_id']} {row['status']}") as progress:
         res = study.run_study(args.study, args.out, args.scheduler, args.workers, progress)
     df = res["table"]
     console.print(f"{res['cases']} cases: {res['skipped']} already in {res['out_dir']}, {res['ran']} run in "
@@ -222,15 +217,15 @@ def cmd_study(args):
     return 0 if df["success"].any() else 1
 
 
-def _effects_arg(text, default):
+def _effects_arg(text, default, where):
     """'a,b' → effect names (checked, near names suggested); 'none' → no effects; None → default."""
-    from .rig import check_effects
+    from .effects import check_effects
 
     if text is None:
         return tuple(default)
     if text.strip().lower() in ("", "none"):
         return ()
-    return check_effects([e.strip() for e in text.split(",") if e.strip()])
+    return check_effects([e.strip() for e in text.split(",") if e.strip()], where)
 
 
 def cmd_rig(args):
@@ -240,7 +235,7 @@ def cmd_rig(args):
     from .variant import load_variant
 
     layout = load_variant(args.variant)
-    effects = _effects_arg(args.effects, layout.effects)
+    effects = _effects_arg(args.effects, layout.effects, "--effects")
     params = rig.parse_settings(args.set, effects)
     protocol = rig.read_protocol(args.protocol, layout) if args.protocol else rig.kim_protocol(layout)
     if args.replicates:
@@ -265,14 +260,12 @@ def cmd_diagnose(args):
     from .variant import load_variant
 
     layout = load_variant(args.variant)
-    base = _effects_arg(args.base, layout.effects)
-    candidates = _effects_arg(args.candidates, [])
+    base = _effects_arg(args.base, layout.effects, "--base")
+    candidates = _effects_arg(args.candidates, [], "--candidates")
     data = measured.load_measured(args.data, layout, args.drop_bad)
     console = Console(width=120)
-    with _progress_bar(console, "diagnosis", transient=True) as bar:
-        task = bar.add_task("", total=None)
-        rep = diagnose.diagnose(layout, data, base, candidates or None,
-                                progress=lambda d, t, m: bar.update(task, total=t, completed=d, description=m))
+    with _progress(console, "diagnosis", str, transient=True) as progress:
+        rep = diagnose.diagnose(layout, data, base, candidates or None, progress)
     diagnose.print_report(rep, console)
     if args.plots:
         for f in diagnose.plot_report(rep, Path(args.plots)):
@@ -289,13 +282,7 @@ def cmd_selfcheck(args):
     from . import selfcheck
 
     console = Console(width=120)
-    with _progress_bar(console, "datasets") as bar:
-        task = bar.add_task("", total=None)
-
-        def progress(done, total, row):
-            desc = "" if row is None else f"last: {row['id']} → {row['verdict']}"
-            bar.update(task, total=total, completed=done, description=desc)
-
+    with _progress(console, "datasets", lambda row: f"last: {row['id']} → {row['verdict']}") as progress:
         only = [x.strip() for x in args.only.split(",")] if args.only else None
         results = selfcheck.run(args.variant, args.quick, args.seeds, args.scheduler, args.workers, progress, only)
     summ = selfcheck.summary(results)
@@ -315,7 +302,7 @@ def cmd_resteer(args):
     from .variant import load_variant
 
     layout = load_variant(args.variant)
-    effects = _effects_arg(args.effects, layout.effects)
+    effects = _effects_arg(args.effects, layout.effects, "--effects")
     data = measured.load_measured(args.data, layout, args.drop_bad) if args.data else None
     if args.load is not None:
         load = to_si(args.load, "torque", "--load")
@@ -331,7 +318,7 @@ def cmd_resteer(args):
     console = Console(width=120)
     table = None
     if args.truth_effects is not None:
-        truth = _effects_arg(args.truth_effects, layout.effects)
+        truth = _effects_arg(args.truth_effects, layout.effects, "--truth-effects")
         tmodel = compile_model(layout.with_effects(truth, rig.parse_settings(args.truth_set, truth, "--truth-set")))
         table = resteer.achieved(tmodel, cmds)
     t = Table(title=f"resteering under τ⊥ = {load:+.3g} N·m: commanded γ \\[deg]"

@@ -63,6 +63,18 @@ EFFECTS = {e.name: e for e in [
 VERDICTS_EXTRA = ("none", "unexplained")
 
 
+def check_effects(names, where: str) -> tuple:
+    """The names, checked against the vocabulary: an unknown one is an InputError naming `where`, with the
+    near name (or the list of names when none is near)."""
+    from .units import InputError, suggest
+
+    for e in names:
+        if e not in EFFECTS:
+            hint = suggest(e, EFFECTS) or f" (effects: {', '.join(EFFECTS)})"
+            raise InputError(f"{where}: unknown effect '{e}'{hint}")
+    return tuple(names)
+
+
 def parameter_vector(effects, overrides: dict | None = None):
     """Ordered (names, values) of the parameters of the effects that are on; overrides: {effect: {param: v}}."""
     names, values = [], []

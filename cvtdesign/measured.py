@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .units import InputError
+from .units import InputError, suggest
 
 REQUIRED = ("gamma_cmd_deg", "omega_1", "omega_2", "tau_1", "tau_2")
 OPTIONAL = ("gamma_axis_deg",)
@@ -37,11 +37,6 @@ class Measured:
     @property
     def replicated(self) -> bool:
         return bool(self.rows.groupby("point").size().max() > 1)
-
-
-def _suggest(word, options):
-    from .variant import _suggest as s
-    return s(word, options)
 
 
 def _wrap_deg(x):
@@ -75,7 +70,7 @@ def read_measured(path, ratio_gain: float = 1.0, gamma_range_deg=None, drop_bad:
     for c in REQUIRED:
         if c not in raw.columns:
             other = [x for x in raw.columns if x not in REQUIRED + OPTIONAL]
-            raise InputError(f"{where}: missing column '{c}'{_suggest(c, other)} "
+            raise InputError(f"{where}: missing column '{c}'{suggest(c, other)} "
                              f"(required: {', '.join(REQUIRED)}; found: {', '.join(raw.columns) or 'none'})")
     if raw.empty:
         raise InputError(f"{where}: no data rows under the header")

@@ -32,8 +32,8 @@ import yaml
 from .checks import check_layout
 from .geometry import _np, roller_pose, steering_angle_guess, steering_data
 from .model import compile_model
-from .units import InputError, registry
-from .variant import EnvelopeSpec, Num, Strict, _grid, _param, _suggest, load_spec, read_spec, resolve
+from .units import InputError, registry, suggest
+from .variant import EnvelopeSpec, Num, Strict, _grid, _param, load_spec, read_spec, resolve
 
 
 class DesignVar(Strict):
@@ -215,7 +215,7 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
     for n in fixed:
         if n not in vspec.parameters:
             raise InputError(f"{where}: batch.sweep.{n}: the variant {base_file.name} has no parameter '{n}'"
-                             f"{_suggest(n, vspec.parameters)}")
+                             f"{suggest(n, vspec.parameters)}")
         if n in spec.design:
             raise InputError(f"{where}: batch.sweep.{n}: '{n}' is a design variable; sweep fixed parameters only")
     base = resolve(vspec, str(base_file), overrides=fixed)
@@ -227,7 +227,7 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
     for n in names:
         if n not in vspec.parameters:
             raise InputError(f"{where}: design.{n}: the variant {base_file.name} has no parameter '{n}'"
-                             f"{_suggest(n, vspec.parameters)} (parameters: {', '.join(vspec.parameters) or 'none'})")
+                             f"{suggest(n, vspec.parameters)} (parameters: {', '.join(vspec.parameters) or 'none'})")
         lo = _param(spec.design[n].lower, f"{where}: design.{n}.lower", {})
         hi = _param(spec.design[n].upper, f"{where}: design.{n}.upper", {})
         if not lo < hi:

@@ -13,9 +13,9 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from .effects import EFFECTS
-from .units import InputError, to_si
-from .variant import Layout, RangeSpec, Strict, _grid, _suggest, read_spec
+from .effects import EFFECTS, check_effects
+from .units import InputError, suggest, to_si
+from .variant import Layout, RangeSpec, Strict, _grid, read_spec
 
 Quantity = float | str
 
@@ -87,7 +87,7 @@ def parse_noise(text: str | None, where="--noise") -> Noise:
         key = key.strip()
         if key not in NOISE_KINDS or not val.strip():
             raise InputError(f"{where}: expected name=value with names {', '.join(NOISE_KINDS)}, got "
-                             f"'{item.strip()}'{_suggest(key, NOISE_KINDS)}")
+                             f"'{item.strip()}'{suggest(key, NOISE_KINDS)}")
         vals[key] = to_si(val.strip(), NOISE_KINDS[key], f"{where}: {key}")
         if vals[key] < 0:
             raise InputError(f"{where}: {key}: expected a standard deviation >= 0")
@@ -100,8 +100,7 @@ def parse_settings(items, effects, where="--set") -> dict:
     for item in items or []:
         name, _, val = item.partition("=")
         effect, _, param = name.strip().partition(".")
-        if effect not in EFFECTS:
-            raise InputError(f"{where}: unknown effect '{effect}'{_suggest(effect, EFFECTS)}")
+        check_effects([effect], where)
         if param not in EFFECTS[effect].params:
             raise InputError(f"{where}: effect {effect} has no parameter '{param}' "
                              f"(it has: {', '.join(EFFECTS[effect].params)})")
@@ -112,13 +111,6 @@ def parse_settings(items, effects, where="--set") -> dict:
         out.setdefault(effect, {})[param] = to_si(val.strip(), EFFECTS[effect].params[param].kind,
                                                   f"{where}: {effect}.{param}")
     return out
-
-
-def check_effects(names, where="--effects") -> tuple:
-    for e in names:
-        if e not in EFFECTS:
-            raise InputError(f"{where}: unknown effect '{e}'{_suggest(e, EFFECTS)} (effects: {', '.join(EFFECTS)})")
-    return tuple(names)
 
 
 def simulate(layout: Layout, effects, parameters: dict | None = None, protocol: Protocol | None = None,

@@ -8,6 +8,7 @@ functions, so a file can never run code.
 from __future__ import annotations
 
 import ast
+import difflib
 import functools
 import operator
 
@@ -16,6 +17,12 @@ import casadi as ca
 
 class InputError(ValueError):
     """Bad user input: the message is one line naming the file, the field or row, and what was expected."""
+
+
+def suggest(word: str, options) -> str:
+    """' (did you mean 'x'?)' for the option nearest to a misspelt word, or ''."""
+    close = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else ""
 
 
 @functools.cache

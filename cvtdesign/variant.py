@@ -6,7 +6,6 @@ cannot fix an axis, couplings that fight) run on the resolved layout.
 """
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal, Union
@@ -18,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 
 from . import effects as fx
 from .geometry import named_vector, spherical
-from .units import InputError, to_si
+from .units import InputError, suggest, to_si
 
 Num = Union[float, int, str]
 VectorSpec = Union[str, list[float], "Spherical"]
@@ -169,11 +168,6 @@ class Layout:
         return replace(self, effects=tuple(effects), effect_parameters=params)
 
 
-def _suggest(word: str, options) -> str:
-    close = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
-    return f" (did you mean '{close[0]}'?)" if close else ""
-
-
 def _schema_error(err: ValidationError, where: str, root=None) -> InputError:
     # an unknown (misspelt) field explains the 'missing' error that comes with it: report it first
     e = sorted(err.errors(), key=lambda x: x["type"] != "extra_forbidden")[0]
@@ -191,7 +185,7 @@ def _schema_error(err: ValidationError, where: str, root=None) -> InputError:
             args = getattr(t, "__args__", ())
             model = next((a for a in (t, *args) if isinstance(a, type) and issubclass(a, BaseModel)), model)
         known = model.model_fields if isinstance(model, type) and issubclass(model, BaseModel) else {}
-        return InputError(f"{where}: {path}: unknown field{_suggest(loc[-1], known)}")
+        return InputError(f"{where}: {path}: unknown field{suggest(loc[-1], known)}")
     if e["type"] == "missing":
         return InputError(f"{where}: {path}: missing required field")
     return InputError(f"{where}: {path}: {e['msg'].lower()}")
@@ -245,7 +239,7 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
 
     def material(name, w):
         if name not in mats:
-            raise InputError(f"{w}: unknown material '{name}'{_suggest(name, mats)}")
+            raise InputError(f"{w}: unknown material '{name}'{suggest(name, mats)}")
         return mats[name]
 
     R = _positive(to_si(spec.sphere.radius, "length", f"{where}: sphere.radius", names), f"{where}: sphere.radius")
@@ -255,7 +249,7 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         axis = _vector(f.axis, f"{w}.axis", names)
         for rn in f.rollers:
             if rn not in spec.rollers:
-                raise InputError(f"{w}.rollers: unknown roller '{rn}'{_suggest(rn, spec.rollers)}")
+                raise InputError(f"{w}.rollers: unknown roller '{rn}'{suggest(rn, spec.rollers)}")
             if spec.rollers[rn].role != "steering":
                 raise InputError(f"{w}.rollers: '{rn}' is a {spec.rollers[rn].role} roller; only steering rollers turn with φ")
             if rn in forks:
@@ -299,18 +293,16 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         if not any(r.role == "drive" and r.shaft == s for r in rollers):
             raise InputError(f"{where}: rollers: no drive roller on shaft {s} (role: drive, shaft: {s})")
 
-    for e in spec.effects:
-        if e not in fx.EFFECTS:
-            raise InputError(f"{where}: effects: unknown effect '{e}'{_suggest(e, fx.EFFECTS)}")
+    fx.check_effects(spec.effects, f"{where}: effects")
     eparams = {}
     for e, ps in spec.effect_parameters.items():
         if e not in fx.EFFECTS:
-            raise InputError(f"{where}: effect_parameters.{e}: unknown effect{_suggest(e, fx.EFFECTS)}")
+            raise InputError(f"{where}: effect_parameters.{e}: unknown effect{suggest(e, fx.EFFECTS)}")
         eparams[e] = {}
         for p, v in ps.items():
             known = fx.EFFECTS[e].params
             if p not in known:
-                raise InputError(f"{where}: effect_parameters.{e}.{p}: unknown parameter{_suggest(p, known)}")
+                raise InputError(f"{where}: effect_parameters.{e}.{p}: unknown parameter{suggest(p, known)}")
             eparams[e][p] = to_si(v, known[p].kind, f"{where}: effect_parameters.{e}.{p}", names)
 
     c = spec.contact
