@@ -487,9 +487,9 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
     done += 1
     tick(done, total, f"base {'+'.join(base) or '(none)'}")
     base_score = current
-    z_base = zscores(residuals(data, base_score.fit.pred), noise)
-    structured = autocorrelation_z(data, z_base[0])
-    regs = regions(data, residuals(data, base_score.fit.pred)["alpha"], noise["alpha"])
+    res_fit = residuals(data, base_score.fit.pred)
+    structured = autocorrelation_z(data, zscores(res_fit, noise)[0])
+    regs = regions(data, res_fit["alpha"], noise["alpha"])
 
     accepted, rounds = [], []
     remaining = list(candidates)
@@ -508,7 +508,7 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
             rows.append({"effect": e, "score": s, "p": p, "gain": gain,
                          "significant": bool(p < alpha and gain > MIN_GAIN and s.bic < current.bic)})
         rows.sort(key=lambda r: r["score"].msz)
-        rounds.append({"current": current, "rows": rows})
+        rounds.append(rows)
         best = rows[0]
         if not best["significant"]:
             break
@@ -526,7 +526,7 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
         verdict = "unexplained" if structured > AUTO_Z and regs else "none"
 
     # ranking: the first round's candidates, best first; accepted ones flagged
-    first = rounds[0]["rows"] if rounds else []
+    first = rounds[0] if rounds else []
     floor_alpha = _rms(noise["alpha"])
     floor_eff = _efficiency_noise(data, noise)
     ranking = []
@@ -570,14 +570,14 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
                                                  "second differences along load"},
         "base_fit": base_score.fit.params(),
         "final_fit": final.fit.params(),
-        "gap": {"rms_alpha_deg": _rms(residuals(data, base_score.fit.pred)["alpha"]), "heldout_rms_alpha_deg": base_score.rms_alpha,
+        "gap": {"rms_alpha_deg": _rms(res_fit["alpha"]), "heldout_rms_alpha_deg": base_score.rms_alpha,
                 "rms_efficiency": base_score.rms_efficiency,
                 "structure_z": structured, "structured": bool(structured > AUTO_Z),
                 "structure_z_after": structured_after, "structured_after": bool(structured_after > AUTO_Z),
                 "regions": [{k: v for k, v in r.items() if not k.startswith("_")} for r in regs]},
         "ranking": ranking,
         "rounds": [[{"effect": r["effect"], "heldout_msz": r["score"].msz, "p_value": r["p"],
-                     "gain": r["gain"], "significant": r["significant"]} for r in rd["rows"]] for rd in rounds],
+                     "gain": r["gain"], "significant": r["significant"]} for r in rd] for rd in rounds],
         "how_far": how_far,
         "by_speed": _by_speed(data, res_b["alpha"], res_a["alpha"]),
         "confounded": confounded,
@@ -601,7 +601,8 @@ def _channels(data: Measured):
 
 
 def _efficiency_noise(data, noise):
-    """Noise floor of the efficiency residual, propagated from the τ1 noise: |∂η/∂τ1| σ_τ1."""
+    """Noise floor of the efficiency residual, propagated from the torque noise: |∂η/∂τ1| σ with σ the
+    τ∥ channel's noise (both torque components see the same torque noise)."""
     r = data.rows
     m = _efficiency_mask(data)
     eta = r["efficiency"].to_numpy()
@@ -611,14 +612,15 @@ def _efficiency_noise(data, noise):
 
 
 def _confounded(first_rows, base: Score, noise, data, cos_limit=0.9):
-    """Pairs of candidates whose fitted signatures are nearly parallel and whose held-out scores the data
-    cannot separate, with where they differ most and which measurement would tell them apart."""
+    """Pairs of candidates whose fitted signatures (changes of the predictions, z units, measured channels)
+    are nearly parallel (cosine ≥ cos_limit) and both above noise, with their held-out scores, where they
+    differ most and which measurement would tell them apart."""
     out = []
     sig = {r["effect"]: _signature(base, r["score"], noise) for r in first_rows}
+    meas = np.array([c in noise for c in CHANNELS])
     for i, a in enumerate(first_rows):
         for b in first_rows[i + 1:]:
             sa, sb = sig[a["effect"]], sig[b["effect"]]
-            meas = np.array([c in noise for c in CHANNELS])
             va, vb = sa[meas].ravel(), sb[meas].ravel()
             na, nb = np.linalg.norm(va), np.linalg.norm(vb)
             if na < 3 or nb < 3:        # a signature within noise is not a rival
@@ -634,7 +636,7 @@ def _confounded(first_rows, base: Score, noise, data, cos_limit=0.9):
                     by_channel["axis"] > 2 * max(by_channel["alpha"], by_channel["tau_par"]) else
                     f"more points near γ = {r['gamma_cmd_deg']:.0f}°, τ⊥ = {r['tau_perp']:.2f} N·m")
             out.append({"effects": [a["effect"], b["effect"]], "cosine": cos,
-                        "separation_z_rms": {c: v for c, v in by_channel.items()},
+                        "separation_z_rms": by_channel,
                         "heldout_msz": [a["score"].msz, b["score"].msz],
                         "separate_by": hint})
     return out

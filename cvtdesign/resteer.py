@@ -66,16 +66,16 @@ def lookup_command(data, rho, load) -> tuple[float, float]:
 
 def commands(layout, effects, load, ratios=RATIOS, data=None) -> dict:
     """Steering commands γ_cmd [rad] per method for each requested ratio, and the fitted parameters."""
+    from .diagnose import fit_model
     from .model import compile_model
 
-    model = compile_model(layout, effects)
+    fitted = fit_model(layout, data, effects) if data is not None else None
+    model = fitted[0].model if fitted else compile_model(layout, effects)    # one compiled model for both
     out = {"ratios": list(ratios), "load": load, "methods": {}, "fit": None}
     out["methods"]["ideal"] = [ideal_command(layout, q) for q in ratios]
     out["methods"]["nominal"] = [model_command(model, q, load) for q in ratios]
-    if data is not None:
-        from .diagnose import fit_model
-
-        P, f = fit_model(layout, data, effects)
+    if fitted:
+        f = fitted[1]
         out["fit"] = f.params()
         out["methods"]["fitted"] = [model_command(model, q, load, f.theta) for q in ratios]
         looked = [lookup_command(data, q, load) for q in ratios]
