@@ -39,6 +39,17 @@ def write_atomic(path: Path, text: str):
             os.remove(tmp)
 
 
+def left_out_text(counts: dict) -> str:
+    """'gross slip at 12 points (D1 ×8, S1 ×4); lost contact at 3 points (S2 ×3)' from model.status_counts."""
+    parts = []
+    for key in ("lost_contact", "gross_slip", "not_converged"):
+        if counts.get(key):
+            at = counts.get(f"{key}_at") or {}
+            where = f" ({', '.join(f'{k} ×{v}' for k, v in at.items())})" if at else ""
+            parts.append(f"{key.replace('_', ' ')} at {counts[key]} points{where}")
+    return "; ".join(parts)
+
+
 def cmd_compare(args):
     from . import plots
 
@@ -82,18 +93,19 @@ def _compare(args, painter):
     for row in rows:
         table.add_column(row["name"], justify="right")
     for key, label, fmt in COLUMNS:
-        table.add_row(label, *[fmt.format(r[key]) for r in rows])
+        table.add_row(label, *["—" if r[key] is None else fmt.format(r[key]) for r in rows])
     console = Console(width=max(100, 30 + 22 * len(rows)))
     console.print(table)
     for r in rows:
-        if r["not_converged"]:
-            console.print(f"[red]{r['name']}: {r['not_converged']} of {r['points']} operating points did not "
-                          "converge (left out of the figures)[/red]")
+        console.print(f"{r['name']}: {r['ideal_law']}")
+        if r["ok"] < r["points"]:
+            console.print(f"[red]{r['name']}: {r['points'] - r['ok']} of {r['points']} operating points left out "
+                          f"of the figures: {left_out_text(r)}[/red]")
 
     figure = Path(args.out) / "compare.png"
     painter.draw("compare_figure", [(L.name, res) for L, res in results], figure)
     if args.json:
-        write_atomic(Path(args.json), json.dumps({"variants": rows}, indent=2) + "\n")
+        write_atomic(Path(args.json), json.dumps({"variants": rows}, indent=2, allow_nan=False) + "\n")
         console.print(f"figures written to {args.json}")
     error = painter.wait()
     if error:
@@ -248,8 +260,8 @@ def cmd_rig(args):
                   f"{', '.join(effects) or 'no effects'} written to {args.out}; noise σ: speed {noise.speed:g} rad/s, "
                   f"torque {noise.torque:g} N·m, axis {noise.axis * 57.29577951308232:g}°")
     if failed:
-        console.print(f"[yellow]{failed} operating points not measured: the model did not converge there "
-                      "(gross slip)[/yellow]")
+        console.print(f"[yellow]operating points not measured (the model's physics stops there): "
+                      f"{left_out_text(failed)}[/yellow]")
     return 0
 
 

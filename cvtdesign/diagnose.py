@@ -36,7 +36,7 @@ import numpy as np
 
 from .effects import EFFECTS
 from .measured import Measured
-from .model import RES_TOL, compile_model
+from .model import compile_model
 from .variant import Layout
 
 CHANNELS = ("alpha", "tau_par", "axis")        # [deg], [N m], [deg]
@@ -69,19 +69,19 @@ class Predictor:
         F = self.model.point.map(n, "thread", 2)
         out = dict(zip(self.model.point.name_out(), F(g, r["omega_1"].to_numpy(), r["tau_perp"].to_numpy(), 0.0,
                                                      phi0, th, np.zeros(0))))
-        tau_par = out["tau_1"].T * np.cos(g) + out["tau_2"].T * np.sin(g)
+        _, tau_par = self.model.frame.load_split(g, out["tau_1"].T, out["tau_2"].T)
         y = ca.vertcat(out["alpha"].T, tau_par, out["gamma_axis"].T, out["omega_2"].T, out["tau_1"].T, out["tau_2"].T)
         self.n = n
-        self._f = ca.Function("predict", [th], [y, out["residual"].T])
-        self._fj = ca.Function("predict_jac", [th], [y, out["residual"].T, ca.jacobian(y, th)])
+        self._f = ca.Function("predict", [th], [y, out["status"].T])
+        self._fj = ca.Function("predict_jac", [th], [y, out["status"].T, ca.jacobian(y, th)])
 
     def __call__(self, theta, jacobian=False):
         """Predictions {alpha [deg], tau_par [N m], axis [deg], omega_2 [rad/s], tau_1, tau_2 [N m]}, converged
-        mask (and dY/dθ, shape (6, n, p), with `jacobian`)."""
+        mask: the points where the model's physics holds (and dY/dθ, shape (6, n, p), with `jacobian`)."""
         theta = np.asarray(theta, float)
         outs = (self._fj if jacobian else self._f)(theta)
         y = np.asarray(outs[0]).reshape(6, self.n)
-        ok = np.isfinite(np.asarray(outs[1]).ravel()) & (np.asarray(outs[1]).ravel() < RES_TOL)
+        ok = np.asarray(outs[1]).ravel() == 0      # the model's status: converged, in contact, no gross slip
         pred = {"alpha": np.degrees(y[0]), "tau_par": y[1], "axis": np.degrees(y[2]), "omega_2": y[3],
                 "tau_1": y[4], "tau_2": y[5]}
         if not jacobian:

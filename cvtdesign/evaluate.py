@@ -9,18 +9,17 @@ Figures (all over the variant's envelope, Kim's protocol by default: γ −80°.
  * min_efficiency: power out / power in (DESIGN sec. 1) over the points that transmit power, |γ| ≥ 5° and
    |τ⊥| ≥ 25 % of the largest load (at γ = 0 no power leaves the CVT, at zero load none enters);
  * max_traction_utilisation: max |F|/(μN) over all contacts; max_hertz_pressure_MPa: max Hertz peak pressure.
+
+The ideal law, γ and α are the layout's own (kinematics.py). Every figure is taken over the points where the
+physics holds; the points that lost contact, slip grossly or did not converge are counted (`lost_contact`,
+`gross_slip`, `not_converged`, with the contacts behind them) and left out. A figure with no point to take
+it over is None, never NaN.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .model import CompiledModel
-
-
-def ideal_ratio_gain(layout) -> float:
-    """r1/r2 of the primary drive rollers: the ideal law is ω2/ω1 = (r1/r2) tan γ."""
-    prim = {s: next(r for r in layout.rollers if r.role == "drive" and r.shaft == s) for s in (1, 2)}
-    return float(prim[1].radius) / float(prim[2].radius)
+from .model import CompiledModel, status_counts
 
 
 def envelope(model: CompiledModel, theta=None) -> dict:
@@ -42,12 +41,11 @@ def efficiency(p1, p2):
 
 
 def metrics(model: CompiledModel, res: dict) -> dict:
+    """The figures of merit of an `envelope` result (module docstring), with the points' status counts."""
     L = model.layout
-    ok = res["converged"]
     deg = np.degrees
     G, T = res["gamma_cmd"], res["load"]
-    a = res["alpha"]
-    ideal = ideal_ratio_gain(L) * np.tan(G)
+    ideal = model.frame.ideal_ratio(G)
     achieved = res["omega_2"] / res["omega_1"]
     in_range = (np.abs(ideal) >= 0.4) & (np.abs(ideal) <= 2.5)
     at_max = np.isclose(np.abs(T), np.max(np.abs(L.load_grid)))
@@ -57,17 +55,19 @@ def metrics(model: CompiledModel, res: dict) -> dict:
 
     def nanmax(x, mask=None):
         x = np.where(mask, x, np.nan) if mask is not None else x
-        return float(np.nanmax(x)) if np.any(np.isfinite(x)) else float("nan")
+        return float(np.nanmax(x)) if np.any(np.isfinite(x)) else None
 
+    a = deg(res["alpha"])
+    min_eff = nanmax(-res["efficiency"], eff_mask)
     return {
-        "name": L.name, "file": L.file,
-        "max_abs_alpha_deg": nanmax(np.abs(deg(a))),
-        "rms_alpha_deg": float(np.sqrt(np.nanmean(deg(a) ** 2))),
+        "name": L.name, "file": L.file, "ideal_law": model.frame.law_text(),
+        "max_abs_alpha_deg": nanmax(np.abs(a)),
+        "rms_alpha_deg": float(np.sqrt(np.nanmean(a ** 2))) if np.any(np.isfinite(a)) else None,
         "max_abs_alpha_steering_deg": nanmax(np.abs(deg(res["alpha_steering"]))),
         "max_abs_alpha_drive_deg": nanmax(np.abs(deg(res["alpha_drive"]))),
         "ratio_error_pct_at_max_load": nanmax(np.abs(ratio_err), in_range & at_max),
-        "min_efficiency": -nanmax(-res["efficiency"], eff_mask),
+        "min_efficiency": None if min_eff is None else -min_eff,
         "max_traction_utilisation": nanmax(res["utilisation"]),
-        "max_hertz_pressure_MPa": nanmax(res["p_max"]) / 1e6,
-        "points": int(ok.size), "not_converged": int((~ok).sum()),
+        "max_hertz_pressure_MPa": None if nanmax(res["p_max"]) is None else nanmax(res["p_max"]) / 1e6,
+        "points": int(res["status"].size), **status_counts(res, model.roller_names),
     }

@@ -1,7 +1,9 @@
 """Frames, roller poses, the steering linkage and ideal kinematics.
 
-Frames follow Kim et al. (refs/001, sec. 2.1) as fixed in DESIGN.md sec. 1: sphere centre at the origin of
-N (x, y, z); d1 = (1, 1, 0)/√2, d2 = (−1, 1, 0)/√2, d3 = z; c1 = (0, −1, 1)/√2, c2 = (0, −1, −1)/√2, c3 = x.
+The named frame vectors are those of Kim et al., "Causes of microslip in a continuously variable
+transmission" (sec. 2.1): sphere centre at the origin of N (x, y, z); d1 = (1, 1, 0)/√2, d2 = (−1, 1, 0)/√2,
+d3 = z; c1 = (0, −1, 1)/√2, c2 = (0, −1, −1)/√2, c3 = x. They are only names a variant file may use for
+directions: γ, α and the ideal law come from each layout's own shaft axes (kinematics.py).
 
 A roller is described at its contact with the sphere by the outward unit normal n (contact point R·n) and
 the unit axle a (its positive spin direction, a ⊥ n). Its rolling direction is t = n × a: a roller spinning
@@ -18,6 +20,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from .kinematics import shaft_frame
+
 S2 = np.sqrt(2.0)
 FRAME = {
     "x": np.array([1.0, 0.0, 0.0]),
@@ -30,7 +34,6 @@ FRAME = {
     "c2": np.array([0.0, -1.0, -1.0]) / S2,
     "c3": np.array([1.0, 0.0, 0.0]),
 }
-D1, D2 = FRAME["d1"], FRAME["d2"]
 
 
 def named_vector(name: str) -> np.ndarray | None:
@@ -52,12 +55,6 @@ def rotate(v, k, angle):
     return v * c + ca.cross(k, v) * s + k * ca.dot(k, v) * (1 - c)
 
 
-def axis_angle_deg(omega) -> np.ndarray:
-    """Transmission angle γ = atan2(Ω·d2, Ω·d1) [deg] of sphere angular velocities Ω (..., 3) (DESIGN sec. 1)."""
-    omega = np.asarray(omega)
-    return np.degrees(np.arctan2(omega @ D2, omega @ D1))
-
-
 def kim_gamma_from_phi(phi):
     """Kim eq 5: commanded transmission angle γ [rad] for steering angle φ [rad] of the existing CVT.
 
@@ -66,13 +63,14 @@ def kim_gamma_from_phi(phi):
     return np.arctan2(S2 * np.cos(phi) + np.sin(phi), S2 * np.cos(phi) - np.sin(phi))
 
 
-def steering_residuals_numeric(t0s, forks, gammas, phis):
+def steering_residuals_numeric(t0s, forks, frame, gammas, phis):
     """Lateral-constraint misfit t_i(φ)·u(γ) of every steered roller, shape (len(gammas), len(phis), n).
 
-    t0s: rolling directions at φ = 0 (n, 3); forks: (axis (n, 3), sign (n,)); u(γ) = cos γ d1 + sin γ d2 is
-    the commanded axis. A linkage reaches γ where every steered roller rolls without lateral slip about u."""
+    t0s: rolling directions at φ = 0 (n, 3); forks: (axis (n, 3), sign (n,)); frame: the layout's
+    kinematics.ShaftFrame, whose u(γ) is the commanded axis. A linkage reaches γ where every steered roller
+    rolls without lateral slip about u."""
     axes, signs = forks
-    u = np.cos(gammas)[:, None] * D1 + np.sin(gammas)[:, None] * D2          # (G, 3)
+    u = frame.axis(np.asarray(gammas, float))                                # (G, 3)
     phis = np.broadcast_to(np.atleast_2d(phis), (len(gammas), np.shape(phis)[-1]))  # (G, P): shared or per γ
     th = phis[:, :, None] * signs[None, None, :]                             # (G, P, n)
     # t_i(φ)·u = t0 · R(−sφ) u  (rotation preserves dot products)
@@ -85,19 +83,19 @@ def steering_residuals_numeric(t0s, forks, gammas, phis):
     return t0u[:, None, :] * c - t0kxu[:, None, :] * s + (ku * t0k)[:, None, :] * (1 - c)
 
 
-def steering_angle_guess(t0s, forks, gammas, n_scan: int = 721) -> tuple[np.ndarray, np.ndarray]:
+def steering_angle_guess(t0s, forks, frame, gammas, n_scan: int = 721) -> tuple[np.ndarray, np.ndarray]:
     """Steering angle φ ∈ (−90°, 90°] [rad] that best realises each commanded γ [rad], by a scan.
 
     Returns (φ, worst residual). The compiled model refines φ with Newton; the scan only seeds it and
     tells whether the linkage can reach γ at all."""
     gammas, inverse = np.unique(np.atleast_1d(gammas), return_inverse=True)
     phis = np.linspace(-np.pi / 2, np.pi / 2, n_scan)[1:]
-    cost = np.sum(steering_residuals_numeric(t0s, forks, gammas, phis) ** 2, axis=-1)
+    cost = np.sum(steering_residuals_numeric(t0s, forks, frame, gammas, phis) ** 2, axis=-1)
     best = phis[np.argmin(cost, axis=1)]
     width = phis[1] - phis[0]
     for _ in range(6):  # zoom in around each best angle: 6 passes of 41 points refine it by 20^6
         local = best[:, None] + np.linspace(-width, width, 41)[None, :]
-        cost = np.sum(steering_residuals_numeric(t0s, forks, gammas, local) ** 2, axis=-1)
+        cost = np.sum(steering_residuals_numeric(t0s, forks, frame, gammas, local) ** 2, axis=-1)
         best = local[np.arange(len(gammas)), np.argmin(cost, axis=1)]
         width /= 20
     wrapped = (best + np.pi / 2) % np.pi - np.pi / 2
@@ -128,10 +126,12 @@ def pose(r, phi):
 
 
 def steering_data(layout):
-    """Rolling directions at φ = 0 and (fork axes, signs) of the steered rollers, for the linkage scan."""
+    """Rolling directions at φ = 0, (fork axes, signs) of the steered rollers and the layout's ShaftFrame:
+    the arguments of `steering_angle_guess` before the γ."""
     steered = [r for r in layout.rollers if r.fork_axis is not None]
-    t0 = np.array([np.cross(*pose(r, 0.0)) for r in steered])
-    return t0, (np.array([_np(r.fork_axis) for r in steered]), np.array([r.fork_sign for r in steered], float))
+    t0 = np.array([np.cross(*pose(r, 0.0)) for r in steered]).reshape(-1, 3)
+    forks = (np.array([_np(r.fork_axis) for r in steered]).reshape(-1, 3), np.array([r.fork_sign for r in steered], float))
+    return t0, forks, shaft_frame(layout)
 
 
 def rigid_constraints(layout, phi: float) -> np.ndarray:
@@ -162,4 +162,4 @@ def ideal_gamma(layout, phi: float) -> float:
     A = rigid_constraints(layout, phi)
     motion = np.linalg.svd(A)[2][-1]
     om = motion[:3] * np.sign(motion[3])
-    return float(np.arctan2(om @ D2, om @ D1))
+    return float(shaft_frame(layout).axis_angle(om))

@@ -4,9 +4,9 @@ One operating point per CSV row: `gamma_cmd_deg` [deg], `omega_1`, `omega_2` [ra
 [N m] (external torques, positive in the sense of positive ω), optionally `gamma_axis_deg` [deg] (the
 measured axis angle). Other columns are ignored. Rows that repeat an operating point are replicates.
 
-Derived per row (DESIGN sec. 1): slip angle α = atan2(ω2·r2/r1, ω1) − γ_cmd (Kim eq 15/35), lateral load
-τ⊥ = −τ1 sin γ_cmd + τ2 cos γ_cmd and parallel torque τ∥ = τ1 cos γ_cmd + τ2 sin γ_cmd (Kim eq 17),
-efficiency = power out / power in.
+Derived per row with the variant's own shaft kinematics (kinematics.py): slip angle α (for Kim's layout
+atan2(ω2·r2/r1, ω1) − γ_cmd, Kim et al. eqs 15 and 35), lateral load τ⊥ and parallel torque τ∥ (for Kim's
+layout −τ1 sin γ + τ2 cos γ and τ1 cos γ + τ2 sin γ, Kim eq 17), efficiency = power out / power in.
 """
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from .kinematics import ShaftFrame, shaft_frame
 from .units import InputError, suggest
 
 REQUIRED = ("gamma_cmd_deg", "omega_1", "omega_2", "tau_1", "tau_2")
@@ -39,24 +40,18 @@ class Measured:
         return bool(self.rows.groupby("point").size().max() > 1)
 
 
-def _wrap_deg(x):
-    """Angle between two axis directions, wrapped to [−90°, 90°) (an axis is a line)."""
-    return (np.asarray(x) + 90.0) % 180.0 - 90.0
-
-
 def load_measured(path, layout, drop_bad: bool = False) -> Measured:
-    """Read a measured-data CSV for a variant: α with its drive radii, γ checked against its envelope."""
-    from .evaluate import ideal_ratio_gain
-
+    """Read a measured-data CSV for a variant: α, τ⊥ and τ∥ with its shaft kinematics, γ checked against its
+    envelope."""
     g = np.degrees(layout.gamma_grid)
-    return read_measured(path, ideal_ratio_gain(layout), (float(g.min()), float(g.max())), drop_bad)
+    return read_measured(path, shaft_frame(layout), (float(g.min()), float(g.max())), drop_bad)
 
 
-def read_measured(path, ratio_gain: float = 1.0, gamma_range_deg=None, drop_bad: bool = False) -> Measured:
+def read_measured(path, frame: ShaftFrame, gamma_range_deg=None, drop_bad: bool = False) -> Measured:
     """Read and check a measured-data CSV.
 
-    ratio_gain: r1/r2 of the primary drive rollers (α uses ω2·r2/r1); gamma_range_deg: (lo, hi) the
-    variant's operating range [deg]. Every problem is one InputError line naming the file, the line (the
+    frame: the variant's shaft kinematics (α, τ⊥, τ∥ as kinematics.py defines them); gamma_range_deg:
+    (lo, hi) the variant's operating range [deg]. Every problem is one InputError line naming the file, the line (the
     header is line 1) or the column, and what was expected. With `drop_bad`, rows with empty or non-numeric
     cells, a motor shaft at rest or γ outside the range are dropped and counted instead."""
     where = str(path)
@@ -113,9 +108,9 @@ def read_measured(path, ratio_gain: float = 1.0, gamma_range_deg=None, drop_bad:
     rows = num.reset_index(drop=True)
     rows.insert(0, "line", (np.asarray(num.index) + 2).astype(int))
     g = np.radians(rows["gamma_cmd_deg"].to_numpy())
-    rows["alpha_deg"] = _wrap_deg(np.degrees(np.arctan2(rows["omega_2"] / ratio_gain, rows["omega_1"]) - g))
-    rows["tau_perp"] = -rows["tau_1"] * np.sin(g) + rows["tau_2"] * np.cos(g)
-    rows["tau_par"] = rows["tau_1"] * np.cos(g) + rows["tau_2"] * np.sin(g)
+    w1, w2 = rows["omega_1"].to_numpy(), rows["omega_2"].to_numpy()
+    rows["alpha_deg"] = np.degrees(frame.slip_angle(w1, w2, g))
+    rows["tau_perp"], rows["tau_par"] = frame.load_split(g, rows["tau_1"].to_numpy(), rows["tau_2"].to_numpy())
     from .evaluate import efficiency
     rows["efficiency"] = efficiency(rows["tau_1"] * rows["omega_1"], rows["tau_2"] * rows["omega_2"])
     m = Measured(where, rows, "gamma_axis_deg" in rows.columns, dropped)

@@ -33,7 +33,8 @@ def save(fig, path: Path, dpi=80):
 
 def compare_figure(results: list[tuple[str, dict]], path: Path, loads=(-1.0, -0.5, 0.5, 1.0)):
     """One row per variant: α, its steering part and its drive part against commanded γ at several loads
-    (Kim Figs 20-21), and the efficiency map over γ and τ⊥."""
+    (Kim Figs 20-21), and the efficiency map over γ and τ⊥ with the points where the physics stops holding
+    marked (lost contact, gross slip, not converged)."""
     plt = _plt()
     n = len(results)
     fig, axes = plt.subplots(n, 4, figsize=(17, 3.4 * n), squeeze=False)
@@ -56,6 +57,14 @@ def compare_figure(results: list[tuple[str, dict]], path: Path, loads=(-1.0, -0.
         cs = row[3].contourf(np.degrees(res["gamma_cmd"]), res["load"], np.clip(res["efficiency"], 0, 1),
                              levels=np.linspace(0, 1, 11), cmap="viridis")
         fig.colorbar(cs, ax=row[3], label="efficiency")
+        for code, marker, colour, label in ((1, "+", "grey", "not converged"), (2, "x", "k", "lost contact"),
+                                            (3, "x", "r", "gross slip")):
+            bad = res["status"] == code
+            if bad.any():
+                row[3].plot(np.degrees(res["gamma_cmd"][bad]), res["load"][bad], marker, color=colour, ms=4,
+                            ls="none", label=label)
+        if (res["status"] != 0).any():
+            row[3].legend(fontsize=7, loc="upper right")
         row[3].set_title(f"{name}: efficiency (out/in)", fontsize=10)
         row[3].set_xlabel("commanded γ [deg]")
         row[3].set_ylabel("τ⊥ [N·m]")

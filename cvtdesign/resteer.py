@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
-from .evaluate import ideal_ratio_gain
+from .kinematics import shaft_frame
 
 RATIOS = (0.4, 0.5, 0.8, 1.0, 1.25, 2.0, 2.5)     # Brokowski sec. 5.2 requested speed ratios
 SEARCH = np.radians(25.0)                         # [rad] search half-width about the ideal command
@@ -29,8 +29,8 @@ def ratio(model, gammas, load, theta=None) -> np.ndarray:
 
 
 def ideal_command(layout, rho) -> float:
-    """γ [rad] of the ideal law ω2/ω1 = (r1/r2) tan γ."""
-    return float(np.arctan(rho / ideal_ratio_gain(layout)))
+    """γ [rad] of the layout's ideal law (ω2/ω1 = (r1/r2) tan γ for Kim's layout) for the speed ratio ρ."""
+    return float(shaft_frame(layout).command_for_ratio(rho))
 
 
 def model_command(model, rho, load, theta=None) -> float:

@@ -116,15 +116,16 @@ def parse_settings(items, effects, where="--set") -> dict:
 def simulate(layout: Layout, effects, parameters: dict | None = None, protocol: Protocol | None = None,
              noise: Noise = Noise(), seed: int = 0, axis: bool = True) -> tuple[pd.DataFrame, int]:
     """Run the protocol on the model with `effects` (parameters {effect: {param: SI value}}) and return
-    (rows in the DESIGN.md sec. 2 format, number of points not measured because the model did not converge
-    there, e.g. gross slip under traction_saturation)."""
-    from .model import compile_model
+    (rows in the measured-data format, the points not measured: model.status_counts of the points where the
+    physics stops holding (lost contact, gross slip) or the solve did not converge; a rig cannot measure a
+    steady state there)."""
+    from .model import compile_model, status_counts
 
     protocol = protocol or kim_protocol(layout)
     model = compile_model(layout.with_effects(effects, parameters))
     W, G, T = np.meshgrid(protocol.speeds, protocol.gammas, protocol.loads, indexing="ij")
     res = model.evaluate(G, T, speeds=W, load_kind=protocol.load_kind)
-    ok = res["converged"].ravel()
+    ok = res["ok"].ravel()
     truth = {k: res[k].ravel()[ok] for k in ("omega_1", "omega_2", "tau_1", "tau_2", "gamma_axis")}
     gam = G.ravel()[ok]
     rng = np.random.default_rng(seed)
@@ -139,7 +140,8 @@ def simulate(layout: Layout, effects, parameters: dict | None = None, protocol: 
         if axis:
             b["gamma_axis_deg"] = np.degrees(truth["gamma_axis"] + noise.axis * rng.standard_normal(n))
         blocks.append(pd.DataFrame(b))
-    return pd.concat(blocks, ignore_index=True), int((~ok).sum())
+    left_out = {k: v for k, v in status_counts(res, model.roller_names).items() if k != "ok" and v}
+    return pd.concat(blocks, ignore_index=True), left_out
 
 
 def to_csv_text(rows: pd.DataFrame) -> str:

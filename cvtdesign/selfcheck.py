@@ -184,7 +184,7 @@ def run(variant="variants/existing.yaml", quick=False, seeds=3, scheduler=None, 
                 r = {"id": c["id"], "kind": c["kind"], "withheld": "+".join(c["withheld"]) or "-",
                      "noise": c["noise"], "verdict": f"error: {type(e).__name__}: {e}", "accepted": "-",
                      "correct": False, "shrink": float("nan"), "shrink_efficiency": float("nan"),
-                     "seconds": float("nan"), "not_measured": 0}
+                     "seconds": float("nan"), "not_measured": {}}
             results.append(r)
             if progress:
                 progress(len(results), len(cases), r)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cvtdesign.cli import main
-from cvtdesign.model import compile_model
+from cvtdesign.model import STATUS, compile_model
 from cvtdesign.variant import load_variant
 
 EXISTING = Path(__file__).resolve().parents[2] / "variants" / "existing.yaml"
@@ -82,5 +82,6 @@ def test_gross_slip_is_reported_not_returned():
     theta = np.array(m.param_values)
     theta[m.param_names.index("traction_saturation.mu_scale")] = 0.2   # μN = 16 N at the preload
     r = m.evaluate(np.radians([30.0, 30.0]), [0.1, 1.0], theta=theta)
-    assert r["converged"].tolist() == [True, False]
+    assert r["status"].tolist() == [STATUS.index("ok"), STATUS.index("gross_slip")]
+    assert m.roller_names[r["failed_contact"][1]] == "D2"     # the brake roller carries the largest |F| − μN
     assert np.isfinite(r["alpha"][0]) and np.isnan(r["alpha"][1]) and np.isnan(r["N"][:, 1]).all()

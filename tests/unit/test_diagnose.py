@@ -23,7 +23,7 @@ def layout():
 
 def dataset(layout, tmp_path, effects, params=None, seed=0, protocol=None, noise=rig.Noise()):
     rows, failed = rig.simulate(layout, effects, params, protocol, noise, seed)
-    assert failed == 0
+    assert failed == {}
     path = tmp_path / f"data{seed}.csv"
     path.write_text(rig.to_csv_text(rows))
     return path

@@ -34,7 +34,7 @@ def test_rig_cli_writes_kims_protocol(tmp_path, capsys):
 def test_noise_free_rig_reproduces_the_model(layout, tmp_path):
     """With zero noise every column is the model's output and the derived α, τ⊥ are the model's."""
     rows, failed = rig.simulate(layout, KIM, noise=rig.Noise(0, 0, 0))
-    assert failed == 0
+    assert failed == {}
     path = tmp_path / "d.csv"
     path.write_text(rig.to_csv_text(rows))
     data = measured.load_measured(path, layout)
