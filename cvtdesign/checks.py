@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import itertools
 
+import casadi as ca
 import numpy as np
 
-from .geometry import pose, rigid_constraints, steering_angle_guess, steering_data
+from .geometry import FRAME, pose, rigid_constraints, steering_angle_guess, steering_data
 from .units import InputError
 from .variant import Layout
 
@@ -75,7 +76,60 @@ def check_mounts(layout: Layout):
         raise InputError(f"{layout.file}: rollers: the contact normals do not hold the sphere in all directions")
 
 
+def check_steering_present(layout: Layout):
+    """At least one roller is steered: without steering rollers nothing fixes the sphere's axis (and the
+    linkage scan has nothing to scan)."""
+    if not any(r.fork_axis is not None for r in layout.rollers):
+        raise InputError(f"{layout.file}: steering.forks: no steering roller on any fork; without steering rollers "
+                         "nothing fixes the sphere's axis (add a fork holding at least one steering roller)")
+
+
+def _numeric(x) -> bool:
+    return x is None or isinstance(x, (float, int, np.ndarray, ca.DM))
+
+
+def _frame_name(u, tol=1e-9) -> str:
+    for name, v in FRAME.items():
+        for sign in ("", "-"):
+            if name != "d3" and np.allclose(u, v if sign == "" else -v, atol=tol):
+                return f" = {sign}{name}"
+    return ""
+
+
+def check_preload_equilibrium(layout: Layout):
+    """The preloads P_i (normal forces with the sphere centred) balance: Σ P_i n_i = 0 (n_i the contact
+    normals at φ = 0). If not, the message gives the net force and the rest equilibrium the mounts would
+    find, K δ = −Σ P_i n_i with K = Σ k_i n_i n_iᵀ, N_i = P_i + k_i n_i·δ: its smallest normal force
+    (negative: that roller lifts off). Skipped when preloads, stiffnesses or normals are symbolic (an
+    optimiser's overrides)."""
+    rs = layout.rollers
+    if not all(isinstance(r.preload, (float, int)) and isinstance(r.stiffness, (float, int))
+               and _numeric(r.normal) and _numeric(r.axle) and _numeric(r.fork_axis) for r in rs):
+        return
+    P = np.array([float(r.preload) for r in rs])
+    k = np.array([float(r.stiffness) for r in rs])
+    n = np.array([pose(r, 0.0)[0] for r in rs])
+    F = P @ n
+    if not np.linalg.norm(F) > 1e-6 * P.sum():
+        return
+    K = np.einsum("i,ij,ik->jk", k, n, n)
+    delta = np.linalg.lstsq(K, -F, rcond=None)[0]
+    N = P + k * (n @ delta)
+    N[np.abs(N) < 1e-9 * P.sum()] = 0.0
+    i = int(np.argmin(N))
+    u = F / np.linalg.norm(F)
+    u = np.where(np.abs(u) < 1e-9, 0.0, u)   # no '5.7e-16' or '-0' in the message
+    lift = " (it would lift off)" if N[i] < 0 else " (unloaded)" if N[i] == 0 else ""
+    raise InputError(
+        f"{layout.file}: rollers: the preloads do not balance (Σ P_i n_i = {np.linalg.norm(F):.4g} N along "
+        f"({u[0]:.3g}, {u[1]:.3g}, {u[2]:.3g}){_frame_name(u)}); at rest the mounts would move the sphere "
+        f"{np.linalg.norm(delta) * 1e3:.3g} mm and the smallest normal force would be {N[i]:.4g} N on rollers."
+        f"{rs[i].name}{lift}; move the rollers or set their preloads so that the preload forces sum to zero")
+
+
 def check_layout(layout: Layout):
+    check_steering_present(layout)
     check_kinematics(layout)
     check_mounts(layout)
     check_overlaps(layout)
+    check_preload_equilibrium(layout)

@@ -1,8 +1,8 @@
 """Variant files (YAML) → a validated, SI-valued `Layout` that the model compiler reads.
 
 The schema (pydantic) fixes the fields; `load_variant` turns every problem into one `InputError` line
-naming the file and the field. Geometric checks (axle ⊥ normal, overlapping rollers, steering that
-cannot fix an axis, couplings that fight) run on the resolved layout.
+naming the file and the field. Geometric checks (axle ⊥ normal, contact points on the sphere, preloads that
+balance, overlapping rollers, steering that cannot fix an axis, couplings that fight) run on the resolved layout.
 """
 from __future__ import annotations
 
@@ -45,8 +45,14 @@ class SphereSpec(Strict):
 
 
 class RollerSpec(Strict):
+    """One roller. `contact` is where it touches the sphere, given as a direction from the sphere centre
+    (a frame name such as 'd2' or '-c1', a list of three plain numbers, normalised, or {polar, azimuth}) or
+    as a point: a list of three lengths (e.g. ["0 mm", "0 mm", "63.5 mm"] or "= expressions" over the
+    parameters, in m), which must lie on the sphere (|p| = sphere radius within 1e-6 relative). Plain
+    numbers are always a direction, never a point; a list mixing plain numbers and lengths is refused.
+    `axle` is the positive spin axis, perpendicular to the contact normal."""
     role: Literal["drive", "follower", "steering"]
-    contact: Union[str, list[float], Spherical]
+    contact: Union[str, list[Num], Spherical]
     axle: Union[str, list[float], Spherical]
     radius: Num
     material: str
@@ -191,12 +197,13 @@ def _schema_error(err: ValidationError, where: str, root=None) -> InputError:
     return InputError(f"{where}: {path}: {e['msg'].lower()}")
 
 
-def _vector(spec, where, names):
+def _vector(spec, where, names, point=False):
     if isinstance(spec, str):
         v = named_vector(spec.strip())
         if v is None:
+            forms = "a list of 3 numbers, a point of 3 lengths" if point else "a list of 3 numbers"
             raise InputError(f"{where}: expected a frame vector name (x, y, z, d1, d2, c1, c2, c3, optionally "
-                             f"with '-'), a list of 3 numbers or {{polar, azimuth}}, got '{spec}'")
+                             f"with '-'), {forms} or {{polar, azimuth}}, got '{spec}'")
         return v
     if isinstance(spec, Spherical):
         return spherical(to_si(spec.polar, "angle", f"{where}.polar", names),
@@ -205,6 +212,35 @@ def _vector(spec, where, names):
     if v.shape != (3,) or np.linalg.norm(v) == 0:
         raise InputError(f"{where}: expected a non-zero vector of 3 numbers, got {spec}")
     return v / np.linalg.norm(v)
+
+
+def _contact(spec, where, names, R):
+    """The unit contact normal of a roller's `contact` (see RollerSpec): a direction as `_vector` reads it,
+    or a point of three lengths, which must lie on the sphere of radius R (checked when both are numbers;
+    an optimiser's symbolic parameters skip the check)."""
+    if not isinstance(spec, list):
+        return _vector(spec, where, names, point=True)
+    quantity = [isinstance(c, str) for c in spec]
+    if not any(quantity):
+        return _vector(spec, where, names, point=True)
+    if not all(quantity):
+        raise InputError(f"{where}: mixes plain numbers and quantities ({', '.join(map(str, spec))}); give three "
+                         "plain numbers (a direction) or three lengths like '44.9 mm' (a point on the sphere)")
+    if len(spec) != 3:
+        raise InputError(f"{where}: expected a point of 3 lengths, got {len(spec)}")
+    p = [to_si(c, "length", f"{where}[{i}]", names) for i, c in enumerate(spec)]
+    if not all(isinstance(c, float) for c in p):
+        p = ca.vertcat(*p)
+        return p / ca.norm_2(p)
+    p = np.array(p)
+    dist = float(np.linalg.norm(p))
+    if isinstance(R, float) and not abs(dist - R) <= 1e-6 * R:
+        raise InputError(f"{where}: the contact point is {dist * 1e3:.6g} mm from the sphere centre but the sphere "
+                         f"radius is {R * 1e3:.6g} mm; a contact point must lie on the sphere (three plain numbers "
+                         "give a direction instead)")
+    if dist == 0:
+        raise InputError(f"{where}: the contact point is the sphere centre; a contact point must lie on the sphere")
+    return p / dist
 
 
 def _positive(value, where, what="a positive value"):
@@ -247,6 +283,8 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
     for i, f in enumerate(spec.steering.forks):
         w = f"{where}: steering.forks[{i}]"
         axis = _vector(f.axis, f"{w}.axis", names)
+        if not f.rollers:
+            raise InputError(f"{w}.rollers: empty; every fork holds at least one roller (a steering roller's name)")
         for rn in f.rollers:
             if rn not in spec.rollers:
                 raise InputError(f"{w}.rollers: unknown roller '{rn}'{suggest(rn, spec.rollers)}")
@@ -269,7 +307,7 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         radius = _positive(to_si(r.radius, "length", f"{w}.radius", names), f"{w}.radius", "a positive radius")
         crown = radius if r.crown_radius is None else _positive(
             to_si(r.crown_radius, "length", f"{w}.crown_radius", names), f"{w}.crown_radius", "a positive radius")
-        normal = _vector(r.contact, f"{w}.contact", names)
+        normal = _contact(r.contact, f"{w}.contact", names, R)
         axle = _vector(r.axle, f"{w}.axle", names)
         dot = ca.dot(ca.vec(ca.DM(normal) if isinstance(normal, np.ndarray) else normal),
                      ca.vec(ca.DM(axle) if isinstance(axle, np.ndarray) else axle))
