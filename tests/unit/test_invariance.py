@@ -470,7 +470,7 @@ def test_zero_load_no_slip(d):
     model = compile_model(lt.layout_of(d, check=False))
     L = model.layout
     res = model.evaluate(L.gamma_grid, np.zeros_like(L.gamma_grid))
-    assert res["ok"].all(), f"{d['name']}: not converged at γ = {np.degrees(L.gamma_grid[~res['converged']])}"
+    assert res["ok"].all(), f"{d['name']}: not converged at γ = {np.degrees(L.gamma_grid[~res['ok']])}"
     worst = np.max(np.abs(res["alpha"]))
     assert worst < 1e-9, (f"{d['name']}: |α| = {worst:.3g} rad at τ⊥ = 0 (γ = "
                           f"{np.degrees(L.gamma_grid[np.argmax(np.abs(res['alpha']))]):.0f}°)")
