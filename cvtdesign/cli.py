@@ -39,6 +39,24 @@ def write_atomic(path: Path, text: str):
             os.remove(tmp)
 
 
+def _finite(obj):
+    """obj with numpy scalars and arrays as Python numbers and lists, and NaN or ±inf as None."""
+    if isinstance(obj, dict):
+        return {str(k): _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple, np.ndarray)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, (np.integer, np.bool_)):
+        return obj.item()
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if np.isfinite(obj) else None
+    return obj
+
+
+def json_text(obj) -> str:
+    """Strict JSON (RFC 8259: no NaN or Infinity; a number that does not exist is null), indented."""
+    return json.dumps(_finite(obj), indent=2, allow_nan=False, default=str) + "\n"
+
+
 def left_out_text(counts: dict) -> str:
     """'gross slip at 12 points (D1 ×8, S1 ×4); lost contact at 3 points (S2 ×3)' from model.status_counts."""
     parts = []
@@ -105,7 +123,7 @@ def _compare(args, painter):
     figure = Path(args.out) / "compare.png"
     painter.draw("compare_figure", [(L.name, res) for L, res in results], figure)
     if args.json:
-        write_atomic(Path(args.json), json.dumps({"variants": rows}, indent=2, allow_nan=False) + "\n")
+        write_atomic(Path(args.json), json_text({"variants": rows}))
         console.print(f"figures written to {args.json}")
     error = painter.wait()
     if error:
@@ -175,7 +193,7 @@ def cmd_optimise(args):
         console.print(f"[red]no successful solve: IPOPT status {res['status']}[/red]")
     if args.json:
         keys = ("status", "objective", "design", "active_constraints", "variant_file")
-        write_atomic(Path(args.json), json.dumps({k: res[k] for k in keys} | {"details": res}, indent=2) + "\n")
+        write_atomic(Path(args.json), json_text({k: res[k] for k in keys} | {"details": res}))
     return 0 if res["success"] else 1
 
 
@@ -283,7 +301,7 @@ def cmd_diagnose(args):
         for f in diagnose.plot_report(rep, Path(args.plots)):
             console.print(f"plot: {f}")
     if args.json:
-        write_atomic(Path(args.json), json.dumps(diagnose.public(rep), indent=2) + "\n")
+        write_atomic(Path(args.json), json_text(diagnose.public(rep)))
         console.print(f"report written to {args.json}")
     return 0
 
@@ -300,7 +318,7 @@ def cmd_selfcheck(args):
     summ = selfcheck.summary(results)
     selfcheck.print_summary(summ, results, console)
     if args.json:
-        write_atomic(Path(args.json), json.dumps({"summary": summ, "datasets": results}, indent=2) + "\n")
+        write_atomic(Path(args.json), json_text({"summary": summ, "datasets": results}))
     return 0 if selfcheck.meets_targets(summ) else 1
 
 
@@ -359,8 +377,7 @@ def cmd_resteer(args):
         plots.resteer_figure(ratios, load, table, f)
         console.print(f"plot: {f}")
     if args.json:
-        write_atomic(Path(args.json), json.dumps({"commands": cmds, "achieved": table}, indent=2,
-                                                 default=float) + "\n")
+        write_atomic(Path(args.json), json_text({"commands": cmds, "achieved": table}))
     return 0
 def cmd_export(args):
     from rich.console import Console
