@@ -190,7 +190,9 @@ def cmd_optimise(args):
         if args.step:
             _export_steps(console, [res["variant_file"]], Path(res["variant_file"]).parent / "step")
     else:
-        console.print(f"[red]no successful solve: IPOPT status {res['status']}[/red]")
+        chk = res.get("envelope_check")
+        why = f"; worst point {chk['worst']}" if chk and chk.get("worst") else ""
+        console.print(f"[red]no successful solve: {res['status']}{why}; no variant file written[/red]")
     if args.json:
         keys = ("status", "objective", "design", "active_constraints", "variant_file")
         write_atomic(Path(args.json), json_text({k: res[k] for k in keys} | {"details": res}))

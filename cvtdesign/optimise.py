@@ -7,10 +7,37 @@ implicit function theorem); IPOPT solves the NLP from several space-filling star
 
 Objectives: `worst_alpha` (max |α| over the envelope, as an epigraph variable t with −t ≤ α_k ≤ t),
 `rms_alpha`, `power_loss` (weighted mean power loss over a duty cycle of (γ, τ⊥) points [W]).
-Constraints: Hertz peak pressure ≤ the material's allowable, traction utilisation F/(μN) ≤ 1 − margin
-(no gross slip), roller–roller clearance (distance of roller centres minus both radii: exact for rollers in
-one plane such as a tandem pair, conservative otherwise), an assembly envelope radius, and the steering
-linkage still reaching every γ of the envelope.
+Constraints: Hertz peak pressure ≤ the material's allowable, traction |F| ≤ (1 − margin)·μN (no gross
+slip), normal force N ≥ N_min at every contact (the rollers stay in contact), roller–roller clearance
+(distance of roller centres minus both radii: exact for rollers in one plane such as a tandem pair,
+conservative otherwise), an assembly envelope radius, and the steering linkage still reaching every γ of
+the envelope.
+
+Normal force and traction. The model's normal forces come from the sphere's force balance on compliant
+mounts, N_i = P_i + k_i n_i·δ, and nothing in that balance keeps them positive: a large lateral load can
+unload a contact below zero, where the roller has lifted off and the model (creep, Hertz, traction) no
+longer describes it. So
+ * `normal_force` (always on): N_i ≥ N_min at every contact and envelope point, written N_i/P₀_i ≥
+   N_min/P₀_i with P₀_i roller i's preload at the base design (rows of order 1); the constraint report
+   gives its value, bound, slack in newtons and its multiplier per newton. `constraints.min_normal_force`
+   is a force ('5 N'); left out (null) it is 5 % of each roller's base preload. It cannot be switched off:
+   a design with a contact at N ≤ 0 is outside the model, whatever else the study asks for (a smaller
+   positive floor is allowed).
+ * `traction` is |F_i| − (1 − margin)·μ_i·N_i ≤ 0, not F/(μN) ≤ 1 − margin: the utilisation u = |F|/(μN) is
+   negative when N < 0 and would pass the old row at a point that has lost contact. The row is
+   (|F_i| − (1 − margin)·μ_i·N_i)/(μ_i·P_i), with the model's own μ_i (its `mu` output, friction effects
+   included), |F| with the model's 1 mN smoothing (as in its utilisation), and P_i the design's preload
+   (= (u_i − (1 − margin))·N_i/P_i: the old row's value wherever N = P). It is positive whenever N_i ≤ 0,
+   and smooth through N = 0, where u has a pole; where N > 0 it has the sign of u − (1 − margin), so the
+   feasible set, and every optimum with the contacts loaded, is the one of the utilisation row. (The
+   alternative, keeping u and relying on the normal_force rows being present, would leave that pole in
+   the rows IPOPT differentiates.)
+
+After IPOPT, the optimum is checked on the whole envelope by the numeric model (`Problem.check`, which
+compiles the layout at the optimum and runs `CompiledModel.evaluate` over every envelope point): a point
+that did not converge, that has a contact at N ≤ 0 or a contact at |F| > μN fails it, and the solve is then
+reported as failed (status 'Failed_Envelope_Check' with the counts; `success` False), so no variant file is
+written for it (`write_variant` refuses to).
 
 The formulation has a row per constraint per envelope point (6559 for the box placement study), but at an
 optimum only a handful bind. `solve_from` therefore gives IPOPT a working set of envelope rows, checks
@@ -31,8 +58,8 @@ import yaml
 
 from .checks import check_layout
 from .geometry import _np, roller_pose, steering_angle_guess, steering_data
-from .model import compile_model
-from .units import InputError, registry, suggest
+from .model import STATUS, compile_model
+from .units import InputError, registry, suggest, to_si
 from .variant import EnvelopeSpec, Num, Strict, _grid, _param, load_spec, read_spec, resolve
 
 
@@ -56,6 +83,9 @@ class Objective(Strict):
 class Constraints(Strict):
     hertz_pressure: bool = True
     traction_margin: Num | None = 0.2
+    # N_i ≥ this at every contact and envelope point: a force ('5 N'); None: 5 % of each roller's preload at
+    # the base design (DEFAULT_MIN_NORMAL_FRACTION). Not switchable off (bool is kept only to reject it).
+    min_normal_force: bool | Num | None = None
     clearance: Num | None = "2 mm"
     envelope_radius: Num | None = None
     reach_gamma: bool = True
@@ -109,6 +139,7 @@ IPOPT_OPTIONS = {"tol": 1e-8, "acceptable_tol": 1e-6, "hessian_approximation": "
 ACTIVE_TOL = 1e-7   # a constraint within this (relative) slack of its bound counts as active
 NEAR_BINDING = 0.01  # working set: envelope points with a row within this fraction of its bound's scale
 WORKING_SET_MAX = 2_000_000   # entries of the working set's row-selection matrix beyond which every row is used
+DEFAULT_MIN_NORMAL_FRACTION = 0.05   # default min_normal_force: this fraction of each roller's base preload
 VIOLATION_TOL = 1e-8  # a row beyond its bound by more than this (× max(1, |bound|)) is violated (IPOPT relaxes
 #                      its bounds by bound_relax_factor = 1e-8 the same way)
 
@@ -139,6 +170,9 @@ class Problem:
     parts: "_Parts" = None
     _solvers: dict = field(default_factory=dict)
     fixed: dict = field(default_factory=dict)     # sweep parameters (SI) set for this case
+    g_report: np.ndarray = None   # per row: factor from g's units to the report's (P₀ for normal_force: N)
+    vspec: object = None          # the base VariantSpec (to build the numeric layout of a design)
+    motor_speed: float = None     # ω1 of the envelope [rad/s]
 
     @property
     def solver(self) -> ca.Function:
@@ -148,11 +182,20 @@ class Problem:
             self._solvers["full"] = _nlpsol(pt.x, pt.f, pt.g_full, pt.eps, self.spec.max_iter)
         return self._solvers["full"]
 
+    def check(self, design: dict) -> "EnvelopeCheck":
+        """The design (SI values of the design variables) on the whole envelope, by the numeric model: the
+        base variant with this design and the case's sweep parameters, compiled and evaluated at every
+        envelope point (see check_envelope)."""
+        layout = resolve(self.vspec, str(self.base_file), overrides=self.fixed | dict(design))
+        return check_envelope(compile_model(layout, effects=self.spec.effects), self.parts.gamma,
+                              self.parts.load, self.motor_speed)
+
 
 @dataclass
 class _Parts:
     """The pieces both NLPs are built from. Per envelope point k, `point_rows` gives m rows (epigraph
-    α ∓ t, Hertz p_max/p_allow per roller, traction F/(μN) per roller, linkage misfit); row r of point k is
+    α ∓ t, Hertz p_max/p_allow per roller, traction (|F| − (1 − margin)μN)/(μP) per roller, normal force
+    N/P₀ per roller, linkage misfit); row r of point k is
     row `pt_index[r] + k` of the whole formulation (the misfit row only depends on γ: it is row
     `reach_index[γ]`, taken at the γ's first point). Design rows (clearance, envelope radius, ε) depend on
     the design alone: `design_index`."""
@@ -270,8 +313,11 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
     margin = None if cs.traction_margin is None else \
         float(_param(cs.traction_margin, f"{where}: constraints.traction_margin", {}))
     allow = [r.material.p_allow if cs.hertz_pressure else None for r in layout.rollers]
-    need = (["alpha"] if epigraph else []) + (["N"] if any(a is not None for a in allow) else []) + \
-        (["utilisation"] if margin is not None else []) + (["steer_misfit"] if cs.reach_gamma else [])
+    pre0 = np.array([float(r.preload) for r in base.rollers])        # P₀: the preloads at the base design
+    n_min = _min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
+    need = (["alpha"] if epigraph else []) + ["N"] + \
+        (["F_t", "F_a", "mu"] if margin is not None else []) + (["steer_misfit"] if cs.reach_gamma else [])
+    preload = ca.Function("preload", [p], [ca.vertcat(*[r.preload for r in layout.rollers])])   # P(design)
     obj_name = "alpha" if kind == "rms_alpha" else "power_loss"
 
     def point_function(outputs):
@@ -288,16 +334,23 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
             rows_ += [a_deg - xs[len(names)], -a_deg - xs[len(names)]]
             blocks += [(-np.inf, 0.0, "worst_alpha", lambda s: f"α ≤ t at {s}", None),
                        (-np.inf, 0.0, "worst_alpha", lambda s: f"−α ≤ t at {s}", None)]
-        if "N" in out:
+        if any(a is not None for a in allow):
             pm = model.peak_pressure(out["N"], p0s, Ps)
             for i, a in enumerate(allow):
                 if a is not None:
                     rows_.append(pm[i] / a)
                     blocks.append((-np.inf, 1.0, "hertz_pressure", lambda s, i=i: f"p_max/p_allow of {rn[i]} at {s}", 1.0))
         if margin is not None:
+            # (|F| − (1 − margin)μN)/(μP) ≤ 0: positive wherever N ≤ 0 (u = |F|/(μN) is negative there)
+            f_abs = ca.sqrt(out["F_t"] ** 2 + out["F_a"] ** 2 + 1e-6)       # the model's 1 mN smoothing
+            mu_p = out["mu"] * preload(Ps)
             for i in range(nc):
-                rows_.append(out["utilisation"][i])
-                blocks.append((-np.inf, 1 - margin, "traction", lambda s, i=i: f"F/(μN) of {rn[i]} at {s}", 1 - margin))
+                rows_.append((f_abs[i] - (1 - margin) * out["mu"][i] * out["N"][i]) / mu_p[i])
+                blocks.append((-np.inf, 0.0, "traction",
+                               lambda s, i=i: f"(|F| − {1 - margin:g}μN)/(μP) of {rn[i]} at {s}", 1 - margin))
+        for i in range(nc):       # N ≥ N_min, over P₀ (reported in newtons: g_report)
+            rows_.append(out["N"][i] / pre0[i])
+            blocks.append((n_min[i] / pre0[i], np.inf, "normal_force", lambda s, i=i: f"N [N] of {rn[i]} at {s}", 1.0))
         if cs.reach_gamma:
             rows_.append(out["steer_misfit"])
             blocks.append((-np.inf, 1e-6, "reach_gamma", None, 1e-6))
@@ -408,8 +461,28 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
                    np.array([b[1] for b in blocks], float), pt_index, misfit_row, reach_index, design_index,
                    row_r, row_k, row_scale, g_pts, l_pts, phi0, np.arange(npts) // nload,
                    np.flatnonzero(big))
+    g_report = np.ones(len(lb))
+    nf = [r for r, b in enumerate(blocks) if b[2] == "normal_force"]
+    for i, r in enumerate(nf):
+        g_report[pt_index[r] + np.arange(npts)] = pre0[i]
     return Problem(spec, where, base_file, names, lower, upper, x.shape[0], np.array(lb), np.array(ub),
-                   labels, family, evaluate, epigraph, start_t, base_values, parts, fixed=dict(fixed))
+                   labels, family, evaluate, epigraph, start_t, base_values, parts, fixed=dict(fixed),
+                   g_report=g_report, vspec=vspec, motor_speed=float(w1))
+
+
+def _min_normal_force(raw, preloads: np.ndarray, where: str, names: dict) -> np.ndarray:
+    """N_min per roller [N] from constraints.min_normal_force: a positive force (or an expression over the
+    base variant's parameters), the same for every roller; None: DEFAULT_MIN_NORMAL_FRACTION of each
+    roller's preload at the base design."""
+    if raw is None:
+        return DEFAULT_MIN_NORMAL_FRACTION * preloads
+    if isinstance(raw, bool):
+        raise InputError(f"{where}: expected a force like '5 N' (leave it out for {DEFAULT_MIN_NORMAL_FRACTION:.0%} "
+                         f"of each roller's preload), got {raw!r}: the normal-force floor cannot be switched off")
+    value = to_si(raw, "force", where, names)
+    if not isinstance(value, float) or not value > 0:
+        raise InputError(f"{where}: expected a positive force like '5 N', got '{raw}'")
+    return np.full(preloads.size, value)
 
 
 @dataclass
@@ -426,6 +499,62 @@ class Solution:
     start: int
     rounds: int = 1          # working-set rounds (IPOPT solves)
     points: int = 0          # envelope points in the final working set
+    check: "EnvelopeCheck | None" = None   # the optimum on the whole envelope (None: IPOPT did not succeed)
+    ipopt_status: str = ""   # IPOPT's return status (`status` says Failed_Envelope_Check when the check fails)
+
+
+@dataclass
+class EnvelopeCheck:
+    """A design on the whole envelope by the numeric model: how many points did not converge, lost
+    contact (N ≤ 0 at some contact) or slip grossly (N > 0 but |F| > μN at some contact)."""
+    points: int
+    not_converged: int
+    lost_contact: int
+    gross_slip: int
+    min_normal_force: float    # [N] smallest N over the points that pass (NaN: none passes)
+    max_utilisation: float     # largest |F|/(μN) over the points that pass
+    worst: str = ""            # a failing point of the most serious kind, why, and at which contact
+
+    @property
+    def failed(self) -> int:
+        return self.not_converged + self.lost_contact + self.gross_slip
+
+    @property
+    def ok(self) -> bool:
+        return self.failed == 0
+
+    def summary(self) -> str:
+        return (f"{self.failed} of {self.points} envelope points: {self.lost_contact} lost contact (N ≤ 0), "
+                f"{self.gross_slip} gross slip (|F| > μN), {self.not_converged} not converged")
+
+    def as_dict(self) -> dict:
+        return {"points": self.points, "failed": self.failed, "not_converged": self.not_converged,
+                "lost_contact": self.lost_contact, "gross_slip": self.gross_slip,
+                "min_normal_force_N": self.min_normal_force, "max_utilisation": self.max_utilisation,
+                "worst": self.worst}
+
+
+def check_envelope(model, gammas, loads, speeds=None) -> EnvelopeCheck:
+    """Evaluate a numeric CompiledModel at the operating points (γ [rad], τ⊥ [N m], broadcastable; speeds
+    [rad/s], default the layout's) and count the points outside the model's physics by the model's own
+    `status` (not converged, lost contact: N ≤ 0, gross slip: |F| > μN), naming the first failure of the
+    most serious kind and the contact behind it."""
+    res = model.evaluate(gammas, loads, speeds)
+    st, contact = res["status"].ravel(), res["failed_contact"].ravel()
+    n = st.size
+    N, U = np.reshape(res["N"], (-1, n)), np.reshape(res["utilisation"], (-1, n))
+    ok = st == STATUS.index("ok")
+    g, l = (np.broadcast_to(a, res["status"].shape).ravel() for a in (res["gamma_cmd"], res["load"]))
+    worst = ""
+    for code, what in ((2, "lost contact (N ≤ 0)"), (3, "gross slip (|F| > μN)"), (1, "not converged")):
+        if (st == code).any():
+            k = int(np.flatnonzero(st == code)[0])
+            who = f" at {model.roller_names[contact[k]]}" if contact[k] >= 0 else ""
+            worst = f"γ={np.degrees(g[k]):+.0f}° τ⊥={l[k]:+.3g}: {what}{who}"
+            break
+    return EnvelopeCheck(n, int((st == 1).sum()), int((st == 2).sum()), int((st == 3).sum()),
+                         float(np.min(N[:, ok])) if ok.any() else float("nan"),
+                         float(np.max(U[:, ok])) if ok.any() else float("nan"), worst)
 
 
 def _bucket(k: int) -> int:
@@ -566,12 +695,22 @@ def solve_from(problem: Problem, z0, start_index=0, eps: float = 0.0, warm: Solu
 
 
 def _solution(problem, sol, st, g, lam_g, iterations, start_index, rounds, points) -> Solution:
+    """The Solution of an IPOPT run; a successful one is checked on the whole envelope by the numeric model
+    (Problem.check) and reported as failed ('Failed_Envelope_Check') if any point is outside the physics."""
     n = len(problem.names)
     zs = np.asarray(sol["x"]).ravel()[:n]
     values = problem.lower + (problem.upper - problem.lower) * zs
-    return Solution(st["return_status"], bool(st["success"]) or st["return_status"] == "Solved_To_Acceptable_Level",
-                    float(sol["f"]), zs, dict(zip(problem.names, values.tolist())), g, lam_g,
-                    np.asarray(sol["lam_x"]).ravel()[:n], iterations, start_index, rounds, points)
+    design = dict(zip(problem.names, values.tolist()))
+    status = st["return_status"]
+    success = bool(st["success"]) or status == "Solved_To_Acceptable_Level"
+    check = None
+    if success:
+        check = problem.check(design)
+        if not check.ok:
+            success, status = False, f"Failed_Envelope_Check: {check.summary()}"
+    return Solution(status, success, float(sol["f"]), zs, design, g, lam_g,
+                    np.asarray(sol["lam_x"]).ravel()[:n], iterations, start_index, rounds, points, check,
+                    st["return_status"])
 
 
 def starts(problem: Problem) -> np.ndarray:
@@ -599,8 +738,11 @@ def distinct_optima(solutions: list[Solution], tol=1e-3) -> list[tuple[Solution,
 
 
 def constraint_report(problem: Problem, sol: Solution) -> list[dict]:
-    """Per constraint family, the most binding row: value, bound, slack, multiplier and whether active."""
+    """Per constraint family, the most binding row: value, bound, slack, multiplier and whether active.
+    Values, bounds, slacks and multipliers are in the row's report units (normal_force: newtons, the
+    multiplier per newton; the others as in g)."""
     rows = []
+    scale = np.ones(problem.g_lb.size) if problem.g_report is None else problem.g_report
     for fam in dict.fromkeys(problem.g_family):
         idx = [i for i, f in enumerate(problem.g_family) if f == fam]
         slack = np.minimum(sol.g[idx] - problem.g_lb[idx], problem.g_ub[idx] - sol.g[idx])
@@ -608,9 +750,11 @@ def constraint_report(problem: Problem, sol: Solution) -> list[dict]:
         bound = problem.g_ub[j] if np.isfinite(problem.g_ub[j]) and problem.g_ub[j] - sol.g[j] <= sol.g[j] - problem.g_lb[j] \
             else problem.g_lb[j]
         s = float(np.min(slack))
-        lam = float(np.max(np.abs(sol.lam_g[idx])))
-        rows.append({"name": fam, "where": problem.g_labels[j], "value": float(sol.g[j]), "bound": float(bound),
-                     "slack": s, "multiplier": lam, "active": bool(s <= ACTIVE_TOL * max(1.0, abs(bound)))})
+        active = bool(s <= ACTIVE_TOL * max(1.0, abs(bound)))
+        lam = float(np.max(np.abs(sol.lam_g[idx]) / scale[idx]))
+        rows.append({"name": fam, "where": problem.g_labels[j], "value": float(sol.g[j] * scale[j]),
+                     "bound": float(bound * scale[j]), "slack": s * float(scale[j]), "multiplier": lam,
+                     "active": active})
     for i, n in enumerate(problem.names):
         at_lo, at_hi = sol.z[i] < 1e-6, sol.z[i] > 1 - 1e-6
         if at_lo or at_hi:
@@ -624,8 +768,12 @@ def constraint_report(problem: Problem, sol: Solution) -> list[dict]:
 def write_variant(problem: Problem, sol: Solution, out_dir: Path, name: str | None = None) -> Path:
     """The optimised design as a variant file `compare` reads, with a provenance header
     (name: default '<base variant>_<study>'): the base variant with the optimised design variables, the
-    case's sweep parameters and the study's envelope (when it sets one)."""
+    case's sweep parameters and the study's envelope (when it sets one). Refuses a solution that did not
+    succeed, the envelope check included (no variant file for a design outside the model's physics)."""
     from .cli import write_atomic
+
+    if not sol.success:
+        raise ValueError(f"not writing a variant for a failed solve (status {sol.status})")
 
     data = yaml.safe_load(problem.base_file.read_text())
     # the design variables, the case's sweep parameters, and the envelope the design was optimised over
@@ -667,16 +815,20 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
     result = {"study": problem.spec.name, "starts": len(zs),
               "statuses": [s.status for s in solutions],
               "optima": [{"objective": s.objective, "design": s.design, "found": n} for s, n in optima]}
+    result["envelope_checks"] = [s.check.as_dict() if s.check else None for s in solutions]
     if not optima:
+        # no start passed IPOPT and the envelope check: report the best failure, write no variant
         best = min(solutions, key=lambda s: s.objective)
         result.update(status=best.status, success=False, objective=None, design=best.design,
-                      active_constraints=[], constraints=[], variant_file=None)
+                      active_constraints=[], constraints=[], variant_file=None,
+                      envelope_check=best.check.as_dict() if best.check else None)
         return result
     best = optima[0][0]
     report = constraint_report(problem, best)
     out_dir = Path(out_dir or Path("results") / problem.spec.name)
     variant = write_variant(problem, best, out_dir)
     result.update(status=best.status, success=True, objective=best.objective, design=best.design,
+                  envelope_check=best.check.as_dict(),
                   constraints=report, active_constraints=[r["name"] for r in report if r["active"]],
                   variant_file=str(variant), objective_kind=problem.spec.objective.kind,
                   base_variant=str(problem.base_file), base_design=dict(zip(problem.names, problem.base_values.tolist())))

@@ -9,8 +9,9 @@ import yaml
 
 from cvtdesign.cli import main
 from cvtdesign.model import compile_model
-from cvtdesign.optimise import build_problem, constraint_report, solve_from, starts
-from cvtdesign.variant import load_spec, resolve
+from cvtdesign.optimise import build_problem, check_envelope, constraint_report, solve_from, starts
+from cvtdesign.units import InputError
+from cvtdesign.variant import load_spec, load_variant, resolve
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -118,7 +119,8 @@ def test_working_set_reaches_the_optimum_of_every_row(tmp_path):
 
 def test_constraint_labels_name_their_roller_and_point(tmp_path):
     """Each row's label names the roller and operating point whose value it holds (checked against a direct
-    evaluation of the model at the same design)."""
+    evaluation of the model at the same design): Hertz p_max/p_allow, traction (|F| − 0.8 μN)/(μP), i.e.
+    (F/(μN) − 0.8)·N/P, and normal force N/P₀ ≥ 5 % of the preload P₀ = P = 100 N (the default floor)."""
     pr = build_problem(study(tmp_path, envelope={"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "30 deg"},
                                                  "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}))
     z = np.array([0.3])
@@ -126,7 +128,9 @@ def test_constraint_labels_name_their_roller_and_point(tmp_path):
     d = pr.lower[0] + (pr.upper[0] - pr.lower[0]) * z[0]
     box = ROOT / "variants/box.yaml"
     m = compile_model(resolve(load_spec(box), str(box), overrides={"d": d}))
-    for fam, key, scale in (("traction", "utilisation", 1.0), ("hertz_pressure", "p_max", 6e6)):
+    expected = {"traction": lambda r: (r["utilisation"] - 0.8) * r["N"] / 100.0,
+                "hertz_pressure": lambda r: r["p_max"] / 6e6, "normal_force": lambda r: r["N"] / 100.0}
+    for fam, value in expected.items():
         rows = [i for i, f in enumerate(pr.g_family) if f == fam]
         assert len(rows) == 8 * 15
         for i in rows[::7]:
@@ -134,7 +138,10 @@ def test_constraint_labels_name_their_roller_and_point(tmp_path):
             roller = lab.split(" of ")[1].split(" at ")[0]
             gam, load = lab.split("γ=")[1].split("° τ⊥=")
             res = m.evaluate(np.radians(float(gam)), float(load))
-            assert g[i] == pytest.approx(float(res[key][m.roller_names.index(roller)]) / scale, rel=1e-9), lab
+            assert g[i] == pytest.approx(float(value(res)[m.roller_names.index(roller)]), rel=1e-9), lab
+    nf = [i for i, f in enumerate(pr.g_family) if f == "normal_force"]
+    np.testing.assert_allclose(pr.g_lb[nf], 0.05)
+    np.testing.assert_allclose(pr.g_report[nf], 100.0)     # reported in newtons
 
 
 def test_design_variable_free_in_some_variants_only(tmp_path, capsys):
@@ -175,3 +182,114 @@ def test_written_variant_carries_sweep_parameters_and_study_envelope(tmp_path):
     m = compile_model(L)
     G, T = np.meshgrid(L.gamma_grid, L.load_grid, indexing="ij")
     assert np.degrees(np.nanmax(np.abs(m.evaluate(G, T)["alpha"]))) == pytest.approx(sol.objective, rel=1e-5)
+
+
+def lossy_existing(tmp_path):
+    """Kim's existing CVT with a 2 mm rolling-resistance offset: the loss optimum takes little preload, and
+    its lateral load unloads one steering roller (at τ⊥ = 1 N·m, N ≈ P − 43 N)."""
+    data = yaml.safe_load((ROOT / "variants/existing.yaml").read_text())
+    data["effect_parameters"] = {"rolling_resistance": {"offset": "2 mm"}}
+    path = tmp_path / "lossy.yaml"
+    path.write_text(yaml.safe_dump(data, allow_unicode=True, sort_keys=False))
+    return path
+
+
+def test_normal_force_floor_holds_where_the_optimum_would_unload_a_contact(tmp_path):
+    """Minimum power loss with the preload free: without a floor that binds, the optimum (P = 68.9 N) leaves a
+    steering roller at 25.9 N; with min_normal_force 40 N the floor is the active constraint (the preload
+    rises until the least-loaded contact carries 40 N over the whole envelope) and the report says so, in
+    newtons, with its multiplier (the loss per newton of floor)."""
+    fields = dict(base=str(lossy_existing(tmp_path)), design={"preload": {"lower": "5 N", "upper": "200 N"}},
+                  effects=["drive_longitudinal_creep", "steering_lateral_creep", "rolling_resistance"],
+                  objective={"kind": "power_loss"},
+                  envelope={"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "20 deg"},
+                            "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "0.5 N*m"}})
+    free = build_problem(study(tmp_path, constraints={"min_normal_force": "1 N"}, **fields))
+    s_free = solve_from(free, starts(free)[0])
+    assert s_free.success and s_free.check.ok
+    assert s_free.check.min_normal_force < 30                 # the unconstrained optimum unloads a contact
+    pr = build_problem(study(tmp_path, constraints={"min_normal_force": "40 N"}, **fields))
+    sol = solve_from(pr, starts(pr)[0])
+    assert sol.success and sol.check.ok and sol.objective > s_free.objective
+    nf = {r["name"]: r for r in constraint_report(pr, sol)}["normal_force"]
+    assert nf["active"] and nf["multiplier"] > 0 and nf["bound"] == pytest.approx(40.0)
+    assert nf["value"] >= 40.0 - 1e-5                         # IPOPT's bound relaxation: 1e-8 of P₀ = 100 N
+    assert " of S" in nf["where"] and "γ=" in nf["where"]     # a steering roller at an envelope point
+    # the numeric model agrees: the least normal force over the envelope is the floor
+    assert sol.check.min_normal_force == pytest.approx(40.0, abs=1e-4)
+    L = resolve(load_spec(lossy_existing(tmp_path)), "lossy", overrides=sol.design)
+    G, T = np.meshgrid(np.radians(np.arange(-80, 81, 20.0)), np.linspace(-1, 1, 5), indexing="ij")
+    res = compile_model(L, effects=pr.spec.effects).evaluate(G, T)
+    assert res["ok"].all() and np.min(res["N"]) == pytest.approx(40.0, abs=1e-4)
+
+
+def test_envelope_check_flags_lost_contact_and_traction_row_cannot_pass_it(tmp_path):
+    """Kim's existing CVT at τ⊥ = ±4 N·m: a steering roller's normal force goes negative (down to −49 N at
+    100 N preload), where F/(μN) is negative too. The post-solve check counts those points as lost contact,
+    and the traction row |F| − 0.8 μN is positive there, so it can no longer pass them."""
+    m = compile_model(load_variant(ROOT / "variants/existing.yaml"))
+    G, T = np.meshgrid(np.radians(np.arange(-80, 81, 20.0)), [-4.0, 0.0, 4.0], indexing="ij")
+    g, l = G.ravel(), T.ravel()
+    # the raw model outputs (evaluate blanks the points outside the physics): N < 0 with utilisation < 0
+    raw = m.point_function(["N", "utilisation", "residual"]).map(g.size)
+    N, U, resid = (np.asarray(a) for a in raw(g, m.layout.motor_speed, l, 0.0, m.steering_guess(g)[0],
+                                               m.param_values, np.zeros(0)))
+    converged = resid.ravel() < 1e-8
+    lost = converged & (N.min(axis=0) <= 0)
+    assert lost.sum() >= 5 and np.all(U.min(axis=0)[lost] < 0)
+    chk = check_envelope(m, G, T)
+    assert not chk.ok and chk.points == 27 and chk.lost_contact == lost.sum()
+    assert chk.failed == chk.lost_contact + chk.gross_slip + chk.not_converged
+    assert "lost contact" in chk.worst and chk.worst.endswith(("S1", "S2"))
+    assert f"{chk.failed} of 27 envelope points: {chk.lost_contact} lost contact" in chk.summary()
+    G1, T1 = np.meshgrid(np.radians(np.arange(-80, 81, 20.0)), [-1.0, 0.0, 1.0], indexing="ij")
+    ok = check_envelope(m, G1, T1)                              # Kim's envelope: every contact loaded
+    assert ok.ok and ok.summary().startswith("0 of 27") and 0 < ok.min_normal_force < 100 and ok.max_utilisation < 1
+
+    # the rows of a study over that load, at the base design: wherever N < 0, the traction row is violated
+    pr = build_problem(study(tmp_path, base=str(ROOT / "variants/existing.yaml"),
+                             design={"r_steer": {"lower": "20 mm", "upper": "60 mm"}},
+                             envelope={"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "20 deg"},
+                                       "load": {"start": "-4 N*m", "stop": "4 N*m", "step": "4 N*m"}}))
+    rows = np.asarray(pr.evaluate(np.array([(0.038 - 0.020) / 0.040, 0.0]))[1]).ravel()
+    fam = np.array(pr.g_family)
+    n_rows, t_rows = rows[fam == "normal_force"], rows[fam == "traction"]
+    assert (n_rows < 0).sum() >= 5 and np.all(t_rows[n_rows < 0] > 0)
+
+
+def test_optimum_failing_the_envelope_check_is_not_an_optimum(tmp_path):
+    """Without a traction margin, Kim's existing CVT at τ⊥ = ±2 N·m: IPOPT solves (nothing in the rows
+    limits F/(μN)), but at 4 points a contact needs more traction than μN. The solve is reported as failed
+    with the count, and no variant file is written."""
+    path = study(tmp_path, base=str(ROOT / "variants/existing.yaml"), design={"r_steer": {"lower": "20 mm", "upper": "60 mm"}},
+                 constraints={"traction_margin": None},
+                 envelope={"gamma": {"start": "-40 deg", "stop": "40 deg", "step": "20 deg"},
+                           "load": {"start": "-2 N*m", "stop": "2 N*m", "step": "2 N*m"}})
+    pr = build_problem(path)
+    sol = solve_from(pr, starts(pr)[0])
+    assert sol.ipopt_status == "Solve_Succeeded" and not sol.success
+    assert sol.status.startswith("Failed_Envelope_Check: 4 of 15 envelope points") and sol.check.gross_slip == 4
+    assert sol.check.lost_contact == 0 and "gross slip (|F| > μN) at S" in sol.check.worst
+    from cvtdesign.optimise import write_variant
+    with pytest.raises(ValueError):
+        write_variant(pr, sol, tmp_path)
+    out = tmp_path / "res"
+    assert main(["optimise", str(path), "--out", str(out), "--json", str(tmp_path / "o.json")]) == 1
+    res = json.loads((tmp_path / "o.json").read_text())
+    assert res["variant_file"] is None and not out.exists()
+    assert res["status"].startswith("Failed_Envelope_Check") and res["details"]["envelope_check"]["gross_slip"] == 4
+
+
+@pytest.mark.parametrize("value, message", [
+    ("2 kg", "constraints.min_normal_force: expected a force like '100 N', got '2 kg'"),
+    ("-5 N", "constraints.min_normal_force: expected a positive force like '5 N', got '-5 N'"),
+    ("0 N", "constraints.min_normal_force: expected a positive force like '5 N', got '0 N'"),
+    (False, "constraints.min_normal_force: expected a force like '5 N'"),
+])
+def test_bad_min_normal_force(tmp_path, capsys, value, message):
+    path = study(tmp_path, constraints={"min_normal_force": value})
+    with pytest.raises(InputError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        build_problem(path)
+    assert main(["optimise", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
