@@ -33,9 +33,10 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
+import pandas as pd
 
 from .effects import EFFECTS
-from .measured import Measured
+from .measured import MEASURED_CHANNELS, Measured, merge_points
 from .model import compile_model
 from .variant import Layout
 
@@ -49,6 +50,9 @@ MIN_GAIN = 0.05        # and at least this relative drop of the held-out mean sq
 AUTO_Z = 3.1           # spatial autocorrelation z above which a residual field is structured (p < 0.001)
 REGION_Z = 3.0         # operating points whose mean residual is beyond this many σ form the gap's regions
 MAX_ADDED = 2          # greedy rounds: at most two effects are accepted (each round refits every candidate)
+SHRINK_MIN = 0.8       # an effect is named only if the accepted effects remove this much of the gap beyond noise
+MAX_FAIL = 0.05        # a candidate that fails (gross slip, lost contact) at more of the points is not accepted
+FORM_BINS = 8          # quantile bins of a variable in the model-form checks
 
 
 # ---------------------------------------------------------------------------------------------- predictor
@@ -116,33 +120,22 @@ def _mad_std(x):
 
 
 def noise_levels(data: Measured, resid: dict) -> dict:
-    """σ per channel and row [channel units]: from replicates if there are any, else from second differences
-    of `resid` along the load at each γ level (÷√6 for white noise); pooled over the γ level and its two
-    neighbours, then floored at 1e-9 of the largest so no row gets an infinite weight."""
+    """σ per channel and row [channel units]: from replicates if there are any (each row's deviation from
+    its point's mean, √(n/(n−1)) scaled), else from second differences of `resid` along the load at each
+    γ level (÷√6 for white noise); robust (MAD), pooled over the γ level and its two neighbours, then
+    floored at 1e-9 of the largest so no row gets an infinite weight."""
     r = data.rows
     gb = r["gamma_bin"].to_numpy()
     levels = np.unique(gb)
+    count = r.groupby("point")["point"].transform("size").to_numpy()
     out = {}
     for ch, res in resid.items():
-        samples = {}
-        for gl in levels:
-            idx = np.flatnonzero(gb == gl)
-            if data.replicated:
-                pts = r["point"].to_numpy()[idx]
-                dev = []
-                for p in np.unique(pts):
-                    v = res[idx[pts == p]]
-                    if v.size > 1:
-                        dev.extend((v - v.mean()) * np.sqrt(v.size / (v.size - 1)))
-                samples[gl] = np.array(dev)
-            else:
-                parts = []
-                for sb in np.unique(r["speed_bin"].to_numpy()[idx]):
-                    sub = idx[r["speed_bin"].to_numpy()[idx] == sb]
-                    v = res[sub[np.argsort(r["tau_perp"].to_numpy()[sub])]]
-                    if v.size >= 3:
-                        parts.append((v[:-2] - 2 * v[1:-1] + v[2:]) / np.sqrt(6))
-                samples[gl] = np.concatenate(parts) if parts else np.array([])
+        if data.replicated:
+            dev = np.asarray(res, float) - pd.Series(res).groupby(r["point"].to_numpy()).transform("mean").to_numpy()
+            dev = dev * np.sqrt(count / np.maximum(count - 1, 1))
+            samples = {gl: dev[(gb == gl) & (count > 1)] for gl in levels}
+        else:
+            samples = {gl: _second_differences(r, res, np.flatnonzero(gb == gl)) for gl in levels}
         sig = {}
         for k, gl in enumerate(levels):
             pool = np.concatenate([samples[levels[j]] for j in range(max(0, k - 1), min(len(levels), k + 2))])
@@ -154,17 +147,38 @@ def noise_levels(data: Measured, resid: dict) -> dict:
     return out
 
 
-def estimate_noise(P: Predictor, data: Measured) -> dict:
-    """Noise levels for `data`, with the residuals of an unweighted first fit of P (only needed without
-    replicates)."""
-    prelim = fit(P, data, {c: np.ones(P.n) for c in _channels(data)})
-    return noise_levels(data, residuals(data, prelim.pred))
+def _second_differences(r, res, idx) -> np.ndarray:
+    """(v[k] − 2 v[k+1] + v[k+2])/√6 of the residuals along the load, per motor-speed level, at rows idx."""
+    parts = []
+    for sb in np.unique(r["speed_bin"].to_numpy()[idx]):
+        sub = idx[r["speed_bin"].to_numpy()[idx] == sb]
+        v = res[sub[np.argsort(r["tau_perp"].to_numpy()[sub])]]
+        if v.size >= 3:
+            parts.append((v[:-2] - 2 * v[1:-1] + v[2:]) / np.sqrt(6))
+    return np.concatenate(parts) if parts else np.array([])
+
+
+def estimate_noise(P: Predictor, points: Measured, raw: Measured | None = None) -> dict:
+    """σ of each channel at each operating point of `points` (merged replicates, measured.merge_points):
+    with replicates in `raw`, the pooled scatter of the rows about their point's mean, divided by √count;
+    without, from the residuals of an unweighted first fit of P at the points."""
+    if raw is not None and raw.replicated:
+        per_row = noise_levels(raw, {c: raw.rows[col].to_numpy() for c, col in MEASURED_CHANNELS.items()
+                                     if c in _channels(raw)})
+        first = raw.rows.reset_index(drop=True).groupby("point").head(1)
+        order = np.argsort(first["point"].to_numpy())
+        idx = first.index.to_numpy()[order]
+        n = np.sqrt(points.rows["count"].to_numpy())
+        return {c: v[idx] / n for c, v in per_row.items()}
+    prelim = fit(P, points, {c: np.ones(P.n) for c in _channels(points)})
+    return noise_levels(points, residuals(points, prelim.pred))
 
 
 def fit_model(layout: Layout, data: Measured, effects) -> tuple[Predictor, Fit]:
     """Fit the model with `effects` to the data (noise-weighted): the fitted model of resteering."""
-    P = Predictor(layout, effects, data)
-    return P, fit(P, data, estimate_noise(P, data))
+    points = merge_points(data)
+    P = Predictor(layout, effects, points)
+    return P, fit(P, points, estimate_noise(P, points, data))
 
 
 def zscores(resid: dict, noise: dict) -> np.ndarray:
@@ -392,43 +406,57 @@ def _model_efficiency(data: Measured, pred: dict):
 
 @dataclass
 class Score:
-    """A model's held-out performance."""
+    """A model's performance on a dataset's operating points: its full fit, and each point predicted by the
+    fit on the other folds (held out). Where the model fails (no converged physical solution: gross slip,
+    lost contact, no convergence) a point has no prediction: it counts in `failed`, never as a misfit."""
     effects: tuple
     fit: Fit
     pred: dict              # held-out predictions
-    ok: np.ndarray
-    z: np.ndarray           # (channels, rows) held-out z-scores (failed rows: FAIL_Z)
-    per_point: np.ndarray   # held-out Σz² per operating point
-    msz: float              # held-out mean squared z
-    rms_alpha: float        # [deg]
-    rms_efficiency: float   # [-]
-    bic: float
+    ok: np.ndarray          # the model has a held-out prediction and a full-fit prediction at the point
+    per_point: np.ndarray   # held-out Σz² over the channels per point (NaN where not ok)
+    fit_per_point: np.ndarray  # the full fit's Σz² per point (NaN where not ok)
+    failed: float           # fraction of the points where the model fails
+    rms_alpha: float        # held-out RMS α residual over the ok points [deg]
+    rms_efficiency: float   # held-out RMS efficiency residual over the ok points [-]
 
 
 def score(P: Predictor, data: Measured, noise: dict, fold, x0=None) -> Score:
     full = fit(P, data, noise, x0=x0)
     ho = heldout(P, data, noise, full, fold)
+    ok = ho["ok"] & full.ok
     res = residuals(data, ho["pred"])
-    z = zscores(res, noise)
-    z[:, ~ho["ok"]] = FAIL_Z
-    pts = data.rows["point"].to_numpy()
-    per_point = np.bincount(pts, weights=(z ** 2).sum(axis=0))
+    z2 = np.where(ok, (zscores(res, noise) ** 2).sum(axis=0), np.nan)
+    zf2 = np.where(ok, (zscores(residuals(data, full.pred), noise) ** 2).sum(axis=0), np.nan)
     eff_d = data.rows["efficiency"].to_numpy()
     eff_m = _model_efficiency(data, ho["pred"])
-    n = z.size
-    return Score(P.effects, full, ho["pred"], ho["ok"], z, per_point, float(np.mean(z ** 2)),
-                 _rms(res["alpha"]), _rms(eff_d - eff_m, _efficiency_mask(data)),
-                 full.chi2 + len(full.theta) * np.log(n))
+    return Score(P.effects, full, ho["pred"], ok, z2, zf2, float(np.mean(~ok)), _rms(res["alpha"], ok),
+                 _rms(eff_d - eff_m, _efficiency_mask(data) & ok))
 
 
-def _gain_test(before: Score, after: Score) -> float:
-    """One-sided p-value that `after` predicts held-out operating points better than `before`."""
+@dataclass
+class Comparison:
+    """Two models compared on the operating points where both predict (held out)."""
+    points: int
+    msz: tuple          # held-out mean squared z per channel (before, after)
+    gain: float         # 1 − msz_after/msz_before
+    p: float            # one-sided Wilcoxon p-value that `after` predicts the points better
+    dbic: float         # BIC(after) − BIC(before) of the full fits, on the same points
+
+
+def compare(before: Score, after: Score, channels: int) -> Comparison:
+    common = before.ok & after.ok
+    b, a = before.per_point[common], after.per_point[common]
+    if not common.any():
+        return Comparison(0, (np.nan, np.nan), -np.inf, 1.0, np.inf)
     from scipy.stats import wilcoxon
 
-    d = before.per_point - after.per_point
-    if np.allclose(d, 0):
-        return 1.0
-    return float(wilcoxon(d, alternative="greater", zero_method="zsplit").pvalue)
+    d = b - a
+    p = 1.0 if np.allclose(d, 0) else float(wilcoxon(d, alternative="greater", zero_method="zsplit").pvalue)
+    n = common.sum() * channels
+    dk = len(after.fit.theta) - len(before.fit.theta)
+    dbic = float(np.sum(after.fit_per_point[common]) - np.sum(before.fit_per_point[common]) + dk * np.log(n))
+    msz = (float(b.sum() / n), float(a.sum() / n))
+    return Comparison(int(common.sum()), msz, 1 - msz[1] / msz[0], p, dbic)
 
 
 def _shrink(before, after, floor):
@@ -436,6 +464,12 @@ def _shrink(before, after, floor):
     gb = np.sqrt(max(before ** 2 - floor ** 2, 0.0))
     ga = np.sqrt(max(after ** 2 - floor ** 2, 0.0))
     return float(1 - ga / gb) if gb > 0 else 0.0
+
+
+def gap_shrink(c: Comparison) -> float:
+    """Fraction of the gap beyond the noise removed, in z units over every channel: the noise floor of a
+    mean squared z is 1, so the gap is √(msz − 1)."""
+    return _shrink(np.sqrt(c.msz[0]), np.sqrt(c.msz[1]), 1.0)
 
 
 # ------------------------------------------------------------------------------------------ diagnosis
@@ -470,121 +504,170 @@ def _signature(base: Score, cand: Score, noise) -> np.ndarray:
     return np.nan_to_num(np.array(out))
 
 
+def search(models: Models, data: Measured, noise: dict, fold, base: Score, candidates, tick) -> tuple:
+    """Greedy forward search: each remaining candidate added to the current model and scored held out; the
+    best one is accepted when its held-out gain is significant (Wilcoxon p below P_ACCEPT/candidates), above
+    MIN_GAIN, lowers the BIC, and the candidate fails at no more than MAX_FAIL of the points (where the rig
+    measured a steady state). Returns (accepted effects, rounds, the final score, the score after each
+    accepted effect)."""
+    nch = len(_channels(data))
+    current, accepted, rounds, steps = base, [], [], []
+    remaining = list(candidates)
+    while remaining and len(accepted) < MAX_ADDED:
+        rows = []
+        for e in remaining:
+            P = models.get(current.effects + (e,))
+            sc = score(P, data, noise, fold, x0=_x0(P, current.fit))
+            c = compare(current, sc, nch)
+            rows.append({"effect": e, "score": sc, "cmp": c, "significant": bool(
+                c.p < P_ACCEPT / len(remaining) and c.gain > MIN_GAIN and c.dbic < 0 and sc.failed <= MAX_FAIL)})
+            tick(f"round {len(rounds) + 1}: {e}")
+        rows.sort(key=lambda r: (not r["significant"], -r["cmp"].gain))
+        rounds.append(rows)
+        if not rows[0]["significant"]:
+            break
+        accepted.append(rows[0]["effect"])
+        current = rows[0]["score"]
+        steps.append(current)
+        remaining.remove(rows[0]["effect"])
+    return accepted, rounds, current, steps
+
+
+def _structure(data: Measured, z: np.ndarray) -> float:
+    """The largest spatial-autocorrelation z over the channels of a residual field (channels, points)."""
+    return max(autocorrelation_z(data, zc) for zc in z)
+
+
+def verdict(accepted, base: Score, steps, structured_before: float, structured_after: float, has_regions: bool,
+            nch: int) -> tuple[str, list]:
+    """The verdict and the partial explanation. An effect is named only when the accepted effects leave no
+    structured gap (spatial structure z of the final residuals ≤ AUTO_Z) and remove at least SHRINK_MIN of
+    the gap beyond the noise (or leave none that is significant: χ² of the held-out z at p ≥ 0.001).
+    Otherwise a structured gap remains: `unexplained`, with each accepted effect's share of the gap
+    (`partial`). Without accepted effects: `unexplained` if the base residual is structured with regions
+    beyond 3σ, else `none` (the gap is noise)."""
+    from scipy.stats import chi2
+
+    partial = []
+    for e, st in zip(accepted, steps):
+        partial.append({"effect": e, "shrink": gap_shrink(compare(base, st, nch))})
+    if not accepted:
+        return ("unexplained" if structured_before > AUTO_Z and has_regions else "none"), []
+    c = compare(base, steps[-1], nch)
+    n = c.points * nch
+    left = chi2.sf(c.msz[1] * n, n) < 1e-3
+    if structured_after <= AUTO_Z and (gap_shrink(c) >= SHRINK_MIN or not left):
+        return accepted[0], []
+    return "unexplained", partial
+
+
 def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=None) -> dict:
     """Run the whole diagnosis; returns the report (JSON-ready except the keys starting with '_')."""
     t0 = time.perf_counter()
     base = tuple(base)
     candidates = [e for e in (candidates or EFFECTS) if e not in base]
+    raw, data = data, merge_points(data)
     models = Models(layout, data)
     fold = folds(data)
-    tick = progress or (lambda *a: None)
-    total = 1 + len(candidates) * (1 + MAX_ADDED)
-    done = 0
+    total, done = 1 + len(candidates) * (1 + MAX_ADDED), [0]
+
+    def tick(what):
+        done[0] += 1
+        if progress:
+            progress(min(done[0], total), total, what)
 
     P0 = models.get(base)
-    noise = estimate_noise(P0, data)
-    current = score(P0, data, noise, fold)
-    done += 1
-    tick(done, total, f"base {'+'.join(base) or '(none)'}")
-    base_score = current
+    noise = estimate_noise(P0, data, raw)
+    base_score = score(P0, data, noise, fold)
+    tick(f"base {'+'.join(base) or '(none)'}")
     res_fit = residuals(data, base_score.fit.pred)
     structured = autocorrelation_z(data, zscores(res_fit, noise)[0])
     regs = regions(data, res_fit["alpha"], noise["alpha"])
-
-    accepted, rounds = [], []
-    remaining = list(candidates)
-    while remaining and len(accepted) < MAX_ADDED:
-        scores = {}
-        for e in remaining:
-            P = models.get(current.effects + (e,))
-            scores[e] = score(P, data, noise, fold, x0=_x0(P, current.fit))
-            done += 1
-            tick(done, total, f"round {len(rounds) + 1}: {e}")
-        alpha = P_ACCEPT / max(len(remaining), 1)
-        rows = []
-        for e, s in scores.items():
-            p = _gain_test(current, s)
-            gain = 1 - s.msz / current.msz
-            rows.append({"effect": e, "score": s, "p": p, "gain": gain,
-                         "significant": bool(p < alpha and gain > MIN_GAIN and s.bic < current.bic)})
-        rows.sort(key=lambda r: r["score"].msz)
-        rounds.append(rows)
-        best = rows[0]
-        if not best["significant"]:
-            break
-        accepted.append(best["effect"])
-        current = best["score"]
-        remaining.remove(best["effect"])
-    tick(total, total, "done")
-
-    final = current
+    accepted, rounds, final, steps = search(models, data, noise, fold, base_score, candidates, tick)
+    if progress:
+        progress(total, total, "done")
     z_final = zscores(residuals(data, final.fit.pred), noise)
-    structured_after = autocorrelation_z(data, z_final[0])
-    if accepted:
-        verdict = accepted[0]
-    else:
-        verdict = "unexplained" if structured > AUTO_Z and regs else "none"
-
-    # ranking: the first round's candidates, best first; accepted ones flagged
-    first = rounds[0] if rounds else []
-    floor_alpha = _rms(noise["alpha"])
-    floor_eff = _efficiency_noise(data, noise)
-    ranking = []
-    for r in first:
-        s = r["score"]
-        ranking.append({
-            "effect": r["effect"],
-            "heldout_rms_before": base_score.rms_alpha, "heldout_rms_after": s.rms_alpha,
-            "shrink": _shrink(base_score.rms_alpha, s.rms_alpha, floor_alpha),
-            "heldout_rms_efficiency_before": base_score.rms_efficiency,
-            "heldout_rms_efficiency_after": s.rms_efficiency,
-            "shrink_efficiency": _shrink(base_score.rms_efficiency, s.rms_efficiency, floor_eff),
-            "heldout_msz_before": base_score.msz, "heldout_msz_after": s.msz,
-            "p_value": r["p"], "bic_change": s.bic - base_score.bic,
-            "params": s.fit.params(),
-            "accepted": r["effect"] in accepted,
-        })
-    # region shrink for the accepted model
-    in_reg = _in_regions(data, regs[:3]) if regs else np.zeros(len(data.rows), bool)
-    res_b = residuals(data, base_score.pred)
-    res_a = residuals(data, final.pred)
-    how_far = {
-        "heldout_rms_alpha_deg": [base_score.rms_alpha, final.rms_alpha],
-        "shrink_alpha": _shrink(base_score.rms_alpha, final.rms_alpha, floor_alpha),
-        "heldout_rms_efficiency": [base_score.rms_efficiency, final.rms_efficiency],
-        "shrink_efficiency": _shrink(base_score.rms_efficiency, final.rms_efficiency, floor_eff),
-        "region_rms_alpha_deg": [_rms(res_b["alpha"], in_reg), _rms(res_a["alpha"], in_reg)] if in_reg.any() else None,
-        "shrink_region": _shrink(_rms(res_b["alpha"], in_reg), _rms(res_a["alpha"], in_reg),
-                                 _rms(noise["alpha"], in_reg)) if in_reg.any() else None,
-    }
-    confounded = _confounded(first, base_score, noise, data) if first else []
+    structured_after = _structure(data, np.where(final.ok, z_final, np.nan))
+    nch = len(_channels(data))
+    name, partial = verdict(accepted, base_score, steps, structured, structured_after, bool(regs), nch)
+    ctx = dict(data=data, raw=raw, noise=noise, base=base_score, final=final, regs=regs, nch=nch)
     report = {
-        "verdict": verdict,
-        "accepted": accepted,
-        "base": list(base),
-        "candidates": candidates,
-        "rows": int(len(data.rows)), "operating_points": int(data.rows["point"].nunique()),
-        "dropped_rows": data.dropped,
+        "verdict": name, "accepted": accepted, "partial": partial, "base": list(base), "candidates": candidates,
+        "rows": int(len(raw.rows)), "operating_points": int(len(data.rows)), "dropped_rows": data.dropped,
         "noise": {c: {"rms": _rms(v), "min": float(np.min(v)), "max": float(np.max(v)), "unit": UNITS[c]}
-                  for c, v in noise.items()} | {"source": "replicates" if data.replicated else
-                                                 "second differences along load"},
-        "base_fit": base_score.fit.params(),
-        "final_fit": final.fit.params(),
-        "gap": {"rms_alpha_deg": _rms(res_fit["alpha"]), "heldout_rms_alpha_deg": base_score.rms_alpha,
-                "rms_efficiency": base_score.rms_efficiency,
+                  for c, v in _row_noise(data, noise).items()} | {"source": "replicates" if raw.replicated else
+                                                                    "second differences along load"},
+        "base_fit": base_score.fit.params(), "final_fit": final.fit.params(),
+        "gap": {"rms_alpha_deg": _rms(res_fit["alpha"], base_score.fit.ok),
+                "heldout_rms_alpha_deg": base_score.rms_alpha, "rms_efficiency": base_score.rms_efficiency,
                 "structure_z": structured, "structured": bool(structured > AUTO_Z),
                 "structure_z_after": structured_after, "structured_after": bool(structured_after > AUTO_Z),
                 "regions": [{k: v for k, v in r.items() if not k.startswith("_")} for r in regs]},
-        "ranking": ranking,
-        "rounds": [[{"effect": r["effect"], "heldout_msz": r["score"].msz, "p_value": r["p"],
-                     "gain": r["gain"], "significant": r["significant"]} for r in rd] for rd in rounds],
-        "how_far": how_far,
-        "by_speed": _by_speed(data, res_b["alpha"], res_a["alpha"]),
-        "confounded": confounded,
+        "ranking": _ranking(rounds[0] if rounds else [], ctx, accepted),
+        "rounds": [[{"effect": r["effect"], "heldout_msz": r["cmp"].msz[1], "p_value": r["cmp"].p,
+                     "gain": r["cmp"].gain, "failed_fraction": r["score"].failed, "significant": r["significant"]}
+                    for r in rd] for rd in rounds],
+        "how_far": _how_far(ctx),
+        "form": form_checks(models, ctx),
+        "by_speed": _by_speed(data, res_fit["alpha"], residuals(data, final.pred)["alpha"]),
+        "confounded": _confounded(rounds[0], base_score, noise, data, models) if rounds else [],
         "seconds": time.perf_counter() - t0,
         "_base": base_score, "_final": final, "_noise": noise, "_data": data,
     }
     return report
+
+
+def _ranking(first_round, ctx, accepted) -> list:
+    """The first round's candidates, best first: held-out RMS α and efficiency before and after (on the
+    points where both models predict), shrink, p-value, ΔBIC, the fraction of points where the candidate
+    fails, and its fitted parameters."""
+    data, base, noise = ctx["data"], ctx["base"], ctx["noise"]
+    floor_alpha, floor_eff = _rms(noise["alpha"]), _efficiency_noise(data, noise)
+    out = []
+    for r in first_round:
+        s, c = r["score"], r["cmp"]
+        both = base.ok & s.ok
+        ra_b, ra_a = (_rms(residuals(data, x.pred)["alpha"], both) for x in (base, s))
+        effm = _efficiency_mask(data) & both
+        eff = data.rows["efficiency"].to_numpy()
+        re_b, re_a = (_rms(eff - _model_efficiency(data, x.pred), effm) for x in (base, s))
+        out.append({
+            "effect": r["effect"], "heldout_rms_before": ra_b, "heldout_rms_after": ra_a,
+            "shrink": _shrink(ra_b, ra_a, floor_alpha), "gap_shrink": gap_shrink(c),
+            "heldout_rms_efficiency_before": re_b, "heldout_rms_efficiency_after": re_a,
+            "shrink_efficiency": _shrink(re_b, re_a, floor_eff),
+            "heldout_msz_before": c.msz[0], "heldout_msz_after": c.msz[1], "p_value": c.p,
+            "bic_change": c.dbic, "failed_fraction": s.failed, "params": s.fit.params(),
+            "accepted": r["effect"] in accepted})
+    return out
+
+
+def _how_far(ctx) -> dict:
+    """Held-out RMS α and efficiency of the base and the diagnosed model on the points both predict, the
+    shrinks (α, efficiency, and over every channel in z units), and the shrink in the gap's largest regions."""
+    data, base, final, noise = ctx["data"], ctx["base"], ctx["final"], ctx["noise"]
+    both = base.ok & final.ok
+    res_b, res_a = residuals(data, base.pred), residuals(data, final.pred)
+    eff = data.rows["efficiency"].to_numpy()
+    effm = _efficiency_mask(data) & both
+    rb, ra = _rms(res_b["alpha"], both), _rms(res_a["alpha"], both)
+    eb, ea = (_rms(eff - _model_efficiency(data, x.pred), effm) for x in (base, final))
+    in_reg = (_in_regions(data, ctx["regs"][:3]) & both) if ctx["regs"] else np.zeros(len(data.rows), bool)
+    floor_eff = _efficiency_noise(data, noise)
+    return {
+        "heldout_rms_alpha_deg": [rb, ra], "shrink_alpha": _shrink(rb, ra, _rms(noise["alpha"], both)),
+        "heldout_rms_efficiency": [eb, ea], "shrink_efficiency": _shrink(eb, ea, floor_eff),
+        "shrink": gap_shrink(compare(base, final, ctx["nch"])) if final is not base else 0.0,
+        "region_rms_alpha_deg": [_rms(res_b["alpha"], in_reg), _rms(res_a["alpha"], in_reg)] if in_reg.any() else None,
+        "shrink_region": _shrink(_rms(res_b["alpha"], in_reg), _rms(res_a["alpha"], in_reg),
+                                 _rms(noise["alpha"], in_reg)) if in_reg.any() else None,
+    }
+
+
+def _row_noise(points: Measured, noise: dict) -> dict:
+    """The noise of one row (σ of a point's mean × √count): what the report calls the rig's noise."""
+    n = np.sqrt(points.rows["count"].to_numpy())
+    return {c: v * n for c, v in noise.items()}
 
 
 def _by_speed(data: Measured, before, after):
@@ -611,10 +694,10 @@ def _efficiency_noise(data, noise):
     return _rms(d, m)
 
 
-def _confounded(first_rows, base: Score, noise, data, cos_limit=0.9):
+def _confounded(first_rows, base: Score, noise, data, models: Models, cos_limit=0.9):
     """Pairs of candidates whose fitted signatures (changes of the predictions, z units, measured channels)
     are nearly parallel (cosine ≥ cos_limit) and both above noise, with their held-out scores, where they
-    differ most and which measurement would tell them apart."""
+    differ most and which measurement would tell them apart (`suggest_points`)."""
     out = []
     sig = {r["effect"]: _signature(base, r["score"], noise) for r in first_rows}
     meas = np.array([c in noise for c in CHANNELS])
@@ -628,18 +711,91 @@ def _confounded(first_rows, base: Score, noise, data, cos_limit=0.9):
             cos = float(va @ vb / (na * nb))
             if cos < cos_limit:
                 continue
-            diff = np.abs(sa - sb)            # (channel, row)
+            diff = np.abs(sa - sb)            # (channel, point)
             by_channel = {c: float(np.sqrt(np.mean(diff[k] ** 2))) for k, c in enumerate(CHANNELS)}
-            row = int(np.argmax(diff[:2].max(axis=0)))
-            r = data.rows.iloc[row]
-            hint = ("measure the axis angle (gamma_axis_deg)" if not data.has_axis and
-                    by_channel["axis"] > 2 * max(by_channel["alpha"], by_channel["tau_par"]) else
-                    f"more points near γ = {r['gamma_cmd_deg']:.0f}°, τ⊥ = {r['tau_perp']:.2f} N·m")
-            out.append({"effects": [a["effect"], b["effect"]], "cosine": cos,
-                        "separation_z_rms": by_channel,
-                        "heldout_msz": [a["score"].msz, b["score"].msz],
+            points = suggest_points(models, data, noise, a["score"].fit, b["score"].fit)
+            axis_only = not data.has_axis and by_channel["axis"] > 2 * max(by_channel["alpha"], by_channel["tau_par"])
+            hint = "measure the axis angle (gamma_axis_deg)" if axis_only else "measure at " + "; ".join(
+                f"γ = {p['gamma_deg']:.0f}°, τ⊥ = {p['load_Nm']:+.2f} N·m" for p in points[:3])
+            out.append({"effects": [a["effect"], b["effect"]], "cosine": cos, "separation_z_rms": by_channel,
+                        "heldout_msz": [a["cmp"].msz[1], b["cmp"].msz[1]], "suggested_points": points,
                         "separate_by": hint})
     return out
+
+
+def suggest_points(models: Models, data: Measured, noise: dict, fa: Fit, fb: Fit, n: int = 5) -> list[dict]:
+    """The operating points that best separate two fitted models: over the variant's whole envelope (its γ
+    range at 5° steps, its loads, the data's mean motor speed), the points where their predictions of the
+    measured channels differ most, in units of each channel's typical noise per row; `n` of them, at
+    distinct γ."""
+    L = models.layout
+    g = np.radians(np.arange(np.degrees(L.gamma_grid.min()), np.degrees(L.gamma_grid.max()) + 1e-9, 5.0))
+    G, T = np.meshgrid(g, L.load_grid, indexing="ij")
+    w = float(np.mean(data.rows["omega_1"]))
+    sigma = {c: float(np.median(v * np.sqrt(data.rows["count"].to_numpy()))) for c, v in noise.items()}
+    preds = []
+    for f in (fa, fb):
+        m = models.get(f.effects).model
+        r = m.evaluate(G, T, speeds=w, theta=f.theta)
+        preds.append({"alpha": np.degrees(r["alpha"]), "axis": np.degrees(r["gamma_axis"]),
+                      "tau_par": m.frame.load_split(G, r["tau_1"], r["tau_2"])[1]})
+    sep = np.sqrt(sum(((preds[0][c] - preds[1][c]) / sigma[c]) ** 2 for c in sigma))
+    sep = np.where(np.isfinite(sep), sep, -1.0)
+    best = np.argsort(-sep.max(axis=1))[:n]
+    out = []
+    for i in best:
+        j = int(np.argmax(sep[i]))
+        if sep[i, j] > 0:
+            out.append({"gamma_deg": float(np.degrees(G[i, j])), "load_Nm": float(T[i, j]),
+                        "separation_z": float(sep[i, j])})
+    return out
+
+
+def form_checks(models: Models, ctx) -> dict:
+    """Where a remaining gap lies beyond the vocabulary: the final model's full-fit residuals (z units) tested
+    for structure along each input (commanded γ, load τ⊥, motor speed ω1) and along the model's own derived
+    quantities at each point (the drive rollers' spin ratio |Ω·n|/V [1/m], their rolling speed V [m/s], the
+    smallest normal force [N] and the largest traction utilisation). Per variable, the points are put in
+    FORM_BINS quantile bins and the bin means tested against zero: χ² = Σ n_b·mean_b² over the bins, as a
+    z-score (χ² − B)/√(2B) (≈ N(0, 1) when the residual does not depend on the variable). Returns every
+    variable's z (largest over the channels) and the one along which the gap lies, if any exceeds AUTO_Z."""
+    data, final, noise = ctx["data"], ctx["final"], ctx["noise"]
+    r = data.rows
+    ok = final.ok
+    z = zscores(residuals(data, final.fit.pred), noise)[:, ok]
+    m = models.get(final.effects).model
+    ev = m.evaluate(np.radians(r["gamma_cmd_deg"].to_numpy()[ok]), r["tau_perp"].to_numpy()[ok],
+                    speeds=r["omega_1"].to_numpy()[ok], theta=final.fit.theta)
+    drive = np.array([x.role != "steering" for x in m.layout.rollers])
+    rolling = np.abs(ev["omega_2"]) * float(next(x.radius for x in m.layout.rollers if x.role == "drive" and x.shaft == 2))
+    variables = {"gamma_cmd_deg": r["gamma_cmd_deg"].to_numpy()[ok], "tau_perp_Nm": r["tau_perp"].to_numpy()[ok],
+                 "omega_1_rad_s": r["omega_1"].to_numpy()[ok],
+                 "drive_spin_ratio_1_m": np.nanmean(np.abs(ev["spin"][drive]), axis=0),
+                 "rolling_speed_m_s": rolling, "min_normal_force_N": np.nanmin(ev["N"], axis=0),
+                 "max_utilisation": np.nanmax(ev["utilisation"], axis=0)}
+    stats = {name: _binned_z(v, z) for name, v in variables.items()}
+    top = max(stats, key=lambda k: stats[k]) if stats else None
+    return {"z": stats, "lies_along": top if top is not None and stats[top] > AUTO_Z else None}
+
+
+def _binned_z(v: np.ndarray, z: np.ndarray) -> float:
+    """Largest over the channels of the χ² of the bin means of z in FORM_BINS quantile bins of v, as a z-score;
+    0 for a variable that does not vary."""
+    ok = np.isfinite(v) & np.all(np.isfinite(z), axis=0)
+    v, z = v[ok], z[:, ok]
+    if v.size < 2 * FORM_BINS or np.ptp(v) <= 1e-12 * max(1.0, np.max(np.abs(v))):
+        return 0.0
+    edges = np.unique(np.quantile(v, np.linspace(0, 1, FORM_BINS + 1)))
+    b = np.clip(np.searchsorted(edges, v, side="right") - 1, 0, len(edges) - 2)
+    nb = np.bincount(b, minlength=len(edges) - 1)
+    keep = nb > 0
+    best = -np.inf
+    for zc in z:
+        means = np.bincount(b, weights=zc, minlength=len(edges) - 1)[keep] / nb[keep]
+        c2 = float(np.sum(nb[keep] * means ** 2))
+        k = int(keep.sum())
+        best = max(best, (c2 - k) / np.sqrt(2 * k))
+    return float(best)
 
 
 # ------------------------------------------------------------------------------------------ report
@@ -684,7 +840,8 @@ def print_report(rep: dict, console):
             f"ω1 = {b['omega_1']:.3g} rad/s: RMS α residual {b['rms_residual_deg'][0]:.3f}° → {b['rms_residual_deg'][1]:.3f}°"
             for b in rep["by_speed"]))
     k = Table(title="candidates, added one at a time to the base (held-out, cross-validated by operating point)")
-    for c in ("effect", "RMS α \\[deg] before → after", "shrink", "RMS η before → after", "p", "ΔBIC", "fitted", "accepted"):
+    for c in ("effect", "RMS α \\[deg] before → after", "shrink", "RMS η before → after", "p", "ΔBIC", "fails at",
+              "fitted", "accepted"):
         k.add_column(c)
     for r in rep["ranking"]:
         new = {n: p for n, p in r["params"].items() if n.split(".")[0] == r["effect"]}
@@ -692,7 +849,8 @@ def print_report(rep: dict, console):
                            for n, p in new.items())
         k.add_row(r["effect"], f"{r['heldout_rms_before']:.3f} → {r['heldout_rms_after']:.3f}", f"{r['shrink']:.2f}",
                   f"{r['heldout_rms_efficiency_before']:.4f} → {r['heldout_rms_efficiency_after']:.4f}",
-                  f"{r['p_value']:.1e}", f"{r['bic_change']:+.1f}", fitted, "[green]yes[/green]" if r["accepted"] else "")
+                  f"{r['p_value']:.1e}", f"{r['bic_change']:+.1f}", f"{r['failed_fraction']:.0%}", fitted,
+                  "[green]yes[/green]" if r["accepted"] else "")
     console.print(k)
     for c in rep["confounded"]:
         console.print(f"[yellow]confounded: {c['effects'][0]} and {c['effects'][1]} change the predictions alike "
@@ -700,14 +858,22 @@ def print_report(rep: dict, console):
     h = rep["how_far"]
     console.print(f"[bold]verdict: {rep['verdict']}[/bold]" + (f" (accepted: {', '.join(rep['accepted'])})"
                                                                 if len(rep["accepted"]) > 1 else ""))
+    for p in rep["partial"]:
+        console.print(f"[yellow]{p['effect']} explains {max(p['shrink'], 0):.0%} of the gap; a structured gap "
+                      "remains[/yellow]")
+    form = rep["form"]
+    if form["lies_along"] and rep["verdict"] == "unexplained":
+        console.print(f"the remaining gap lies along {form['lies_along']} (structure z = "
+                      f"{form['z'][form['lies_along']]:.1f}; "
+                      + ", ".join(f"{k} {v:.1f}" for k, v in sorted(form["z"].items(), key=lambda x: -x[1])[1:4])
+                      + ")")
     if rep["accepted"]:
         reg = (f"; in the gap's regions {h['region_rms_alpha_deg'][0]:.3f}° → {h['region_rms_alpha_deg'][1]:.3f}° "
                f"(shrink {h['shrink_region']:.2f})" if h["region_rms_alpha_deg"] else "")
         console.print(f"how far: held-out RMS α {h['heldout_rms_alpha_deg'][0]:.3f}° → {h['heldout_rms_alpha_deg'][1]:.3f}° "
                       f"(gap shrinks by {h['shrink_alpha']:.0%}), efficiency {h['heldout_rms_efficiency'][0]:.4f} → "
                       f"{h['heldout_rms_efficiency'][1]:.4f} (shrink {h['shrink_efficiency']:.0%}){reg}")
-        if rep["gap"]["structured_after"]:
-            console.print("[yellow]a structured gap remains after the accepted effects[/yellow]")
+
     console.print(f"({rep['seconds']:.1f} s)")
 
 

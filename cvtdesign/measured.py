@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from .evaluate import efficiency
 from .kinematics import ShaftFrame, shaft_frame
 from .units import InputError, suggest
 
@@ -111,7 +112,6 @@ def read_measured(path, frame: ShaftFrame, gamma_range_deg=None, drop_bad: bool 
     w1, w2 = rows["omega_1"].to_numpy(), rows["omega_2"].to_numpy()
     rows["alpha_deg"] = np.degrees(frame.slip_angle(w1, w2, g))
     rows["tau_perp"], rows["tau_par"] = frame.load_split(g, rows["tau_1"].to_numpy(), rows["tau_2"].to_numpy())
-    from .evaluate import efficiency
     rows["efficiency"] = efficiency(rows["tau_1"] * rows["omega_1"], rows["tau_2"] * rows["omega_2"])
     m = Measured(where, rows, "gamma_axis_deg" in rows.columns, dropped)
     _group(m)
@@ -148,3 +148,26 @@ def _group(m: Measured):
     r["gamma_bin"], r["load_bin"], r["speed_bin"] = gl, ll, sl
     r["point"] = pd.factorize(pd.Series((sl * len(glev) + gl) * (len(llev) + 1) + ll))[0]
     m.gamma_levels, m.load_levels, m.speed_levels = glev, llev, slev
+
+
+MEASURED_CHANNELS = {"alpha": "alpha_deg", "tau_par": "tau_par", "axis": "gamma_axis_deg"}
+
+
+def merge_points(data: Measured) -> Measured:
+    """The dataset with its replicates merged: one row per operating point, with the mean of every measured
+    and derived column (α, τ⊥, τ∥ and the axis angle averaged as measured; efficiency from the mean powers),
+    its `count` of replicates, and the point's levels. A diagnosis predicts and fits at these points, so
+    its cost grows with the operating points, not the rows; the noise of a mean is σ/√count."""
+    r = data.rows
+    cols = [c for c in ("gamma_cmd_deg", "omega_1", "omega_2", "tau_1", "tau_2", "gamma_axis_deg", "alpha_deg",
+                        "tau_perp", "tau_par") if c in r.columns]
+    g = r.groupby("point", sort=True)
+    merged = g[cols].mean()
+    merged[["gamma_bin", "load_bin", "speed_bin"]] = g[["gamma_bin", "load_bin", "speed_bin"]].first()
+    merged["count"] = g.size()
+    merged["line"] = g["line"].first()
+    merged["efficiency"] = efficiency(merged["tau_1"] * merged["omega_1"], merged["tau_2"] * merged["omega_2"])
+    merged = merged.reset_index()
+    return Measured(data.file, merged, data.has_axis, data.dropped, data.gamma_levels, data.load_levels,
+                    data.speed_levels)
+
