@@ -159,19 +159,40 @@ def _second_differences(r, res, idx) -> np.ndarray:
 
 
 def estimate_noise(P: Predictor, points: Measured, raw: Measured | None = None) -> dict:
-    """σ of each channel at each operating point of `points` (merged replicates, measured.merge_points):
-    with replicates in `raw`, the pooled scatter of the rows about their point's mean, divided by √count;
-    without, from the residuals of an unweighted first fit of P at the points."""
-    if raw is not None and raw.replicated:
-        per_row = noise_levels(raw, {c: raw.rows[col].to_numpy() for c, col in MEASURED_CHANNELS.items()
-                                     if c in _channels(raw)})
-        first = raw.rows.reset_index(drop=True).groupby("point").head(1)
-        order = np.argsort(first["point"].to_numpy())
-        idx = first.index.to_numpy()[order]
-        n = np.sqrt(points.rows["count"].to_numpy())
-        return {c: v[idx] / n for c, v in per_row.items()}
+    """σ of each channel at each operating point of `points` (merged replicates, measured.merge_points).
+
+    The model predicts at the measured load, so the noise of a residual is the channel's own noise plus the
+    load's noise carried through the model's slope, σ² = σ_c² + (∂c/∂τ⊥)² σ_τ⊥² (errors in variables).
+    With replicates in `raw`, σ_c and σ_τ⊥ are the pooled scatter of the rows about their point's mean, the
+    slope that of an unweighted first fit of P along the load, and the point's σ is divided by √count;
+    without replicates, the second differences of that fit's residuals along the load hold both terms."""
     prelim = fit(P, points, {c: np.ones(P.n) for c in _channels(points)})
-    return noise_levels(points, residuals(points, prelim.pred))
+    if raw is None or not raw.replicated:
+        return noise_levels(points, residuals(points, prelim.pred))
+    cols = {c: col for c, col in MEASURED_CHANNELS.items() if c in _channels(raw)} | {"load": "tau_perp"}
+    per_row = noise_levels(raw, {c: raw.rows[col].to_numpy() for c, col in cols.items()})
+    first = raw.rows.reset_index(drop=True).groupby("point").head(1)
+    idx = first.index.to_numpy()[np.argsort(first["point"].to_numpy())]
+    n = points.rows["count"].to_numpy()
+    out = {}
+    for c in cols:
+        if c != "load":
+            slope = _load_slope(points, prelim.pred[c])
+            out[c] = np.sqrt(per_row[c][idx] ** 2 + (slope * per_row["load"][idx]) ** 2) / np.sqrt(n)
+    return out
+
+
+def _load_slope(points: Measured, values: np.ndarray) -> np.ndarray:
+    """∂values/∂τ⊥ at each point, by finite differences along the load at its γ and speed level."""
+    r = points.rows
+    out = np.zeros(len(r))
+    for _, idx in r.groupby(["gamma_bin", "speed_bin"]).indices.items():
+        if idx.size > 1:
+            order = idx[np.argsort(r["tau_perp"].to_numpy()[idx])]
+            t = r["tau_perp"].to_numpy()[order]
+            if np.all(np.diff(t) > 0):
+                out[order] = np.gradient(np.nan_to_num(values[order]), t)
+    return out
 
 
 def fit_model(layout: Layout, data: Measured, effects) -> tuple[Predictor, Fit]:
@@ -714,8 +735,8 @@ def _confounded(first_rows, base: Score, noise, data, models: Models, cos_limit=
             diff = np.abs(sa - sb)            # (channel, point)
             by_channel = {c: float(np.sqrt(np.mean(diff[k] ** 2))) for k, c in enumerate(CHANNELS)}
             points = suggest_points(models, data, noise, a["score"].fit, b["score"].fit)
-            axis_only = not data.has_axis and by_channel["axis"] > 2 * max(by_channel["alpha"], by_channel["tau_par"])
-            hint = "measure the axis angle (gamma_axis_deg)" if axis_only else "measure at " + "; ".join(
+            axis = not data.has_axis and by_channel["axis"] > 2 * max(by_channel["alpha"], by_channel["tau_par"])
+            hint = ("measure the axis angle (gamma_axis_deg), or " if axis else "") + "measure at " + "; ".join(
                 f"γ = {p['gamma_deg']:.0f}°, τ⊥ = {p['load_Nm']:+.2f} N·m" for p in points[:3])
             out.append({"effects": [a["effect"], b["effect"]], "cosine": cos, "separation_z_rms": by_channel,
                         "heldout_msz": [a["cmp"].msz[1], b["cmp"].msz[1]], "suggested_points": points,
@@ -726,8 +747,8 @@ def _confounded(first_rows, base: Score, noise, data, models: Models, cos_limit=
 def suggest_points(models: Models, data: Measured, noise: dict, fa: Fit, fb: Fit, n: int = 5) -> list[dict]:
     """The operating points that best separate two fitted models: over the variant's whole envelope (its γ
     range at 5° steps, its loads, the data's mean motor speed), the points where their predictions of the
-    measured channels differ most, in units of each channel's typical noise per row; `n` of them, at
-    distinct γ."""
+    measured channels differ most, in units of each channel's typical noise per row; `n` of them, at least
+    15° apart in γ."""
     L = models.layout
     g = np.radians(np.arange(np.degrees(L.gamma_grid.min()), np.degrees(L.gamma_grid.max()) + 1e-9, 5.0))
     G, T = np.meshgrid(g, L.load_grid, indexing="ij")
@@ -741,19 +762,21 @@ def suggest_points(models: Models, data: Measured, noise: dict, fa: Fit, fb: Fit
                       "tau_par": m.frame.load_split(G, r["tau_1"], r["tau_2"])[1]})
     sep = np.sqrt(sum(((preds[0][c] - preds[1][c]) / sigma[c]) ** 2 for c in sigma))
     sep = np.where(np.isfinite(sep), sep, -1.0)
-    best = np.argsort(-sep.max(axis=1))[:n]
     out = []
-    for i in best:
+    for i in np.argsort(-sep.max(axis=1)):          # best γ first, at least 15° from those already chosen
         j = int(np.argmax(sep[i]))
-        if sep[i, j] > 0:
-            out.append({"gamma_deg": float(np.degrees(G[i, j])), "load_Nm": float(T[i, j]),
-                        "separation_z": float(sep[i, j])})
+        g_i = float(np.degrees(G[i, j]))
+        if sep[i, j] > 0 and all(abs(g_i - p["gamma_deg"]) >= 15 - 1e-9 for p in out):
+            out.append({"gamma_deg": g_i, "load_Nm": float(T[i, j]), "separation_z": float(sep[i, j])})
+        if len(out) == n:
+            break
     return out
 
 
 def form_checks(models: Models, ctx) -> dict:
     """Where a remaining gap lies beyond the vocabulary: the final model's full-fit residuals (z units) tested
-    for structure along each input (commanded γ, load τ⊥, motor speed ω1) and along the model's own derived
+    for structure along each input (commanded γ, the load level τ⊥, the motor-speed level ω1: levels, not the
+    measured values, whose noise is already in the residual) and along the model's own derived
     quantities at each point (the drive rollers' spin ratio |Ω·n|/V [1/m], their rolling speed V [m/s], the
     smallest normal force [N] and the largest traction utilisation). Per variable, the points are put in
     FORM_BINS quantile bins and the bin means tested against zero: χ² = Σ n_b·mean_b² over the bins, as a
@@ -768,8 +791,9 @@ def form_checks(models: Models, ctx) -> dict:
                     speeds=r["omega_1"].to_numpy()[ok], theta=final.fit.theta)
     drive = np.array([x.role != "steering" for x in m.layout.rollers])
     rolling = np.abs(ev["omega_2"]) * float(next(x.radius for x in m.layout.rollers if x.role == "drive" and x.shaft == 2))
-    variables = {"gamma_cmd_deg": r["gamma_cmd_deg"].to_numpy()[ok], "tau_perp_Nm": r["tau_perp"].to_numpy()[ok],
-                 "omega_1_rad_s": r["omega_1"].to_numpy()[ok],
+    variables = {"gamma_cmd_deg": r["gamma_cmd_deg"].to_numpy()[ok],
+                 "tau_perp_Nm": data.load_levels[r["load_bin"].to_numpy()[ok]],
+                 "omega_1_rad_s": data.speed_levels[r["speed_bin"].to_numpy()[ok]],
                  "drive_spin_ratio_1_m": np.nanmean(np.abs(ev["spin"][drive]), axis=0),
                  "rolling_speed_m_s": rolling, "min_normal_force_N": np.nanmin(ev["N"], axis=0),
                  "max_utilisation": np.nanmax(ev["utilisation"], axis=0)}

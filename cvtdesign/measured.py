@@ -108,12 +108,22 @@ def read_measured(path, frame: ShaftFrame, gamma_range_deg=None, drop_bad: bool 
             raise InputError(f"{where}: every row was dropped as bad")
     rows = num.reset_index(drop=True)
     rows.insert(0, "line", (np.asarray(num.index) + 2).astype(int))
+    return from_rows(rows, frame, where, dropped)
+
+
+def from_rows(rows: pd.DataFrame, frame: ShaftFrame, where: str = "data", dropped: dict | None = None) -> Measured:
+    """A Measured from rows already in the measured-data columns (numbers, checked): the derived α, τ⊥, τ∥
+    and efficiency with the variant's shaft kinematics, and the operating points. `line` (the CSV line of
+    each row) is numbered from 2 when the rows have none."""
+    rows = rows.reset_index(drop=True).copy()
+    if "line" not in rows.columns:
+        rows.insert(0, "line", np.arange(len(rows)) + 2)
     g = np.radians(rows["gamma_cmd_deg"].to_numpy())
     w1, w2 = rows["omega_1"].to_numpy(), rows["omega_2"].to_numpy()
     rows["alpha_deg"] = np.degrees(frame.slip_angle(w1, w2, g))
     rows["tau_perp"], rows["tau_par"] = frame.load_split(g, rows["tau_1"].to_numpy(), rows["tau_2"].to_numpy())
     rows["efficiency"] = efficiency(rows["tau_1"] * rows["omega_1"], rows["tau_2"] * rows["omega_2"])
-    m = Measured(where, rows, "gamma_axis_deg" in rows.columns, dropped)
+    m = Measured(where, rows, "gamma_axis_deg" in rows.columns, dropped or {})
     _group(m)
     return m
 

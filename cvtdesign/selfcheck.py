@@ -11,8 +11,6 @@ The base is Kim's model (drive_longitudinal_creep + steering_lateral_creep) minu
 """
 from __future__ import annotations
 
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
@@ -76,15 +74,13 @@ def make_cases(quick: bool = False, seeds: int = 3) -> list[dict]:
 def run_case(case: dict, variant: str = "variants/existing.yaml") -> dict:
     """Make the dataset with the rig, diagnose it against its base, and score the verdict."""
     from . import diagnose, measured, rig
+    from .kinematics import shaft_frame
     from .variant import load_variant
 
     L = load_variant(variant)
     rows, failed = rig.simulate(L, case["truth"], case["params"], noise=rig.Noise().scaled(case["noise"]),
                                 seed=case["seed"])
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "data.csv"
-        path.write_text(rig.to_csv_text(rows))
-        data = measured.load_measured(path, L)
+    data = measured.from_rows(rows, shaft_frame(L), case["id"])
     rep = diagnose.diagnose(L, data, case["base"])
     accepted = rep["accepted"]
     shrink = rep["how_far"]["shrink_alpha"]

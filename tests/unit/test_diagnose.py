@@ -4,10 +4,12 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from cvtdesign import diagnose, measured, resteer, rig
 from cvtdesign.cli import main
+from cvtdesign.kinematics import shaft_frame
 from cvtdesign.model import compile_model
 from cvtdesign.variant import load_variant
 
@@ -125,3 +127,49 @@ def test_selfcheck_cli_on_a_dask_cluster(tmp_path):
     s = rep["summary"]
     assert s["top1_single"] == 1.0 and s["false_positive_null"] == 0.0
     assert s["per_effect"]["steering_offset"]["cases"] == 1
+
+
+def test_confounded_pair_is_reported_and_the_suggested_points_separate_it(layout):
+    """A narrow γ range (30°..50°) without the axis channel: a steering offset and a radius mismatch both
+    shift α by a near-constant angle there, so their fitted signatures are parallel. The report says so and
+    suggests where to measure; rig data added at the suggested γ separate them (the offset's held-out fit
+    is far better and the pair is no longer confounded)."""
+    truth, params = KIM + ("steering_offset",), {"steering_offset": {"offset": np.radians(0.5)}}
+    loads = np.round(np.arange(-1, 1.01, 0.2), 10)
+    narrow = rig.Protocol(np.radians([30.0, 40.0, 50.0]), loads, np.array([10.0]), "tau_perp", 3)
+    rows, _ = rig.simulate(layout, truth, params, narrow, seed=5, axis=False)
+
+    def run(rows):
+        return diagnose.diagnose(layout, measured.from_rows(rows, shaft_frame(layout)), KIM)
+
+    rep = run(rows)
+    pair = [c for c in rep["confounded"] if set(c["effects"]) == {"steering_offset", "drive_radius_mismatch"}]
+    assert pair and pair[0]["cosine"] > 0.99
+    pts = pair[0]["suggested_points"]
+    assert len(pts) >= 3 and all(not 30 <= p["gamma_deg"] <= 50 for p in pts[:3])
+    assert "axis angle" in pair[0]["separate_by"] and "γ = " in pair[0]["separate_by"]
+    extra = rig.Protocol(np.radians([p["gamma_deg"] for p in pts[:3]]), loads, np.array([10.0]), "tau_perp", 3)
+    more, _ = rig.simulate(layout, truth, params, extra, seed=6, axis=False)
+    rep2 = run(pd.concat([rows, more], ignore_index=True))
+    assert rep2["verdict"] == "steering_offset" and rep2["confounded"] == []
+    msz = {r["effect"]: r["heldout_msz_after"] for r in rep2["ranking"]}
+    assert msz["drive_radius_mismatch"] > 20 * msz["steering_offset"]
+
+
+def test_replicates_are_merged_into_operating_points(layout, tmp_path):
+    """Kim's protocol × 27 replicates (5049 rows) is fitted at its 187 operating points; the noise of a point
+    is that of a row over √27, and the verdict and the fitted ε_S match."""
+    path = dataset(layout, tmp_path, KIM, seed=3, protocol=rig.kim_protocol(layout, replicates=27))
+    data = measured.load_measured(path, layout)
+    assert len(data.rows) == 5049
+    points = measured.merge_points(data)
+    assert len(points.rows) == 187 and (points.rows["count"] == 27).all()
+    P = diagnose.Predictor(layout, ("drive_longitudinal_creep",), points)
+    assert P.n == 187
+    noise = diagnose.estimate_noise(P, points, data)
+    row_sigma = rig.Noise().speed / 10.0           # α noise of a row from the speed noise at ω1 = 10 rad/s
+    assert 0.3 < np.median(noise["alpha"]) * np.sqrt(27) / np.degrees(row_sigma) < 3
+    rep = diagnose.diagnose(layout, data, ("drive_longitudinal_creep",))
+    assert rep["verdict"] == "steering_lateral_creep" and rep["rows"] == 5049 and rep["operating_points"] == 187
+    p = rep["final_fit"]["steering_lateral_creep.scale"]
+    assert abs(p["value"] - 1.0) < 3 * p["std"] + 1e-3
