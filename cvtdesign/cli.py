@@ -316,7 +316,12 @@ def cmd_selfcheck(args):
     console = Console(width=120)
     with _progress(console, "datasets", lambda row: f"last: {row['id']} → {row['verdict']}") as progress:
         only = [x.strip() for x in args.only.split(",")] if args.only else None
-        results = selfcheck.run(args.variant, args.quick, args.seeds, args.scheduler, args.workers, progress, only)
+        matrices = [m.strip() for m in args.matrices.split(",")] if args.matrices else selfcheck.MATRICES
+        bad = [m for m in matrices if m not in selfcheck.MATRICES]
+        if bad:
+            raise InputError(f"--matrices: unknown matrix '{bad[0]}' (expected {', '.join(selfcheck.MATRICES)})")
+        results = selfcheck.run(args.variant, args.quick, args.seeds, args.scheduler, args.workers, progress, only,
+                                matrices)
     summ = selfcheck.summary(results)
     selfcheck.print_summary(summ, results, console)
     if args.json:
@@ -448,7 +453,9 @@ def build_parser():
     d.add_argument("--plots", help="folder for the residual-map and fit plots")
     d.set_defaults(func=cmd_diagnose)
     s = sub.add_parser("selfcheck", help="prove the diagnosis on rig data with withheld effects; exit 1 if a target is missed")
-    s.add_argument("--variant", default="variants/existing.yaml", help="variant to test on (default: existing)")
+    s.add_argument("--variant", help="variant of the rig matrix (default: variants/existing.yaml)")
+    s.add_argument("--matrices", help="comma-separated: rig (the project's own model makes the data), independent "
+                                      "(an independently written simulator of Kim's CVT); default: both")
     s.add_argument("--quick", action="store_true", help="a reduced matrix (one value and noise level per effect)")
     s.add_argument("--seeds", type=int, default=3, help="null datasets per noise level / 2 (default 3)")
     s.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a local cluster)")

@@ -360,6 +360,27 @@ def autocorrelation_z(data: Measured, z: np.ndarray) -> float:
     return float(rho * np.sqrt(prods.size))
 
 
+def neighbour_pairs(data: Measured, ok: np.ndarray) -> int:
+    """Neighbouring pairs of points (γ or load neighbours on the grid) where both are `ok`."""
+    grid = np.isfinite(point_grid(data, np.where(ok, 0.0, np.nan)))
+    return int((grid[1:, :] & grid[:-1, :]).sum() + (grid[:, 1:] & grid[:, :-1]).sum())
+
+
+def structured_power(data: Measured, z: np.ndarray) -> float:
+    """Power of the smooth (structured) part of a residual field (channels, points) in z units: the sum over
+    the channels of the mean product of neighbouring points' residuals on the γ × load grid. Independent
+    noise has zero expected product, so this estimates the gap's power whatever the noise level, and a
+    wrong noise scale cancels in a ratio of two powers. Points that are NaN are left out."""
+    total = 0.0
+    for zc in z:
+        grid = point_grid(data, zc)
+        prods = [(a * b)[np.isfinite(a) & np.isfinite(b)] for a, b in
+                 ((grid[1:, :], grid[:-1, :]), (grid[:, 1:], grid[:, :-1]))]
+        prods = np.concatenate(prods)
+        total += float(prods.mean()) if prods.size else 0.0
+    return total
+
+
 def point_grid(data: Measured, values: np.ndarray, reduce=np.nanmean) -> np.ndarray:
     """Per-row values → (γ level, load level) grid of their mean over replicates (NaN where no point)."""
     r = data.rows
@@ -434,6 +455,7 @@ class Score:
     fit: Fit
     pred: dict              # held-out predictions
     ok: np.ndarray          # the model has a held-out prediction and a full-fit prediction at the point
+    z: np.ndarray           # held-out z per channel and point (channels, points)
     per_point: np.ndarray   # held-out Σz² over the channels per point (NaN where not ok)
     fit_per_point: np.ndarray  # the full fit's Σz² per point (NaN where not ok)
     failed: float           # fraction of the points where the model fails
@@ -446,11 +468,12 @@ def score(P: Predictor, data: Measured, noise: dict, fold, x0=None) -> Score:
     ho = heldout(P, data, noise, full, fold)
     ok = ho["ok"] & full.ok
     res = residuals(data, ho["pred"])
-    z2 = np.where(ok, (zscores(res, noise) ** 2).sum(axis=0), np.nan)
+    z = zscores(res, noise)
+    z2 = np.where(ok, (z ** 2).sum(axis=0), np.nan)
     zf2 = np.where(ok, (zscores(residuals(data, full.pred), noise) ** 2).sum(axis=0), np.nan)
     eff_d = data.rows["efficiency"].to_numpy()
     eff_m = _model_efficiency(data, ho["pred"])
-    return Score(P.effects, full, ho["pred"], ok, z2, zf2, float(np.mean(~ok)), _rms(res["alpha"], ok),
+    return Score(P.effects, full, ho["pred"], ok, z, z2, zf2, float(np.mean(~ok)), _rms(res["alpha"], ok),
                  _rms(eff_d - eff_m, _efficiency_mask(data) & ok))
 
 
@@ -462,13 +485,15 @@ class Comparison:
     gain: float         # 1 − msz_after/msz_before
     p: float            # one-sided Wilcoxon p-value that `after` predicts the points better
     dbic: float         # BIC(after) − BIC(before) of the full fits, on the same points
+    power: tuple        # structured power of the held-out residuals (before, after), structured_power
+    power_se: float     # its standard error for white residuals: √(channels/neighbour pairs)
 
 
-def compare(before: Score, after: Score, channels: int) -> Comparison:
+def compare(before: Score, after: Score, channels: int, data: Measured) -> Comparison:
     common = before.ok & after.ok
     b, a = before.per_point[common], after.per_point[common]
     if not common.any():
-        return Comparison(0, (np.nan, np.nan), -np.inf, 1.0, np.inf)
+        return Comparison(0, (np.nan, np.nan), -np.inf, 1.0, np.inf, (0.0, 0.0), np.inf)
     from scipy.stats import wilcoxon
 
     d = b - a
@@ -477,7 +502,9 @@ def compare(before: Score, after: Score, channels: int) -> Comparison:
     dk = len(after.fit.theta) - len(before.fit.theta)
     dbic = float(np.sum(after.fit_per_point[common]) - np.sum(before.fit_per_point[common]) + dk * np.log(n))
     msz = (float(b.sum() / n), float(a.sum() / n))
-    return Comparison(int(common.sum()), msz, 1 - msz[1] / msz[0], p, dbic)
+    power = tuple(structured_power(data, np.where(common, x.z, np.nan)) for x in (before, after))
+    se = np.sqrt(channels / max(neighbour_pairs(data, common), 1))
+    return Comparison(int(common.sum()), msz, 1 - msz[1] / msz[0], p, dbic, power, float(se))
 
 
 def _shrink(before, after, floor):
@@ -488,9 +515,13 @@ def _shrink(before, after, floor):
 
 
 def gap_shrink(c: Comparison) -> float:
-    """Fraction of the gap beyond the noise removed, in z units over every channel: the noise floor of a
-    mean squared z is 1, so the gap is √(msz − 1)."""
-    return _shrink(np.sqrt(c.msz[0]), np.sqrt(c.msz[1]), 1.0)
+    """Fraction of the structured gap removed, over every channel (held out): 1 − √(P_after/P_before) with P
+    the structured power (structured_power), which does not depend on the noise estimate; 0 when there was
+    no structured gap."""
+    before, after = c.power
+    if not before > 0:
+        return 0.0
+    return float(1 - np.sqrt(max(after, 0.0) / before))
 
 
 # ------------------------------------------------------------------------------------------ diagnosis
@@ -539,7 +570,7 @@ def search(models: Models, data: Measured, noise: dict, fold, base: Score, candi
         for e in remaining:
             P = models.get(current.effects + (e,))
             sc = score(P, data, noise, fold, x0=_x0(P, current.fit))
-            c = compare(current, sc, nch)
+            c = compare(current, sc, nch, data)
             rows.append({"effect": e, "score": sc, "cmp": c, "significant": bool(
                 c.p < P_ACCEPT / len(remaining) and c.gain > MIN_GAIN and c.dbic < 0 and sc.failed <= MAX_FAIL)})
             tick(f"round {len(rounds) + 1}: {e}")
@@ -559,27 +590,22 @@ def _structure(data: Measured, z: np.ndarray) -> float:
     return max(autocorrelation_z(data, zc) for zc in z)
 
 
-def verdict(accepted, base: Score, steps, structured_before: float, structured_after: float, has_regions: bool,
-            nch: int) -> tuple[str, list]:
+def verdict(data: Measured, accepted, base: Score, steps, structured_before: float, structured_after: float,
+            has_regions: bool, nch: int) -> tuple[str, list]:
     """The verdict and the partial explanation. An effect is named only when the accepted effects leave no
-    structured gap (spatial structure z of the final residuals ≤ AUTO_Z) and remove at least SHRINK_MIN of
-    the gap beyond the noise (or leave none that is significant: χ² of the held-out z at p ≥ 0.001).
-    Otherwise a structured gap remains: `unexplained`, with each accepted effect's share of the gap
-    (`partial`). Without accepted effects: `unexplained` if the base residual is structured with regions
-    beyond 3σ, else `none` (the gap is noise)."""
-    from scipy.stats import chi2
-
-    partial = []
-    for e, st in zip(accepted, steps):
-        partial.append({"effect": e, "shrink": gap_shrink(compare(base, st, nch))})
+    structured gap: the spatial structure z of the final residuals is ≤ AUTO_Z, and they remove at least
+    SHRINK_MIN of the structured gap (gap_shrink, held out) unless what remains is within 3 standard errors
+    of none. Otherwise a structured gap remains: `unexplained`, with each accepted effect's cumulative share
+    of the gap (`partial`). Without accepted effects: `unexplained` if the base residual is structured with
+    regions beyond 3σ, else `none` (the gap is noise)."""
     if not accepted:
         return ("unexplained" if structured_before > AUTO_Z and has_regions else "none"), []
-    c = compare(base, steps[-1], nch)
-    n = c.points * nch
-    left = chi2.sf(c.msz[1] * n, n) < 1e-3
-    if structured_after <= AUTO_Z and (gap_shrink(c) >= SHRINK_MIN or not left):
+    c = compare(base, steps[-1], nch, data)
+    remains = c.power[1] > 3 * c.power_se
+    if structured_after <= AUTO_Z and (gap_shrink(c) >= SHRINK_MIN or not remains):
         return accepted[0], []
-    return "unexplained", partial
+    return "unexplained", [{"effect": e, "shrink": gap_shrink(compare(base, st, nch, data))}
+                           for e, st in zip(accepted, steps)]
 
 
 def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=None) -> dict:
@@ -610,7 +636,7 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
     z_final = zscores(residuals(data, final.fit.pred), noise)
     structured_after = _structure(data, np.where(final.ok, z_final, np.nan))
     nch = len(_channels(data))
-    name, partial = verdict(accepted, base_score, steps, structured, structured_after, bool(regs), nch)
+    name, partial = verdict(data, accepted, base_score, steps, structured, structured_after, bool(regs), nch)
     ctx = dict(data=data, raw=raw, noise=noise, base=base_score, final=final, regs=regs, nch=nch)
     report = {
         "verdict": name, "accepted": accepted, "partial": partial, "base": list(base), "candidates": candidates,
@@ -678,7 +704,7 @@ def _how_far(ctx) -> dict:
     return {
         "heldout_rms_alpha_deg": [rb, ra], "shrink_alpha": _shrink(rb, ra, _rms(noise["alpha"], both)),
         "heldout_rms_efficiency": [eb, ea], "shrink_efficiency": _shrink(eb, ea, floor_eff),
-        "shrink": gap_shrink(compare(base, final, ctx["nch"])) if final is not base else 0.0,
+        "shrink": gap_shrink(compare(base, final, ctx["nch"], data)) if final is not base else 0.0,
         "region_rms_alpha_deg": [_rms(res_b["alpha"], in_reg), _rms(res_a["alpha"], in_reg)] if in_reg.any() else None,
         "shrink_region": _shrink(_rms(res_b["alpha"], in_reg), _rms(res_a["alpha"], in_reg),
                                  _rms(noise["alpha"], in_reg)) if in_reg.any() else None,

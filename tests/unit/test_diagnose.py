@@ -114,19 +114,23 @@ def test_resteer_inverts_the_model_exactly(layout):
 
 
 def test_selfcheck_cli_on_a_dask_cluster(tmp_path):
-    """`cvtdesign selfcheck` on a real local Dask cluster, reduced to a withheld steering offset and a null set."""
+    """`cvtdesign selfcheck` on a real local Dask cluster, reduced to a withheld steering offset and a null set
+    of the rig matrix, and an effect outside the vocabulary from the independent simulator (right answer:
+    unexplained, with where the remaining gap lies)."""
     js = tmp_path / "sc.json"
-    assert main(["selfcheck", "--quick", "--only", "single-steering_offset,null-noise1-seed0", "--workers", "2",
-                 "--json", str(js)]) == 0
+    assert main(["selfcheck", "--quick", "--only", "single-steering_offset,null-noise1-seed0,viscous_loss-clear",
+                 "--workers", "2", "--json", str(js)]) == 0
     rep = json.loads(js.read_text())
     ids = [d["id"] for d in rep["datasets"]]
-    assert len(ids) == 2 and ids[1] == "null-noise1-seed0"
-    single, null = rep["datasets"]
-    assert single["verdict"] == "steering_offset" and single["shrink"] > 0.5 and single["signal_chi"] > 10
+    assert ids == [ids[0], "null-noise1-seed0", "independent-viscous_loss-clear"]
+    single, null, oov = rep["datasets"]
+    assert single["verdict"] == "steering_offset" and single["shrink"] > 0.8 and single["signal_chi"] > 10
     assert null["verdict"] == "none"
+    assert oov["kind"] == "out_of_vocabulary" and oov["verdict"] == "unexplained" and oov["lies_along"]
     s = rep["summary"]
-    assert s["top1_single"] == 1.0 and s["false_positive_null"] == 0.0
-    assert s["per_effect"]["steering_offset"]["cases"] == 1
+    assert s["rig"]["top1_single"] == 1.0 and s["rig"]["false_positive_null"] == 0.0
+    assert s["rig"]["per_effect"]["steering_offset"]["cases"] == 1
+    assert s["independent"]["named_out_of_vocabulary"] == 0
 
 
 def test_confounded_pair_is_reported_and_the_suggested_points_separate_it(layout):
