@@ -52,7 +52,7 @@ REGION_Z = 3.0         # operating points whose mean residual is beyond this man
 MAX_ADDED = 2          # greedy rounds: at most two effects are accepted (each round refits every candidate)
 SHRINK_MIN = 0.8       # an effect is named only if the accepted effects remove this much of the gap beyond noise
 MAX_FAIL = 0.05        # a candidate that fails (gross slip, lost contact) at more of the points is not accepted
-FORM_BINS = 8          # quantile bins of a variable in the model-form checks
+FORM_BINS = 8          # quantile bins of a variable in the model-form checks (one-way ANOVA of the residual)
 
 
 # ---------------------------------------------------------------------------------------------- predictor
@@ -382,11 +382,14 @@ def structured_power(data: Measured, z: np.ndarray) -> float:
 
 
 def point_grid(data: Measured, values: np.ndarray, reduce=np.nanmean) -> np.ndarray:
-    """Per-row values → (γ level, load level) grid of their mean over replicates (NaN where no point)."""
+    """Per-row values → (γ level, load level) grid of their mean over replicates and speed levels (NaN where
+    no point, or no finite value)."""
     r = data.rows
     grid = np.full((len(data.gamma_levels), len(data.load_levels)), np.nan)
     for (i, j), idx in r.groupby(["gamma_bin", "load_bin"]).indices.items():
-        grid[i, j] = reduce(values[idx])
+        v = values[idx]
+        if np.isfinite(v).any():
+            grid[i, j] = reduce(v)
     return grid
 
 
@@ -802,12 +805,14 @@ def suggest_points(models: Models, data: Measured, noise: dict, fa: Fit, fb: Fit
 def form_checks(models: Models, ctx) -> dict:
     """Where a remaining gap lies beyond the vocabulary: the final model's full-fit residuals (z units) tested
     for structure along each input (commanded γ, the load level τ⊥, the motor-speed level ω1: levels, not the
-    measured values, whose noise is already in the residual) and along the model's own derived
-    quantities at each point (the drive rollers' spin ratio |Ω·n|/V [1/m], their rolling speed V [m/s], the
-    smallest normal force [N] and the largest traction utilisation). Per variable, the points are put in
-    FORM_BINS quantile bins and the bin means tested against zero: χ² = Σ n_b·mean_b² over the bins, as a
-    z-score (χ² − B)/√(2B) (≈ N(0, 1) when the residual does not depend on the variable). Returns every
-    variable's z (largest over the channels) and the one along which the gap lies, if any exceeds AUTO_Z."""
+    measured values, whose noise is already in the residual) and along the model's own derived quantities at
+    each point (the drive rollers' spin ratio |Ω·n|/V [1/m], their rolling speed V [m/s], the smallest normal
+    force [N] and the largest traction utilisation). Per variable and channel, the points are put in FORM_BINS
+    quantile bins and the bin means compared by a one-way ANOVA F-test (scale-free, so a misestimated noise
+    level does not matter). Returns each variable's smallest p-value over the channels, and the variable
+    along which the gap lies: the smallest p, if it is below 0.001 after Bonferroni over every test."""
+    from scipy.stats import f_oneway
+
     data, final, noise = ctx["data"], ctx["final"], ctx["noise"]
     r = data.rows
     ok = final.ok
@@ -816,36 +821,33 @@ def form_checks(models: Models, ctx) -> dict:
     ev = m.evaluate(np.radians(r["gamma_cmd_deg"].to_numpy()[ok]), r["tau_perp"].to_numpy()[ok],
                     speeds=r["omega_1"].to_numpy()[ok], theta=final.fit.theta)
     drive = np.array([x.role != "steering" for x in m.layout.rollers])
-    rolling = np.abs(ev["omega_2"]) * float(next(x.radius for x in m.layout.rollers if x.role == "drive" and x.shaft == 2))
+    r2 = float(next(x.radius for x in m.layout.rollers if x.role == "drive" and x.shaft == 2))
     variables = {"gamma_cmd_deg": r["gamma_cmd_deg"].to_numpy()[ok],
                  "tau_perp_Nm": data.load_levels[r["load_bin"].to_numpy()[ok]],
                  "omega_1_rad_s": data.speed_levels[r["speed_bin"].to_numpy()[ok]],
                  "drive_spin_ratio_1_m": np.nanmean(np.abs(ev["spin"][drive]), axis=0),
-                 "rolling_speed_m_s": rolling, "min_normal_force_N": np.nanmin(ev["N"], axis=0),
+                 "rolling_speed_m_s": np.abs(ev["omega_2"]) * r2, "min_normal_force_N": np.nanmin(ev["N"], axis=0),
                  "max_utilisation": np.nanmax(ev["utilisation"], axis=0)}
-    stats = {name: _binned_z(v, z) for name, v in variables.items()}
-    top = max(stats, key=lambda k: stats[k]) if stats else None
-    return {"z": stats, "lies_along": top if top is not None and stats[top] > AUTO_Z else None}
+    p = {}
+    for name, v in variables.items():
+        bins = _quantile_bins(v)
+        good = np.isfinite(v) & np.all(np.isfinite(z), axis=0)
+        if bins is None:
+            p[name] = 1.0
+            continue
+        groups = [[zc[good & (bins == k)] for k in np.unique(bins[good])] for zc in z]
+        p[name] = float(min(f_oneway(*g).pvalue for g in groups if len(g) > 1)) if len(groups[0]) > 1 else 1.0
+    top = min(p, key=p.get)
+    return {"p": p, "lies_along": top if p[top] < 1e-3 / (len(p) * len(z)) else None}
 
 
-def _binned_z(v: np.ndarray, z: np.ndarray) -> float:
-    """Largest over the channels of the χ² of the bin means of z in FORM_BINS quantile bins of v, as a z-score;
-    0 for a variable that does not vary."""
-    ok = np.isfinite(v) & np.all(np.isfinite(z), axis=0)
-    v, z = v[ok], z[:, ok]
-    if v.size < 2 * FORM_BINS or np.ptp(v) <= 1e-12 * max(1.0, np.max(np.abs(v))):
-        return 0.0
-    edges = np.unique(np.quantile(v, np.linspace(0, 1, FORM_BINS + 1)))
-    b = np.clip(np.searchsorted(edges, v, side="right") - 1, 0, len(edges) - 2)
-    nb = np.bincount(b, minlength=len(edges) - 1)
-    keep = nb > 0
-    best = -np.inf
-    for zc in z:
-        means = np.bincount(b, weights=zc, minlength=len(edges) - 1)[keep] / nb[keep]
-        c2 = float(np.sum(nb[keep] * means ** 2))
-        k = int(keep.sum())
-        best = max(best, (c2 - k) / np.sqrt(2 * k))
-    return float(best)
+def _quantile_bins(v: np.ndarray):
+    """Bin index of each value in FORM_BINS quantile bins; None when v does not vary (or is too short)."""
+    fin = np.isfinite(v)
+    if fin.sum() < 2 * FORM_BINS or np.ptp(v[fin]) <= 1e-12 * max(1.0, np.max(np.abs(v[fin]))):
+        return None
+    edges = np.unique(np.quantile(v[fin], np.linspace(0, 1, FORM_BINS + 1)))
+    return np.clip(np.searchsorted(edges, v, side="right") - 1, 0, len(edges) - 2)
 
 
 # ------------------------------------------------------------------------------------------ report
@@ -913,9 +915,8 @@ def print_report(rep: dict, console):
                       "remains[/yellow]")
     form = rep["form"]
     if form["lies_along"] and rep["verdict"] == "unexplained":
-        console.print(f"the remaining gap lies along {form['lies_along']} (structure z = "
-                      f"{form['z'][form['lies_along']]:.1f}; "
-                      + ", ".join(f"{k} {v:.1f}" for k, v in sorted(form["z"].items(), key=lambda x: -x[1])[1:4])
+        console.print(f"the remaining gap lies along {form['lies_along']} (p = {form['p'][form['lies_along']]:.1e}; next: "
+                      + ", ".join(f"{k} {v:.1e}" for k, v in sorted(form["p"].items(), key=lambda x: x[1])[1:4])
                       + ")")
     if rep["accepted"]:
         reg = (f"; in the gap's regions {h['region_rms_alpha_deg'][0]:.3f}° → {h['region_rms_alpha_deg'][1]:.3f}° "

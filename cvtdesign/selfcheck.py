@@ -36,8 +36,11 @@ VALUES = {
     "rolling_resistance": ("offset", (1e-4, 3e-4)),             # 0.1 and 0.3 mm pressure-centre offset
     "steering_offset": ("offset", (np.radians(0.5), np.radians(-1.0))),
     "drive_radius_mismatch": ("delta", (0.01, -0.02)),
-    "traction_saturation": ("mu_scale", (0.4, 0.3)),            # μ 0.32 and 0.24: at 0.3 the rig sees gross slip at 10 points
+    # μ scaled so that the base model's largest traction utilisation over Kim's protocol reaches 0.8 and 1.0
+    # (existing: μ × 0.39 and × 0.31; box, whose four drive rollers share the force: × 0.20 and × 0.16)
+    "traction_saturation": ("mu_scale", None),
 }
+SATURATION_UTILISATION = (0.8, 1.0)
 # weak effects: their per-point signature is below the rig's noise, though 187 points may still reveal it;
 # the right verdict is `none` or the effect itself, never another name
 WEAK = [("normal_force_variation", "exponent", 2.0 / 3.0), ("drive_radius_mismatch", "delta", 0.0005)]
@@ -53,10 +56,10 @@ def _base_without(effects):
     return tuple(e for e in KIM if e not in effects)
 
 
-def make_cases(quick: bool = False, seeds: int = 3, matrices=MATRICES) -> list[dict]:
+def make_cases(quick: bool = False, seeds: int = 3, matrices=MATRICES, variant: str = EXISTING) -> list[dict]:
     """The datasets of the matrices. `quick`: one value and one noise level per effect, two nulls, one pair,
     and of the independent matrix one case per effect."""
-    cases = (_rig_cases(quick, seeds) if "rig" in matrices else []) + \
+    cases = (_rig_cases(quick, seeds, _values(variant)) if "rig" in matrices else []) + \
         (_independent_cases(quick) if "independent" in matrices else [])
     return cases
 
@@ -78,10 +81,21 @@ def _independent_cases(quick: bool) -> list[dict]:
     return out
 
 
-def _rig_cases(quick: bool, seeds: int) -> list[dict]:
+def _values(variant: str) -> dict:
+    """VALUES with the saturation's μ scales for the variant (SATURATION_UTILISATION)."""
+    from .evaluate import envelope, metrics
+    from .model import compile_model
+    from .variant import load_variant
+
+    m = compile_model(load_variant(variant).with_effects(KIM))
+    u = metrics(m, envelope(m))["max_traction_utilisation"]
+    return VALUES | {"traction_saturation": ("mu_scale", tuple(round(u / x, 3) for x in SATURATION_UTILISATION))}
+
+
+def _rig_cases(quick: bool, seeds: int, values: dict) -> list[dict]:
     cases = []
     seed = 100
-    for e, (p, vals) in VALUES.items():
+    for e, (p, vals) in values.items():
         for v in vals[:1] if quick else vals:
             for k in NOISE_SCALES[:1] if quick else NOISE_SCALES:
                 seed += 1
@@ -100,7 +114,7 @@ def _rig_cases(quick: bool, seeds: int) -> list[dict]:
                       "noise": 1.0, "seed": seed, "matrix": "rig"})
     for a, b in PAIRS[:1] if quick else PAIRS:
         seed += 1
-        params = {e: {VALUES[e][0]: VALUES[e][1][0]} for e in (a, b)}
+        params = {e: {values[e][0]: values[e][1][0]} for e in (a, b)}
         truth = list(dict.fromkeys(list(KIM) + [a, b]))
         cases.append({"id": f"pair-{a}+{b}", "kind": "pair", "withheld": [a, b], "base": list(_base_without([a, b])),
                       "truth": truth, "params": params, "noise": 1.0, "seed": seed, "matrix": "rig"})
@@ -224,11 +238,10 @@ def run(variant=EXISTING, quick=False, seeds=3, scheduler=None, workers=None, pr
     from .units import InputError
 
     variant = variant or EXISTING
-    cases = make_cases(quick, seeds, matrices)
-    if only:
-        cases = [c for c in cases if any(o in c["id"] for o in only)]
-        if not cases:
-            raise InputError(f"--only: no dataset id contains {', '.join(only)} (ids: {make_cases(quick, seeds)[0]['id']}, …)")
+    every = make_cases(quick, seeds, matrices, variant)
+    cases = [c for c in every if any(o in c["id"] for o in only)] if only else every
+    if not cases:
+        raise InputError(f"--only: no dataset id contains {', '.join(only)} (ids: {every[0]['id']}, …)")
     results = []
     if progress:
         progress(0, len(cases), None)
