@@ -594,18 +594,20 @@ def _structure(data: Measured, z: np.ndarray) -> float:
 
 
 def verdict(data: Measured, accepted, base: Score, steps, structured_before: float, structured_after: float,
-            has_regions: bool, nch: int) -> tuple[str, list]:
+            has_regions: bool, nch: int, form_structured: bool) -> tuple[str, list]:
     """The verdict and the partial explanation. An effect is named only when the accepted effects leave no
-    structured gap: the spatial structure z of the final residuals is ≤ AUTO_Z, and they remove at least
-    SHRINK_MIN of the structured gap (gap_shrink, held out) unless what remains is within 3 standard errors
-    of none. Otherwise a structured gap remains: `unexplained`, with each accepted effect's cumulative share
-    of the gap (`partial`). Without accepted effects: `unexplained` if the base residual is structured with
-    regions beyond 3σ, else `none` (the gap is noise)."""
+    structured gap: the spatial structure z of the final residuals is ≤ AUTO_Z, the model-form checks find
+    no variable the residual depends on (form_checks), and they remove at least SHRINK_MIN of the
+    structured gap (gap_shrink, held out) unless what remains is within 3 standard errors of none.
+    Otherwise a structured gap remains: `unexplained`, with each accepted effect's cumulative share of the
+    gap (`partial`). Without accepted effects: `unexplained` if the base residual is structured (spatially,
+    with regions beyond 3σ, or along a variable of the form checks), else `none` (the gap is noise)."""
     if not accepted:
-        return ("unexplained" if structured_before > AUTO_Z and has_regions else "none"), []
+        structured = (structured_before > AUTO_Z and has_regions) or form_structured
+        return ("unexplained" if structured else "none"), []
     c = compare(base, steps[-1], nch, data)
     remains = c.power[1] > 3 * c.power_se
-    if structured_after <= AUTO_Z and (gap_shrink(c) >= SHRINK_MIN or not remains):
+    if structured_after <= AUTO_Z and not form_structured and (gap_shrink(c) >= SHRINK_MIN or not remains):
         return accepted[0], []
     return "unexplained", [{"effect": e, "shrink": gap_shrink(compare(base, st, nch, data))}
                            for e, st in zip(accepted, steps)]
@@ -639,8 +641,10 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
     z_final = zscores(residuals(data, final.fit.pred), noise)
     structured_after = _structure(data, np.where(final.ok, z_final, np.nan))
     nch = len(_channels(data))
-    name, partial = verdict(data, accepted, base_score, steps, structured, structured_after, bool(regs), nch)
     ctx = dict(data=data, raw=raw, noise=noise, base=base_score, final=final, regs=regs, nch=nch)
+    form = form_checks(models, ctx)
+    name, partial = verdict(data, accepted, base_score, steps, structured, structured_after, bool(regs), nch,
+                            form["lies_along"] is not None)
     report = {
         "verdict": name, "accepted": accepted, "partial": partial, "base": list(base), "candidates": candidates,
         "rows": int(len(raw.rows)), "operating_points": int(len(data.rows)), "dropped_rows": data.dropped,
@@ -658,7 +662,7 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
                      "gain": r["cmp"].gain, "failed_fraction": r["score"].failed, "significant": r["significant"]}
                     for r in rd] for rd in rounds],
         "how_far": _how_far(ctx),
-        "form": form_checks(models, ctx),
+        "form": form,
         "by_speed": _by_speed(data, res_fit["alpha"], residuals(data, final.pred)["alpha"]),
         "confounded": _confounded(rounds[0], base_score, noise, data, models) if rounds else [],
         "seconds": time.perf_counter() - t0,
