@@ -593,18 +593,18 @@ def _structure(data: Measured, z: np.ndarray) -> float:
     return max(autocorrelation_z(data, zc) for zc in z)
 
 
-def verdict(data: Measured, accepted, base: Score, steps, structured_before: float, structured_after: float,
-            has_regions: bool, nch: int, form_structured: bool) -> tuple[str, list]:
+def verdict(data: Measured, accepted, base: Score, steps, structured_after: float, nch: int,
+            form_structured: bool) -> tuple[str, list]:
     """The verdict and the partial explanation. An effect is named only when the accepted effects leave no
     structured gap: the spatial structure z of the final residuals is ≤ AUTO_Z, the model-form checks find
     no variable the residual depends on (form_checks), and they remove at least SHRINK_MIN of the
     structured gap (gap_shrink, held out) unless what remains is within 3 standard errors of none.
     Otherwise a structured gap remains: `unexplained`, with each accepted effect's cumulative share of the
-    gap (`partial`). Without accepted effects: `unexplained` if the base residual is structured (spatially,
-    with regions beyond 3σ, or along a variable of the form checks), else `none` (the gap is noise)."""
+    gap (`partial`). Without accepted effects: `unexplained` if the base residual is spatially structured in
+    any channel (structured_after, the base being the final model), else `none` (the gap is noise). The form
+    checks only stop a name: alone, their nominal p-values proved too optimistic on null data to call a gap."""
     if not accepted:
-        structured = (structured_before > AUTO_Z and has_regions) or form_structured
-        return ("unexplained" if structured else "none"), []
+        return ("unexplained" if structured_after > AUTO_Z else "none"), []
     c = compare(base, steps[-1], nch, data)
     remains = c.power[1] > 3 * c.power_se
     if structured_after <= AUTO_Z and not form_structured and (gap_shrink(c) >= SHRINK_MIN or not remains):
@@ -643,8 +643,7 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
     nch = len(_channels(data))
     ctx = dict(data=data, raw=raw, noise=noise, base=base_score, final=final, regs=regs, nch=nch)
     form = form_checks(models, ctx)
-    name, partial = verdict(data, accepted, base_score, steps, structured, structured_after, bool(regs), nch,
-                            form["lies_along"] is not None)
+    name, partial = verdict(data, accepted, base_score, steps, structured_after, nch, form["lies_along"] is not None)
     report = {
         "verdict": name, "accepted": accepted, "partial": partial, "base": list(base), "candidates": candidates,
         "rows": int(len(raw.rows)), "operating_points": int(len(data.rows)), "dropped_rows": data.dropped,
