@@ -33,11 +33,8 @@ Parts (names as in the STEP file; colours in COLOURS):
 """
 from __future__ import annotations
 
-import contextlib
 import functools
 import itertools
-import os
-import tempfile
 import threading
 import time
 from dataclasses import dataclass, field
@@ -46,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from .geometry import pose, steering_angle_guess, steering_data
+from .output import make_folder, staged
 from .units import InputError, to_si
 from .variant import Layout, _vector, load_variant
 
@@ -383,7 +381,12 @@ def _mm(v) -> float:
 def steering_angle(layout: Layout, gamma: float) -> float:
     """Steering angle φ [rad] at which every steered roller rolls without lateral slip about the commanded
     axis at γ [rad]: the linkage's inverse kinematics as the model seeds and solves it (`steering_angle_guess`
-    refines a scan to ~1e-10 rad; the model's Newton solve starts there)."""
+    refines a scan to ~1e-10 rad; the model's Newton solve starts there). γ must be finite and within the
+    variant's envelope.gamma range (the command line's --gamma)."""
+    lo, hi = float(np.min(layout.gamma_grid)), float(np.max(layout.gamma_grid))
+    if not (np.isfinite(gamma) and lo - 1e-12 <= gamma <= hi + 1e-12):
+        raise InputError(f"{layout.file}: --gamma: γ = {np.degrees(gamma):g}° is outside the variant's envelope.gamma "
+                         f"range {np.degrees(lo):g}..{np.degrees(hi):g}°; expected a --gamma in that range")
     phi, misfit = steering_angle_guess(*steering_data(layout), np.array([gamma]))
     if misfit[0] > 1e-6:
         raise InputError(f"{layout.file}: steering.forks: the linkage cannot reach γ = {np.degrees(gamma):g}° "
@@ -642,29 +645,6 @@ def assembly(p: Plan, shapes: dict):
 
 # --- files ----------------------------------------------------------------------------------------------
 
-@contextlib.contextmanager
-def atomic_paths(*paths: Path):
-    """Yield one temporary path next to each target; when the block succeeds every temporary file is renamed
-    onto its target (os.replace), otherwise all are removed: no half-written file is ever left.
-    (cli.write_atomic is the same pattern for one text file.)"""
-    tmps, umask = [], os.umask(0)
-    os.umask(umask)
-    try:
-        for path in paths:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-            os.close(fd)
-            tmps.append(Path(tmp))
-        yield tmps
-        for tmp, path in zip(tmps, paths):
-            os.chmod(tmp, 0o666 & ~umask)         # mkstemp's 0600 would make the review files private
-            os.replace(tmp, path)
-    finally:
-        for tmp in tmps:
-            if tmp.exists():
-                tmp.unlink()
-
-
 def _view_basis(direction):
     """(right, up, towards viewer) unit vectors of an orthographic view along `direction`, z drawn upwards."""
     d = _unit(direction)
@@ -891,10 +871,10 @@ def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, c
         p = plan(layout, gamma_deg)
         shapes, pieces = build(p)
         screen(p, pieces)
-        out = Path(out_dir)
+        out = make_folder(out_dir, kind="CAD output folder")
         paths = [out / f"{layout.name}.{ext}" for ext in ("step", "svg", "png")]
         mesh = view_mesh(p, shapes)
-        with atomic_paths(*paths) as tmps:
+        with staged(paths, kind="CAD file") as tmps:     # the three files appear together or not at all
             # hand the mesh over from a thread: the pipe blocks until the plotting process reads it
             sender = threading.Thread(target=painter.draw, args=("cad_picture", *mesh, [part.colour for part in p.parts],
                                                                   picture_caption(p), tmps[2]))

@@ -1,11 +1,11 @@
-"""Matplotlib figures (Agg backend, written atomically as PNG)."""
+"""Matplotlib figures (Agg backend, written as PNG by output.write_file: atomically, umask's mode)."""
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from .output import OutputError, write_file
 
 
 def _plt():
@@ -18,16 +18,12 @@ def _plt():
 
 
 def save(fig, path: Path, dpi=80):
-    """Write a figure atomically (temporary file in the same folder, then rename)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=path.suffix)
-    os.close(fd)
+    """Write a figure with output.write_file (matplotlib draws into the temporary file, which is then
+    renamed onto `path`); the figure is closed either way."""
+    path = Path(path)
     try:
-        fig.savefig(tmp, dpi=dpi)
-        os.replace(tmp, path)
+        write_file(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=path.suffix[1:] or "png"), kind="plot")
     finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
         _plt().close(fig)
 
 
@@ -84,6 +80,8 @@ def worker(conn):
     try:
         globals()[name](*args)
         conn.send(None)
+    except OutputError as e:  # raised again by the parent (Background.wait): one line, exit status 2
+        conn.send(e)
     except Exception as e:  # reported by the parent as one line
         conn.send(f"{type(e).__name__}: {e}")
 
@@ -91,7 +89,8 @@ def worker(conn):
 class Background:
     """Run figure functions of this module in a forked process that has matplotlib ready.
 
-    Start it before the computation; `draw` hands over the data; `wait` returns the error text or None."""
+    Start it before the computation; `draw` hands over the data; `wait` returns the error text or None
+    (a file that could not be written is raised as the OutputError it was)."""
 
     def __init__(self):
         import multiprocessing
@@ -106,11 +105,14 @@ class Background:
 
     def wait(self):
         try:
-            return self.conn.recv()
+            answer = self.conn.recv()
         except EOFError:
             return "the plotting process ended unexpectedly"
         finally:
             self.close()
+        if isinstance(answer, OutputError):
+            raise answer
+        return answer
 
     def close(self):
         if self.proc.is_alive():

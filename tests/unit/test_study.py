@@ -1,22 +1,28 @@
-"""Batch studies on a real Dask LocalCluster: the store, resume after a kill, recorded statuses."""
+"""Batch studies on a real Dask cluster: the store, resume after an interruption, a finished or corrupt store,
+the store's lock, Ctrl-C, bad settings and bad studies refused before any case runs, recorded statuses.
+
+Most runs share one LocalCluster (module fixture, passed as --scheduler: a cluster start costs ~1.5 s);
+the interrupted run starts its own, so that the Ctrl-C path closes a cluster of its own."""
 import os
-import signal
-import subprocess
-import sys
+import shutil
+import socket
 import time
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 import pytest
 import yaml
+from filelock import FileLock
 
+from cvtdesign import cluster, study as study_mod
+from cvtdesign.cli import main
 from cvtdesign.study import make_cases, read_store, run_study
+from cvtdesign.units import InputError
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def small_study(tmp_path, **extra):
+def small_study(folder, name="small.yaml", **extra):
     data = {"name": "small", "base": str(ROOT / "variants/box.yaml"),
             "design": {"d": {"lower": "30 mm", "upper": "110 mm"}},
             "constraints": {"clearance": "2 mm"},
@@ -25,7 +31,7 @@ def small_study(tmp_path, **extra):
             "multistart": {"starts": 3, "seed": 2},
             "batch": {"sweep": {"r_steer": ["30 mm", "38 mm"]}}}
     data.update(extra)
-    path = tmp_path / "small.yaml"
+    path = Path(folder) / name
     path.write_text(yaml.safe_dump(data, allow_unicode=True))
     return path
 
@@ -35,58 +41,171 @@ def comparable(df):
     return df[cols].sort_values(["case_id", "point"]).reset_index(drop=True)
 
 
+def case_files(store) -> list[Path]:
+    return sorted((Path(store) / "cases").glob("[!.]*.parquet"))
+
+
+def one_line(err: str, *needles):
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    for n in needles:
+        assert n in err, err
+
+
+@pytest.fixture(scope="module")
+def shared(tmp_path_factory):
+    """A LocalCluster of 2 workers for the runs that need no cluster of their own."""
+    c = cluster.local_cluster(2)
+    yield c.scheduler_address
+    c.close()
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory, shared):
+    """(study file, a finished store of its 6 cases, the store's table)."""
+    folder = tmp_path_factory.mktemp("finished")
+    path = small_study(folder)
+    res = run_study(path, folder / "store", scheduler=shared)
+    assert res["ran"] == 6 and res["table"]["success"].all()
+    return path, folder / "store", res["table"]
+
+
+@pytest.fixture
+def no_cluster(monkeypatch):
+    """Fail the test if a cluster were started or reached (nothing may be submitted)."""
+    def refuse(*args, **kwargs):
+        raise AssertionError("a cluster was started")
+    monkeypatch.setattr(cluster, "local_cluster", refuse)
+    monkeypatch.setattr(cluster, "connect", refuse)
+
+
+def copy_store(store, tmp_path) -> Path:
+    return Path(shutil.copytree(store, tmp_path / "store"))
+
+
 def test_cases_are_the_product(tmp_path):
     cases = make_cases(small_study(tmp_path))
     assert len(cases) == 6 and len({c["id"] for c in cases}) == 6
     assert {c["fixed"]["r_steer"] for c in cases} == {0.030, 0.038}
 
 
-def test_study_resumes_after_kill(tmp_path):
-    # enough work that the kill lands mid-study: 16 cases on Kim's envelope (a case takes ~0.06 s once its
-    # worker has built the problem, so the 6 small cases above all finish within one poll of the kill loop)
-    study = small_study(tmp_path, multistart={"starts": 8, "seed": 2},
-                        envelope={"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "10 deg"},
-                                  "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "0.1 N*m"}})
-    n = len(make_cases(study))
-    assert n == 16
-    # uninterrupted reference
-    ref = run_study(study, tmp_path / "ref", workers=2)["table"]
-    assert len(ref) == n and ref["success"].all()
-    # the real thing: the command killed with SIGKILL (workers too) once two cases are stored
-    out = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "cvtdesign.cli", "study", str(study), "--out", str(out),
-                             "--workers", "2"], start_new_session=True, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, cwd=ROOT)
-    deadline = time.time() + 120
-    while time.time() < deadline and len(list((out / "cases").glob("[!.]*.parquet"))) < 2:
-        time.sleep(0.05)
-    os.killpg(proc.pid, signal.SIGKILL)
-    proc.wait()
-    partial = len(list((out / "cases").glob("[!.]*.parquet")))
-    assert 2 <= partial < n
-    res = run_study(study, out, workers=2)
-    assert res["skipped"] == partial and res["ran"] == n - partial
-    pd.testing.assert_frame_equal(comparable(res["table"]), comparable(ref), rtol=1e-9)
+def test_finished_store_holds_the_closed_form_optimum(finished):
+    _, store, table = finished
+    assert len(case_files(store)) == 6 and (store / "manifest.json").exists()
     # the optimum: the closed form of test_optimise for each steering radius
-    for rs, d in zip((0.030, 0.038), sorted(ref.groupby("fixed")["design.d"].mean())):
+    for rs, d in zip((0.030, 0.038), sorted(table.groupby("fixed")["design.d"].mean())):
         assert d == pytest.approx(0.0635 * (2 * rs + 0.002) / (0.0635 + rs), rel=1e-4)
 
 
-def test_other_study_in_store_is_refused(tmp_path):
-    study = small_study(tmp_path, multistart={"starts": 1})
-    run_study(study, tmp_path / "s", workers=1)
-    assert "110 mm" in study.read_text()
-    study.write_text(study.read_text().replace("110 mm", "100 mm"))
-    from cvtdesign.units import InputError
+def test_interrupt_then_resume(tmp_path, finished, shared, capfd, monkeypatch):
+    """Ctrl-C (a KeyboardInterrupt once the second case is stored) closes the run's own LocalCluster and says
+    in one line what is kept; the next run resumes from there and reaches the uninterrupted result."""
+    path, _, ref = finished
+    out = tmp_path / "s"
+    real = study_mod.write_case
+
+    def write_then_interrupt(out_dir, case_id, rows):
+        real(out_dir, case_id, rows)
+        if len(case_files(out_dir)) == 2:
+            raise KeyboardInterrupt
+    monkeypatch.setattr(study_mod, "write_case", write_then_interrupt)
+    assert main(["study", str(path), "--out", str(out), "--workers", "2"]) == 130
+    err = capfd.readouterr().err                    # file descriptor 2: worker processes and logging included
+    one_line(err, f"cvtdesign: interrupted: 2 of 6 cases finished and kept in {out}; run again to resume")
+    assert len(case_files(out)) == 2
+    monkeypatch.setattr(study_mod, "write_case", real)
+    # what a killed run leaves: a half-written temporary file (removed under the lock)
+    stale = out / "cases" / ".x.parquet.0123abcd.tmp.parquet"
+    stale.write_bytes(b"PAR1")
+    res = run_study(path, out, scheduler=shared)
+    assert res["skipped"] == 2 and res["ran"] == 4 and not stale.exists()
+    pd.testing.assert_frame_equal(comparable(res["table"]), comparable(ref), rtol=1e-9)
+
+
+def test_rerun_when_finished_prints_summary_and_recomputes_nothing(tmp_path, finished, capsys, no_cluster):
+    path, store, ref = finished
+    store = copy_store(store, tmp_path)
+    before = {f: f.stat().st_mtime_ns for f in case_files(store)}
+    assert main(["study", str(path), "--out", str(store), "--workers", "2"]) == 0
+    out = capsys.readouterr().out
+    assert f"6 cases: all already in {store}; nothing to run" in out and "Solve_Succeeded" in out
+    assert {f: f.stat().st_mtime_ns for f in case_files(store)} == before
+
+
+def test_corrupt_case_file_is_run_again(tmp_path, finished, shared):
+    path, store, ref = finished
+    store = copy_store(store, tmp_path)
+    bad = case_files(store)[0]
+    os.truncate(bad, bad.stat().st_size // 2)
+    notices = []
+    res = run_study(path, store, scheduler=shared, notice=notices.append)
+    assert notices == [f"case file {bad}: unreadable (truncated or not a Parquet file); running the case again"]
+    assert res["skipped"] == 5 and res["ran"] == 1
+    pd.testing.assert_frame_equal(comparable(res["table"]), comparable(ref), rtol=1e-9)
+
+
+def test_second_concurrent_run_is_refused(tmp_path, finished, capsys, no_cluster):
+    path, store, _ = finished
+    store = copy_store(store, tmp_path)
+    for f in case_files(store):
+        f.unlink()
+    t0 = time.perf_counter()
+    with FileLock(store / ".lock"):
+        assert main(["study", str(path), "--out", str(store)]) == 2
+    one_line(capsys.readouterr().err, f"cvtdesign: error: {store}: another run of the study holds this results store")
+    assert time.perf_counter() - t0 < 5 and case_files(store) == []
+
+
+@pytest.mark.parametrize("workers", ["-1", "0"])
+def test_bad_workers_refused(tmp_path, capsys, no_cluster, workers):
+    assert main(["study", str(small_study(tmp_path)), "--out", str(tmp_path / "s"), "--workers", workers]) == 2
+    one_line(capsys.readouterr().err, f"--workers: expected a positive number of worker processes, got {workers}")
+    assert not (tmp_path / "s").exists()
+
+
+def test_unreachable_scheduler_refused_within_the_timeout(tmp_path, capsys, monkeypatch):
+    with socket.socket() as s:                  # a port with nothing listening
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", 1.0)
+    t0 = time.perf_counter()
+    assert main(["study", str(small_study(tmp_path)), "--out", str(tmp_path / "s"),
+                 "--scheduler", f"tcp://127.0.0.1:{port}"]) == 2
+    assert time.perf_counter() - t0 < 15
+    one_line(capsys.readouterr().err, f"--scheduler tcp://127.0.0.1:{port}: no Dask scheduler answered within 1 s")
+    assert case_files(tmp_path / "s") == []
+
+
+@pytest.mark.parametrize("fields, message", [
+    ({"design": {"d": {"lower": "110 mm", "upper": "30 mm"}}}, "design.d: inverted bounds"),
+    ({"batch": {"sweep": {"r_stear": ["30 mm"]}}}, "batch.sweep.r_stear: the variant box.yaml has no parameter"),
+    ({"batch": {"variants": ["box.yaml", "nope.yaml"]}}, "batch.variants: no variant file 'nope.yaml'"),
+    ({"batch": {"variants": ["box.yaml", "broken.yaml"]}}, "broken.yaml: materials: missing required field"),
+    ({"max_iter": 0}, "max_iter: expected an integer >= 1, got 0"),
+    ({"effects": ["drive_longitudinal_creep", "bogus_creep"]}, "effects: unknown effect 'bogus_creep'"),
+    ({"constraints": {"min_normal_force": "-5 N"}}, "constraints.min_normal_force: expected a positive force"),
+])
+def test_bad_study_refused_before_any_case(tmp_path, capsys, no_cluster, fields, message):
+    shutil.copy(ROOT / "variants/box.yaml", tmp_path / "box.yaml")
+    (tmp_path / "broken.yaml").write_text("name: broken\n")
+    path = small_study(tmp_path, **fields)
+    assert main(["study", str(path), "--out", str(tmp_path / "s")]) == 2
+    one_line(capsys.readouterr().err, message)
+    assert not (tmp_path / "s").exists()
+
+
+def test_other_study_in_store_is_refused(tmp_path, finished, no_cluster):
+    path, store, _ = finished
+    store = copy_store(store, tmp_path)
+    other = small_study(tmp_path, design={"d": {"lower": "30 mm", "upper": "100 mm"}})
     with pytest.raises(InputError, match="holds another version of this study"):
-        run_study(study, tmp_path / "s", workers=1)
+        run_study(other, store)
 
 
-def test_failed_case_status_is_recorded(tmp_path):
+def test_failed_case_status_is_recorded(tmp_path, shared):
     """An infeasible case (clearance impossible inside the bounds) is stored with IPOPT's status."""
     study = small_study(tmp_path, constraints={"clearance": "80 mm"}, multistart={"starts": 1},
                         batch={"sweep": {}})
-    res = run_study(study, tmp_path / "f", workers=1)
+    run_study(study, tmp_path / "f", scheduler=shared)
     df = read_store(tmp_path / "f")
     assert len(df) == 1 and not df["success"].iloc[0]
     assert df["status"].iloc[0] in ("Infeasible_Problem_Detected", "Restoration_Failed", "Maximum_Iterations_Exceeded")
