@@ -4,13 +4,12 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from .output import check_folder, check_target, make_folder, write_file, write_files
 from .units import InputError
 
 COLUMNS = [
@@ -23,20 +22,6 @@ COLUMNS = [
     ("max_traction_utilisation", "max F/(μN)", "{:.3f}"),
     ("max_hertz_pressure_MPa", "max Hertz p [MPa]", "{:.2f}"),
 ]
-
-
-def write_atomic(path: Path, text: str):
-    """Write text to `path` via a temporary file and a rename, so no half-written file is ever left."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
 
 
 def _finite(obj):
@@ -120,10 +105,10 @@ def _compare(args, painter):
             console.print(f"[red]{r['name']}: {r['points'] - r['ok']} of {r['points']} operating points left out "
                           f"of the figures: {left_out_text(r)}[/red]")
 
-    figure = Path(args.out) / "compare.png"
+    figure = make_folder(args.out, kind="--out") / "compare.png"
     painter.draw("compare_figure", [(L.name, res) for L, res in results], figure)
     if args.json:
-        write_atomic(Path(args.json), json_text({"variants": rows}))
+        write_file(args.json, json_text({"variants": rows}), kind="--json")
         console.print(f"figures written to {args.json}")
     error = painter.wait()
     if error:
@@ -167,7 +152,17 @@ def cmd_optimise(args):
     console = Console(width=110)
     with _progress(console, "multistart", lambda sol: f"last: {sol.status}, f = {sol.objective:.5g}",
                    transient=True) as progress:
-        res = optimise.run(args.study, args.out, args.starts, progress)
+        res = optimise.run(args.study, args.out, args.starts, progress, write=False)
+    # the optimum's variant file and the JSON report: written together, all or nothing
+    files = res.pop("pending_files")
+    kinds = {p: "variant file" for p in files}
+    if files and args.out:
+        make_folder(args.out, kind="--out")
+    if args.json:
+        keys = ("status", "objective", "design", "active_constraints", "variant_file")
+        files[Path(args.json)] = json_text({k: res[k] for k in keys} | {"details": res})
+        kinds[Path(args.json)] = "--json"
+    write_files(files, kind=kinds)
     statuses = ", ".join(f"{s} ×{res['statuses'].count(s)}" for s in dict.fromkeys(res["statuses"]))
     console.print(f"study {res['study']}: {res['starts']} starts ({statuses}); "
                   f"{len(res['optima'])} distinct optima found " +
@@ -193,9 +188,6 @@ def cmd_optimise(args):
         chk = res.get("envelope_check")
         why = f"; worst point {chk['worst']}" if chk and chk.get("worst") else ""
         console.print(f"[red]no successful solve: {res['status']}{why}; no variant file written[/red]")
-    if args.json:
-        keys = ("status", "objective", "design", "active_constraints", "variant_file")
-        write_atomic(Path(args.json), json_text({k: res[k] for k in keys} | {"details": res}))
     return 0 if res["success"] else 1
 
 
@@ -205,13 +197,20 @@ def cmd_study(args):
     from rich.table import Table
 
     from . import study
+    from .cluster import check_workers
 
+    check_workers(args.workers)
     console = Console(width=120)
     with _progress(console, "cases", lambda row: f"last: {row['case_id']} {row['status']}") as progress:
-        res = study.run_study(args.study, args.out, args.scheduler, args.workers, progress)
+        res = study.run_study(args.study, args.out, args.scheduler, args.workers, progress,
+                              lambda text: console.print(text, style="yellow", markup=False, highlight=False,
+                                                           soft_wrap=True))
     df = res["table"]
-    console.print(f"{res['cases']} cases: {res['skipped']} already in {res['out_dir']}, {res['ran']} run in "
-                  f"{res['seconds']:.1f} s (cluster start-up {res['startup_seconds']:.1f} s)")
+    if res["ran"]:
+        console.print(f"{res['cases']} cases: {res['skipped']} already in {res['out_dir']}, {res['ran']} run in "
+                      f"{res['seconds']:.1f} s (cluster start-up {res['startup_seconds']:.1f} s)")
+    else:
+        console.print(f"{res['cases']} cases: all already in {res['out_dir']}; nothing to run")
     t = Table(title="cases by status")
     t.add_column("status")
     t.add_column("cases", justify="right")
@@ -274,7 +273,7 @@ def cmd_rig(args):
         protocol = rig.Protocol(protocol.gammas, protocol.loads, protocol.speeds, protocol.load_kind, args.replicates)
     noise = rig.parse_noise(args.noise)
     rows, failed = rig.simulate(layout, effects, params, protocol, noise, args.seed, axis=not args.no_axis)
-    write_atomic(Path(args.out), rig.to_csv_text(rows))
+    write_file(args.out, rig.to_csv_text(rows), kind="--out")
     console = Console()
     console.print(f"{len(rows)} rows ({protocol.replicates} replicate(s)) of {layout.name} with "
                   f"{', '.join(effects) or 'no effects'} written to {args.out}; noise σ: speed {noise.speed:g} rad/s, "
@@ -300,10 +299,10 @@ def cmd_diagnose(args):
         rep = diagnose.diagnose(layout, data, base, candidates or None, progress)
     diagnose.print_report(rep, console)
     if args.plots:
-        for f in diagnose.plot_report(rep, Path(args.plots)):
+        for f in diagnose.plot_report(rep, make_folder(args.plots, kind="--plots")):
             console.print(f"plot: {f}")
     if args.json:
-        write_atomic(Path(args.json), json_text(diagnose.public(rep)))
+        write_file(args.json, json_text(diagnose.public(rep)), kind="--json")
         console.print(f"report written to {args.json}")
     return 0
 
@@ -325,7 +324,7 @@ def cmd_selfcheck(args):
     summ = selfcheck.summary(results)
     selfcheck.print_summary(summ, results, console)
     if args.json:
-        write_atomic(Path(args.json), json_text({"summary": summ, "datasets": results}))
+        write_file(args.json, json_text({"summary": summ, "datasets": results}), kind="--json")
     return 0 if selfcheck.meets_targets(summ) else 1
 
 
@@ -340,23 +339,21 @@ def cmd_resteer(args):
 
     layout = load_variant(args.variant)
     effects = _effects_arg(args.effects, layout.effects, "--effects")
+    # the arguments first (a finite load inside the envelope, finite positive ratios), then the data
+    load = None if args.load is None else resteer.check_load(layout, to_si(args.load, "torque", "--load"), "--load")
+    ratios = resteer.parse_ratios(args.ratios, "--ratios") if args.ratios else list(resteer.RATIOS)
+    truth = truth_params = None
+    if args.truth_effects is not None:
+        truth = _effects_arg(args.truth_effects, layout.effects, "--truth-effects")
+        truth_params = rig.parse_settings(args.truth_set, truth, "--truth-set")
     data = measured.load_measured(args.data, layout, args.drop_bad) if args.data else None
-    if args.load is not None:
-        load = to_si(args.load, "torque", "--load")
-    else:
+    if load is None:
         load = float(data.load_levels.max()) if data is not None else float(layout.load_grid.max())
-    try:
-        ratios = [float(x) for x in args.ratios.split(",")] if args.ratios else list(resteer.RATIOS)
-    except ValueError:
-        raise InputError(f"--ratios: expected comma-separated numbers, got '{args.ratios}'") from None
-    if any(q <= 0 for q in ratios):
-        raise InputError("--ratios: expected positive speed ratios ω2/ω1")
     cmds = resteer.commands(layout, effects, load, ratios, data)
     console = Console(width=120)
     table = None
-    if args.truth_effects is not None:
-        truth = _effects_arg(args.truth_effects, layout.effects, "--truth-effects")
-        tmodel = compile_model(layout.with_effects(truth, rig.parse_settings(args.truth_set, truth, "--truth-set")))
+    if truth is not None:
+        tmodel = compile_model(layout.with_effects(truth, truth_params))
         table = resteer.achieved(tmodel, cmds)
     t = Table(title=f"resteering under τ⊥ = {load:+.3g} N·m: commanded γ \\[deg]"
                     + (" / achieved ω2/ω1 / error by Brokowski eq 23 \\[%]" if table else ""))
@@ -380,11 +377,11 @@ def cmd_resteer(args):
     if args.plots and table:
         from . import plots
 
-        f = Path(args.plots) / "resteer.png"
+        f = make_folder(args.plots, kind="--plots") / "resteer.png"
         plots.resteer_figure(ratios, load, table, f)
         console.print(f"plot: {f}")
     if args.json:
-        write_atomic(Path(args.json), json_text({"commands": cmds, "achieved": table}))
+        write_file(args.json, json_text({"commands": cmds, "achieved": table}), kind="--json")
     return 0
 def cmd_export(args):
     from rich.console import Console
@@ -485,15 +482,30 @@ def build_parser():
     return p
 
 
+def check_outputs(args):
+    """Refuse an output path that cannot be written before any computation (each write checks again):
+    --json and rig's --out are files, --plots and the other commands' --out are folders."""
+    if getattr(args, "json", None):
+        check_target(args.json, kind="--json")
+    if getattr(args, "plots", None):
+        check_folder(args.plots, kind="--plots")
+    if getattr(args, "out", None):
+        if args.command == "rig":
+            check_target(args.out, kind="--out")
+        else:
+            check_folder(args.out, kind="--out")
+
+
 def main(argv=None):
     args = build_parser().parse_args(argv)
     try:
+        check_outputs(args)
         return args.func(args)
     except InputError as e:
         print(f"cvtdesign: error: {e}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("cvtdesign: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as e:   # study.Interrupted says how much is kept
+        print(f"cvtdesign: {str(e) or 'interrupted'}", file=sys.stderr)
         return 130
 
 

@@ -10,6 +10,7 @@ layout −τ1 sin γ + τ2 cos γ and τ1 cos γ + τ2 sin γ, Kim eq 17), effic
 """
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -17,11 +18,13 @@ import pandas as pd
 
 from .evaluate import efficiency
 from .kinematics import ShaftFrame, shaft_frame
-from .units import InputError, suggest
+from .units import InputError, shorten, suggest
 
 REQUIRED = ("gamma_cmd_deg", "omega_1", "omega_2", "tau_1", "tau_2")
 OPTIONAL = ("gamma_axis_deg",)
 GAMMA_TOL_DEG = 1e-6     # [deg] commanded angles closer than this are one operating point
+FOLDS = 5                # the diagnosis's cross-validation folds (diagnose.FOLDS)
+MIN_POINTS = 2 * FOLDS   # operating points a fit needs: every fold holds out ≥ 2 and fits on ≥ 8 (merge_points)
 
 
 @dataclass
@@ -54,14 +57,30 @@ def read_measured(path, frame: ShaftFrame, gamma_range_deg=None, drop_bad: bool 
     frame: the variant's shaft kinematics (α, τ⊥, τ∥ as kinematics.py defines them); gamma_range_deg:
     (lo, hi) the variant's operating range [deg]. Every problem is one InputError line naming the file, the line (the
     header is line 1) or the column, and what was expected. With `drop_bad`, rows with empty or non-numeric
-    cells, a motor shaft at rest or γ outside the range are dropped and counted instead."""
+    cells (non-finite ones too: 'inf' is not a measurement), a motor shaft at rest or γ outside the range are
+    dropped and counted instead. The file must be UTF-8 text (the line of the first other byte is named)."""
     where = str(path)
     try:
-        raw = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+        with open(path, "rb") as f:
+            data = f.read()
     except FileNotFoundError:
         raise InputError(f"{where}: no such file") from None
-    except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
-        raise InputError(f"{where}: not a readable CSV file ({str(e).splitlines()[0] if str(e) else type(e).__name__})") from None
+    except OSError as e:
+        raise InputError(f"{where}: cannot read file ({e.strerror or type(e).__name__})") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = data[:e.start].count(b"\n") + 1
+        raise InputError(f"{where}: line {line}: not a readable CSV file (byte 0x{data[e.start]:02x} is not UTF-8 "
+                         "text); expected UTF-8 text with the header " + ",".join(REQUIRED)) from None
+    if "\x00" in text:
+        line = text[:text.index("\x00")].count("\n") + 1
+        raise InputError(f"{where}: line {line}: not a readable CSV file (a NUL byte: binary data, not text); "
+                         "expected UTF-8 text with the header " + ",".join(REQUIRED))
+    try:
+        raw = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False, skipinitialspace=True)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as e:
+        raise InputError(f"{where}: not a readable CSV file ({' '.join(str(e).split()) or type(e).__name__})") from None
     raw.columns = [str(c).strip() for c in raw.columns]
     for c in REQUIRED:
         if c not in raw.columns:
@@ -76,13 +95,16 @@ def read_measured(path, frame: ShaftFrame, gamma_range_deg=None, drop_bad: bool 
     num = pd.DataFrame(index=raw.index)
     for c in cols:
         text = raw[c].str.strip()
-        v = pd.to_numeric(text, errors="coerce")
+        v = pd.to_numeric(text, errors="coerce").astype(float)
         for i in raw.index[v.isna() & bad.eq("")]:
             cell = text[i]
             empty = cell in ("", "nan", "NaN", "NA")
-            bad[i] = f"column '{c}' is empty" if empty else f"column '{c}': '{cell}' is not a number"
+            bad[i] = f"column '{c}' is empty" if empty else f"column '{c}': '{shorten(cell)}' is not a number"
             kind[i] = "empty cell" if empty else "non-numeric cell"
-        num[c] = v.astype(float)
+        for i in raw.index[v.notna() & ~np.isfinite(v) & bad.eq("")]:
+            bad[i] = f"column '{c}': '{shorten(text[i])}' is not a finite number"
+            kind[i] = "non-finite cell"
+        num[c] = v
     if gamma_range_deg is not None:
         lo, hi = gamma_range_deg
         out = ~num["gamma_cmd_deg"].between(lo - 1e-9, hi + 1e-9) & bad.eq("") & num["gamma_cmd_deg"].notna()
@@ -167,8 +189,17 @@ def merge_points(data: Measured) -> Measured:
     """The dataset with its replicates merged: one row per operating point, with the mean of every measured
     and derived column (α, τ⊥, τ∥ and the axis angle averaged as measured; efficiency from the mean powers),
     its `count` of replicates, and the point's levels. A diagnosis predicts and fits at these points, so
-    its cost grows with the operating points, not the rows; the noise of a mean is σ/√count."""
+    its cost grows with the operating points, not the rows; the noise of a mean is σ/√count.
+
+    A fit and its FOLDS-fold cross-validation (grouped by operating point) need at least MIN_POINTS = 10
+    operating points: fewer is one InputError line naming the file."""
     r = data.rows
+    n = int(r["point"].nunique())
+    if n < MIN_POINTS:
+        rows = f"{len(r)} row{'s' if len(r) != 1 else ''}"
+        raise InputError(f"{data.file}: {n} operating point{'s' if n != 1 else ''} ({rows}); expected at least "
+                         f"{MIN_POINTS} distinct operating points (γ, load, motor speed) for the fit and its "
+                         f"{FOLDS}-fold cross-validation")
     cols = [c for c in ("gamma_cmd_deg", "omega_1", "omega_2", "tau_1", "tau_2", "gamma_axis_deg", "alpha_deg",
                         "tau_perp", "tau_par") if c in r.columns]
     g = r.groupby("point", sort=True)

@@ -48,31 +48,44 @@ from __future__ import annotations
 
 import datetime
 import itertools
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import casadi as ca
 import numpy as np
 import yaml
+from pydantic import BeforeValidator, Field, StrictBool
 
 from .checks import check_layout
+from .effects import check_effects
 from .geometry import _np, roller_pose, steering_angle_guess, steering_data
 from .model import STATUS, compile_model
-from .units import InputError, registry, suggest, to_si
-from .variant import EnvelopeSpec, Num, Strict, _grid, _param, load_spec, read_spec, resolve
+from .output import make_folder, write_file
+from .units import InputError, check_range, dimension_of, kind_name, registry, shorten, suggest, to_si
+from .variant import (EnvelopeSpec, Name, Num, Strict, _grid, _no_bool, _param, load_spec, quantity,
+                      read_spec, resolve)
+
+# integers and switches of a study file: YAML's true/false are not numbers, and 1 or "yes" is not a switch
+Int = Annotated[int, BeforeValidator(_no_bool)]
+Weight = Annotated[float, BeforeValidator(_no_bool)]
 
 
 class DesignVar(Strict):
+    """A free parameter of the base variant, between `lower` and `upper` (lower < upper, finite). Both bounds
+    have the dimension of the parameter as the variant writes it (a parameter '60 mm' needs lengths like
+    '30 mm'; a plain-number parameter, e.g. a ratio, plain-number bounds; an '= expression' parameter any
+    dimension, the same for both bounds)."""
     lower: Num
     upper: Num
     variants: list[str] | None = None   # free only in these variant files (of batch.variants); default: all
 
 
 class DutyPoint(Strict):
-    gamma: Num
-    load: Num
-    weight: float = 1.0
+    gamma: Num          # an angle within ±90°
+    load: Num           # a torque
+    weight: Weight = 1.0   # finite, >= 0
 
 
 class Objective(Strict):
@@ -81,19 +94,22 @@ class Objective(Strict):
 
 
 class Constraints(Strict):
-    hertz_pressure: bool = True
+    """Constraint settings: `traction_margin` a plain number in [0, 1); `clearance` a length >= 0 (at most
+    1 m) between any two rollers; `envelope_radius` a length (0, 10 m]; `min_normal_force` a force > 0.
+    Each is finite; plain numbers are SI, and an implausible plain length gets the unit it probably meant."""
+    hertz_pressure: StrictBool = True
     traction_margin: Num | None = 0.2
     # N_i ≥ this at every contact and envelope point: a force ('5 N'); None: 5 % of each roller's preload at
     # the base design (DEFAULT_MIN_NORMAL_FRACTION). Not switchable off (bool is kept only to reject it).
     min_normal_force: bool | Num | None = None
     clearance: Num | None = "2 mm"
     envelope_radius: Num | None = None
-    reach_gamma: bool = True
+    reach_gamma: StrictBool = True
 
 
 class Multistart(Strict):
-    starts: int = 6
-    seed: int = 0
+    starts: Int = 6
+    seed: Annotated[Int, Field(ge=0)] = 0
 
 
 class Batch(Strict):
@@ -101,17 +117,17 @@ class Batch(Strict):
     (fixed) parameters × every multistart point, and one Pareto chain per variant × sweep combination."""
     variants: list[str] | None = None                 # default: [base]
     sweep: dict[str, list[Num]] = {}
-    pareto: bool = False
+    pareto: StrictBool = False
 
 
 class Pareto(Strict):
     """ε-constraint sweep: minimise power loss subject to worst |α| ≤ ε, ε from the slip optimum to the
     loss optimum's slip, warm-started point to point."""
-    points: int = 8
+    points: Int = 8
 
 
 class StudySpec(Strict):
-    name: str
+    name: Name          # part of the results folder's and the optimised variant's file names
     description: str = ""
     base: str
     effects: list[str] | None = None
@@ -122,7 +138,7 @@ class StudySpec(Strict):
     envelope: EnvelopeSpec | None = None              # default: the variant's envelope
     batch: Batch = Batch()
     pareto: Pareto = Pareto()
-    max_iter: int = 200
+    max_iter: Int = 200
 
 
 def load_study(path) -> tuple[StudySpec, Path]:
@@ -246,12 +262,33 @@ def _unit_of(raw) -> str | None:
     return None
 
 
-def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | None = None,
-                  fixed: dict | None = None, objective: str | None = None) -> Problem:
-    """The NLP of a study. `fixed` sets other variant parameters (SI) for a sweep case; `objective`
-    overrides the study's objective kind ('pareto' builds the ε-constraint problem)."""
-    if spec is None:
-        spec, base_file = load_study(study_path)
+def _typed_value(raw, param: str, vspec, where: str) -> float:
+    """A value for the variant parameter `param` (a design bound or a sweep value) in SI, finite, with the
+    dimension of the parameter as the variant writes it (see DesignVar)."""
+    value = _param(raw, where, {})
+    want, got = dimension_of(vspec.parameters[param]), dimension_of(raw)
+    if want is not None and got is not None and want != got:
+        raise InputError(f"{where}: '{shorten(raw)}' is {kind_name(got)} but the variant's parameter {param} is "
+                         f"{kind_name(want)} ({param}: {shorten(vspec.parameters[param])}); expected the same kind")
+    return value
+
+
+def _check_bounds(n: str, spec: StudySpec, vspec, where: str) -> tuple[float, float]:
+    lo = _typed_value(spec.design[n].lower, n, vspec, f"{where}: design.{n}.lower")
+    hi = _typed_value(spec.design[n].upper, n, vspec, f"{where}: design.{n}.upper")
+    d_lo, d_hi = dimension_of(spec.design[n].lower), dimension_of(spec.design[n].upper)
+    if d_lo is not None and d_hi is not None and d_lo != d_hi:
+        raise InputError(f"{where}: design.{n}: lower '{shorten(spec.design[n].lower)}' is {kind_name(d_lo)} but "
+                         f"upper '{shorten(spec.design[n].upper)}' is {kind_name(d_hi)}; expected the same kind")
+    return lo, hi
+
+
+def problem_inputs(study_path, spec: StudySpec, base_file: Path, fixed: dict | None = None) -> tuple:
+    """The checked inputs of a study's NLP for one variant file and sweep point: (variant spec, base layout
+    with the sweep point, free design variables, their lower and upper bounds [SI]). Every bad input is one
+    InputError line naming the study file and the field: an unknown sweep or design parameter, a swept
+    design variable, inverted bounds, impossible geometry, and the study-wide settings (`check_settings`).
+    Nothing is compiled (milliseconds), so `study` checks every case's inputs before it runs any."""
     where = str(study_path)
     vspec = load_spec(base_file)
     fixed = fixed or {}
@@ -271,14 +308,69 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
         if n not in vspec.parameters:
             raise InputError(f"{where}: design.{n}: the variant {base_file.name} has no parameter '{n}'"
                              f"{suggest(n, vspec.parameters)} (parameters: {', '.join(vspec.parameters) or 'none'})")
-        lo = _param(spec.design[n].lower, f"{where}: design.{n}.lower", {})
-        hi = _param(spec.design[n].upper, f"{where}: design.{n}.upper", {})
+        lo, hi = _check_bounds(n, spec, vspec, where)
         if not lo < hi:
             raise InputError(f"{where}: design.{n}: inverted bounds (lower {spec.design[n].lower} must be below "
                              f"upper {spec.design[n].upper})")
         lower.append(lo)
         upper.append(hi)
-    lower, upper = np.array(lower), np.array(upper)
+    for n, values in spec.batch.sweep.items():
+        if n in vspec.parameters:
+            for i, v in enumerate(values):
+                _typed_value(v, n, vspec, f"{where}: batch.sweep.{n}[{i}]")
+    check_settings(study_path, spec, base)
+    return vspec, base, names, np.array(lower), np.array(upper)
+
+
+def check_settings(study_path, spec: StudySpec, base) -> None:
+    """The study-wide settings the NLP reads, checked against the base layout `base`: the effects, the
+    envelope, the constraint values, the duty cycle and the solver options (IPOPT's max_iter, the number
+    of starts and of Pareto points)."""
+    where = str(study_path)
+    if spec.effects is not None:
+        check_effects(spec.effects, f"{where}: effects")
+    if spec.envelope is not None:
+        _grid(spec.envelope.gamma, "angle", f"{where}: envelope.gamma")
+        _grid(spec.envelope.load, "torque", f"{where}: envelope.load")
+    cs = spec.constraints
+    if cs.traction_margin is not None:
+        w = f"{where}: constraints.traction_margin"
+        check_range(to_si(cs.traction_margin, "dimensionless", w), cs.traction_margin, w,
+                    "traction margin", "dimensionless", 0.0, 1.0, hi_open=True)
+    if cs.clearance is not None:
+        w = f"{where}: constraints.clearance"
+        check_range(to_si(cs.clearance, "length", w), cs.clearance, w, "clearance between rollers", "length",
+                    0.0, 1.0, guess="mm")
+    if cs.envelope_radius is not None:
+        w = f"{where}: constraints.envelope_radius"
+        check_range(to_si(cs.envelope_radius, "length", w), cs.envelope_radius, w, "assembly envelope radius",
+                    "length", 0.0, 10.0, lo_open=True, guess="mm")
+    pre0 = np.array([float(r.preload) for r in base.rollers])
+    _min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
+    weights = []
+    for i, d in enumerate(spec.objective.duty_cycle or []):
+        quantity(d.gamma, "gamma", f"{where}: objective.duty_cycle[{i}].gamma")
+        quantity(d.load, "load", f"{where}: objective.duty_cycle[{i}].load")
+        if not (math.isfinite(d.weight) and d.weight >= 0):
+            raise InputError(f"{where}: objective.duty_cycle[{i}].weight: expected a finite weight >= 0, got {d.weight}")
+        weights.append(d.weight)
+    if weights and not sum(weights) > 0:
+        raise InputError(f"{where}: objective.duty_cycle: every weight is 0; expected at least one positive weight")
+    for field_, value, least in (("max_iter", spec.max_iter, 1), ("multistart.starts", spec.multistart.starts, 1),
+                                 ("pareto.points", spec.pareto.points, 1)):
+        if value < least:
+            raise InputError(f"{where}: {field_}: expected an integer >= {least}, got {value}")
+
+
+def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | None = None,
+                  fixed: dict | None = None, objective: str | None = None) -> Problem:
+    """The NLP of a study. `fixed` sets other variant parameters (SI) for a sweep case; `objective`
+    overrides the study's objective kind ('pareto' builds the ε-constraint problem)."""
+    if spec is None:
+        spec, base_file = load_study(study_path)
+    where = str(study_path)
+    fixed = fixed or {}
+    vspec, base, names, lower, upper = problem_inputs(study_path, spec, base_file, fixed)
     base_values = np.array([base.parameters[n] for n in names])
 
     p = ca.SX.sym("p", len(names))
@@ -765,13 +857,11 @@ def constraint_report(problem: Problem, sol: Solution) -> list[dict]:
     return rows
 
 
-def write_variant(problem: Problem, sol: Solution, out_dir: Path, name: str | None = None) -> Path:
-    """The optimised design as a variant file `compare` reads, with a provenance header
+def variant_text(problem: Problem, sol: Solution, out_dir: Path, name: str | None = None) -> tuple[Path, str]:
+    """(path, text) of the optimised design as a variant file `compare` reads, with a provenance header
     (name: default '<base variant>_<study>'): the base variant with the optimised design variables, the
     case's sweep parameters and the study's envelope (when it sets one). Refuses a solution that did not
     succeed, the envelope check included (no variant file for a design outside the model's physics)."""
-    from .cli import write_atomic
-
     if not sol.success:
         raise ValueError(f"not writing a variant for a failed solve (status {sol.status})")
 
@@ -795,13 +885,21 @@ def write_variant(problem: Problem, sol: Solution, out_dir: Path, name: str | No
               f"# date: {datetime.datetime.now().isoformat(timespec='seconds')}; solver: IPOPT, status "
               f"{sol.status}, {sol.iterations} iterations, start {sol.start}\n"
               f"# base variant: {problem.base_file}\n")
-    path = out_dir / f"{name}.yaml"
-    write_atomic(path, header + yaml.safe_dump(data, sort_keys=False, allow_unicode=True))
-    return path
+    return Path(out_dir) / f"{name}.yaml", header + yaml.safe_dump(data, sort_keys=False, allow_unicode=True)
 
 
-def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, progress=None) -> dict:
-    """Build, multistart-solve and report one study; writes the best design as a variant file."""
+def write_variant(problem: Problem, sol: Solution, out_dir: Path, name: str | None = None) -> Path:
+    """Write `variant_text` into `out_dir` (an output folder: created if missing); returns the path."""
+    path, text = variant_text(problem, sol, out_dir, name)
+    make_folder(out_dir, kind="variant folder")
+    return write_file(path, text, kind="variant file")
+
+
+def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, progress=None,
+        write: bool = True) -> dict:
+    """Build, multistart-solve and report one study; writes the best design as a variant file (with
+    `write` False it is not written: result['pending_files'] = {path: text}, for the caller to write
+    together with its own files)."""
     problem = build_problem(study_path)
     if n_starts is not None:
         problem.spec.multistart.starts = n_starts
@@ -816,6 +914,8 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
               "statuses": [s.status for s in solutions],
               "optima": [{"objective": s.objective, "design": s.design, "found": n} for s, n in optima]}
     result["envelope_checks"] = [s.check.as_dict() if s.check else None for s in solutions]
+    if not write:
+        result["pending_files"] = {}
     if not optima:
         # no start passed IPOPT and the envelope check: report the best failure, write no variant
         best = min(solutions, key=lambda s: s.objective)
@@ -826,7 +926,11 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
     best = optima[0][0]
     report = constraint_report(problem, best)
     out_dir = Path(out_dir or Path("results") / problem.spec.name)
-    variant = write_variant(problem, best, out_dir)
+    if write:
+        variant = write_variant(problem, best, out_dir)
+    else:
+        variant, text = variant_text(problem, best, out_dir)
+        result["pending_files"][variant] = text
     result.update(status=best.status, success=True, objective=best.objective, design=best.design,
                   envelope_check=best.check.as_dict(),
                   constraints=report, active_constraints=[r["name"] for r in report if r["active"]],

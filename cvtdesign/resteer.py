@@ -12,13 +12,37 @@ scored by Brokowski eq 23: error = (requested − achieved)/requested [%].
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.optimize import brentq
 
 from .kinematics import shaft_frame
+from .units import InputError, shorten
 
 RATIOS = (0.4, 0.5, 0.8, 1.0, 1.25, 2.0, 2.5)     # Brokowski sec. 5.2 requested speed ratios
 SEARCH = np.radians(25.0)                         # [rad] search half-width about the ideal command
+
+
+def check_load(layout, load: float, where: str = "load") -> float:
+    """The lateral load τ⊥ [N m] of a resteering request: finite and within the variant's envelope load range
+    (the model is validated there; far outside it every contact slips and no command exists)."""
+    lo, hi = float(np.min(layout.load_grid)), float(np.max(layout.load_grid))
+    if not (math.isfinite(load) and lo - 1e-12 <= load <= hi + 1e-12):
+        raise InputError(f"{where}: τ⊥ = {load:g} N·m is outside the variant's envelope load range {lo:g}..{hi:g} N·m "
+                         f"(envelope.load of {layout.file}); expected a load in that range")
+    return float(load)
+
+
+def parse_ratios(text: str, where: str = "ratios") -> list[float]:
+    """'0.4,1,2.5' → requested speed ratios ω2/ω1: finite and positive."""
+    try:
+        ratios = [float(x) for x in text.split(",")]
+    except ValueError:
+        raise InputError(f"{where}: expected comma-separated numbers, got '{shorten(text)}'") from None
+    if not ratios or not all(math.isfinite(q) and q > 0 for q in ratios):
+        raise InputError(f"{where}: expected finite positive speed ratios ω2/ω1, got '{shorten(text)}'")
+    return ratios
 
 
 def ratio(model, gammas, load, theta=None) -> np.ndarray:
@@ -69,6 +93,10 @@ def commands(layout, effects, load, ratios=RATIOS, data=None) -> dict:
     from .diagnose import fit_model
     from .model import compile_model
 
+    if not math.isfinite(load):     # (the command line also holds an explicit --load to the envelope: check_load)
+        raise InputError(f"load: expected a finite lateral load τ⊥ [N m], got {load}")
+    if not all(math.isfinite(q) and q > 0 for q in ratios):
+        raise InputError(f"ratios: expected finite positive speed ratios ω2/ω1, got {list(ratios)}")
     fitted = fit_model(layout, data, effects) if data is not None else None
     model = fitted[0].model if fitted else compile_model(layout, effects)    # one compiled model for both
     out = {"ratios": list(ratios), "load": load, "methods": {}, "fit": None}

@@ -8,16 +8,17 @@ measures: both shaft speeds, both torques and (if recorded) the axis angle.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 import pandas as pd
+from pydantic import BeforeValidator
 
 from .effects import EFFECTS, check_effects
 from .units import InputError, suggest, to_si
-from .variant import Layout, RangeSpec, Strict, _grid, read_spec
+from .variant import Layout, Num, RangeSpec, Strict, _grid, _no_bool, effect_value, quantity, read_spec
 
-Quantity = float | str
+Quantity = Num       # a plain number (SI) or a quantity; true/false are not numbers
 
 
 class ProtocolSpec(Strict):
@@ -26,7 +27,7 @@ class ProtocolSpec(Strict):
     load: RangeSpec | list[Quantity] = RangeSpec(start="-1 N*m", stop="1 N*m", step="0.2 N*m")
     load_kind: Literal["tau_perp", "tau_2"] = "tau_perp"
     motor_speed: Quantity | list[Quantity] | None = None     # default: the variant's
-    replicates: int = 1
+    replicates: Annotated[int, BeforeValidator(_no_bool)] = 1
 
 
 @dataclass(frozen=True)
@@ -65,12 +66,14 @@ def read_protocol(path, layout: Layout) -> Protocol:
     def values(v, kind, field):
         if isinstance(v, RangeSpec):
             return _grid(v, kind, f"{where}: {field}")
-        return np.array([to_si(x, kind, f"{where}: {field}[{i}]") for i, x in enumerate(v)])
+        key = {"angle": "gamma", "torque": "load"}.get(kind)
+        return np.array([quantity(x, key, f"{where}: {field}[{i}]") if key else to_si(x, kind, f"{where}: {field}[{i}]")
+                         for i, x in enumerate(v)])
 
     speeds = np.array([layout.motor_speed]) if spec.motor_speed is None else values(
         spec.motor_speed if isinstance(spec.motor_speed, list) else [spec.motor_speed], "speed", "motor_speed")
-    if np.any(speeds == 0):
-        raise InputError(f"{where}: motor_speed: expected non-zero speeds")
+    if np.any(speeds == 0) or np.any(np.abs(speeds) > 1e4):
+        raise InputError(f"{where}: motor_speed: expected non-zero speeds of at most 1e4 rad/s")
     if spec.replicates < 1:
         raise InputError(f"{where}: replicates: expected at least 1, got {spec.replicates}")
     return Protocol(values(spec.gamma, "angle", "gamma"), values(spec.load, "torque", "load"), speeds,
@@ -78,7 +81,7 @@ def read_protocol(path, layout: Layout) -> Protocol:
 
 
 def parse_noise(text: str | None, where="--noise") -> Noise:
-    """'speed=0.02 rad/s,torque=0.01 N*m,axis=0.1 deg' (any subset; plain numbers are SI)."""
+    """'speed=0.02 rad/s,torque=0.01 N*m,axis=0.1 deg' (any subset; plain numbers are SI): finite, >= 0."""
     if not text:
         return Noise()
     vals = {}
@@ -89,13 +92,14 @@ def parse_noise(text: str | None, where="--noise") -> Noise:
             raise InputError(f"{where}: expected name=value with names {', '.join(NOISE_KINDS)}, got "
                              f"'{item.strip()}'{suggest(key, NOISE_KINDS)}")
         vals[key] = to_si(val.strip(), NOISE_KINDS[key], f"{where}: {key}")
-        if vals[key] < 0:
-            raise InputError(f"{where}: {key}: expected a standard deviation >= 0")
+        if not vals[key] >= 0:
+            raise InputError(f"{where}: {key}: expected a standard deviation >= 0, got '{val.strip()}'")
     return Noise(**vals)
 
 
 def parse_settings(items, effects, where="--set") -> dict:
-    """['steering_lateral_creep.scale=1.3', 'rolling_resistance.offset=0.2 mm'] → {effect: {param: SI}}."""
+    """['steering_lateral_creep.scale=1.3', 'rolling_resistance.offset=0.2 mm'] → {effect: {param: SI}}: each
+    finite and within the parameter's physical range (variant.effect_value, as in a variant file)."""
     out: dict = {}
     for item in items or []:
         name, _, val = item.partition("=")
@@ -108,8 +112,7 @@ def parse_settings(items, effects, where="--set") -> dict:
             raise InputError(f"{where}: {effect}.{param} is set but {effect} is not among the effects")
         if not val.strip():
             raise InputError(f"{where}: expected {effect}.{param}=value")
-        out.setdefault(effect, {})[param] = to_si(val.strip(), EFFECTS[effect].params[param].kind,
-                                                  f"{where}: {effect}.{param}")
+        out.setdefault(effect, {})[param] = effect_value(effect, param, val.strip(), f"{where}: {effect}.{param}")
     return out
 
 
@@ -122,6 +125,10 @@ def simulate(layout: Layout, effects, parameters: dict | None = None, protocol: 
     from .model import compile_model, status_counts
 
     protocol = protocol or kim_protocol(layout)
+    if not (isinstance(protocol.replicates, (int, np.integer)) and protocol.replicates >= 1):
+        raise InputError(f"replicates: expected at least 1 replicate of each operating point, got {protocol.replicates}")
+    if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0):
+        raise InputError(f"seed: expected an integer >= 0 for the noise generator, got {seed}")
     model = compile_model(layout.with_effects(effects, parameters))
     W, G, T = np.meshgrid(protocol.speeds, protocol.gammas, protocol.loads, indexing="ij")
     res = model.evaluate(G, T, speeds=W, load_kind=protocol.load_kind)

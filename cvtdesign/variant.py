@@ -3,24 +3,51 @@
 The schema (pydantic) fixes the fields; `load_variant` turns every problem into one `InputError` line
 naming the file and the field. Geometric checks (axle ⊥ normal, contact points on the sphere, preloads that
 balance, overlapping rollers, steering that cannot fix an axis, couplings that fight) run on the resolved layout.
+
+The file itself is read with limits (`read_spec`): at most MAX_FILE_BYTES, UTF-8, YAML nested at most
+MAX_NESTING deep, no duplicate keys (PyYAML would let the last one silently win), aliases expanding to at most
+MAX_NODES nodes.
 """
 from __future__ import annotations
 
+import math
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Literal, Union
+from typing import Annotated, Literal, Union
 
 import casadi as ca
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, ValidationError
+from pydantic_core import PydanticCustomError
 
 from . import effects as fx
 from .geometry import named_vector, spherical
-from .units import InputError, suggest, to_si
+from .units import InputError, check_range, shorten, suggest, to_si
 
-Num = Union[float, int, str]
-VectorSpec = Union[str, list[float], "Spherical"]
+
+def _no_bool(v):
+    """YAML's true/false are not numbers (pydantic would read `radius: true` as 1, a 1 m sphere)."""
+    if isinstance(v, bool):
+        raise PydanticCustomError("bool_not_number", "expected a number or a quantity like '40 mm', got {value} "
+                                  "(true/false are not numbers)", {"value": str(v).lower()})
+    return v
+
+
+def _file_name(v):
+    """A variant's or study's `name` becomes part of file names (<name>.step, <name>_<study>.yaml,
+    results/<study>/): letters, digits, '_', '.', '+', '-', not starting with '.', at most 100 characters."""
+    if not re.fullmatch(r"[A-Za-z0-9_+\-][A-Za-z0-9_.+\-]{0,99}", v):
+        raise PydanticCustomError("file_name", "expected a name of letters, digits, '_', '.', '+' or '-' (it becomes "
+                                  "part of file names), got '{value}'", {"value": shorten(v)})
+    return v
+
+
+Name = Annotated[str, AfterValidator(_file_name)]
+Num = Annotated[Union[float, int, str], BeforeValidator(_no_bool)]   # a plain number (SI), a quantity or '= expr'
+Coord = Annotated[float, BeforeValidator(_no_bool)]                   # a component of a direction
+VectorSpec = Union[str, list[Coord], "Spherical"]
 
 
 class Strict(BaseModel):
@@ -53,12 +80,12 @@ class RollerSpec(Strict):
     `axle` is the positive spin axis, perpendicular to the contact normal."""
     role: Literal["drive", "follower", "steering"]
     contact: Union[str, list[Num], Spherical]
-    axle: Union[str, list[float], Spherical]
+    axle: Union[str, list[Coord], Spherical]
     radius: Num
     material: str
     crown_radius: Num | None = None
     width: Num = "24 mm"
-    shaft: Literal[1, 2] | None = None
+    shaft: Annotated[Literal[1, 2] | None, BeforeValidator(_no_bool)] = None
     ratio: Num = 1.0
     preload: Num | None = None
     mount_stiffness: Num | None = None
@@ -71,8 +98,8 @@ class RollerDefaults(Strict):
 
 class ForkSpec(Strict):
     rollers: list[str]
-    axis: Union[str, list[float], Spherical]
-    sign: Literal[1, -1] = 1
+    axis: Union[str, list[Coord], Spherical]
+    sign: Annotated[Literal[1, -1], BeforeValidator(_no_bool)] = 1
 
 
 class SteeringSpec(Strict):
@@ -100,13 +127,30 @@ class EnvelopeSpec(Strict):
 class FrameSpec(Strict):
     """A mounting plate, drawn by `cvtdesign export` only: perpendicular to `side` (a vector from the sphere
     centre), its near face `distance` from the centre, sized to the assembly's outline."""
-    side: Union[str, list[float], Spherical]
+    side: Union[str, list[Coord], Spherical]
     distance: Num
     thickness: Num = "10 mm"
 
 
 class VariantSpec(Strict):
-    name: str
+    """A variant file.
+
+    Units: a quantity is a number with a unit ("40 mm", "100 N", "10.7 MPa", "10 deg"); a plain number is
+    SI (m, N, Pa, N/m, 1/N, rad, N·m, rad/s); "= expr" is evaluated in SI. Plain numbers stay allowed (the
+    files and the command line have always read them as SI), so instead of requiring units every value is
+    checked against the range that is plausible for this machine, whatever way it was written, and a plain
+    number outside it gets the unit it probably meant: "rollers.D1.radius: 45 m is not a plausible roller
+    radius (expected at most 1 m); did you mean '45 mm'?". The ranges (SI; `PLAUSIBLE`):
+    sphere radius 0 < R ≤ 2 m; roller radius, crown radius and width 0 < r ≤ 1 m; preload 0 < P ≤ 1e5 N;
+    mount stiffness 0 < k ≤ 1e10 N/m; Young's modulus 0.1 MPa ≤ E ≤ 1200 GPa; Poisson's ratio 0 ≤ ν < 0.5;
+    friction 0 < μ ≤ 3; allowable pressure 10 kPa ≤ p ≤ 100 GPa; creep constants 0 < ε ≤ 1 1/N; creep
+    reference force 0 < N ≤ 1e5 N; follower ratio 1e-3 ≤ |ratio| ≤ 1e3; contact polar/azimuth angles
+    |θ| ≤ 360°; envelope γ within ±180° (relabelled shafts put Kim's γ at 10°..170°), load |τ| ≤ 1e4 N·m,
+    at most MAX_GRID_POINTS points per axis, motor speed 0 < ω ≤ 1e4 rad/s; frame distance 0 < d ≤ 10 m,
+    thickness 0 < t ≤ 1 m;
+    effect parameters within their `effects.Param` bounds, and above 0 for `POSITIVE_EFFECT_PARAMS`. Every
+    value must be finite; named `parameters` are any finite quantity (their use is checked where they land)."""
+    name: Name
     description: str = ""
     parameters: dict[str, Num] = {}
     materials: dict[str, MaterialSpec]
@@ -179,7 +223,8 @@ def _schema_error(err: ValidationError, where: str, root=None) -> InputError:
     e = sorted(err.errors(), key=lambda x: x["type"] != "extra_forbidden")[0]
     loc = [str(p) for p in e["loc"]]
     # pydantic lists union branches in loc (e.g. 'str', 'list[float]'): drop them
-    loc = [p for p in loc if not (p in ("str", "float", "int", "Spherical") or p.startswith(("list[", "literal[")))]
+    loc = [p for p in loc if not (p in ("str", "float", "int", "Spherical", "bool", "none") or
+                                  p.startswith(("list[", "literal[", "function-", "dict[", "union[", "nullable[")))]
     path = ".".join(loc)
     if e["type"] == "extra_forbidden":
         model = root or VariantSpec
@@ -206,12 +251,16 @@ def _vector(spec, where, names, point=False):
                              f"with '-'), {forms} or {{polar, azimuth}}, got '{spec}'")
         return v
     if isinstance(spec, Spherical):
-        return spherical(to_si(spec.polar, "angle", f"{where}.polar", names),
-                         to_si(spec.azimuth, "angle", f"{where}.azimuth", names))
+        return spherical(quantity(spec.polar, "direction_angle", f"{where}.polar", names),
+                         quantity(spec.azimuth, "direction_angle", f"{where}.azimuth", names))
     v = np.asarray(spec, dtype=float)
-    if v.shape != (3,) or np.linalg.norm(v) == 0:
-        raise InputError(f"{where}: expected a non-zero vector of 3 numbers, got {spec}")
-    return v / np.linalg.norm(v)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or not np.any(v):
+        raise InputError(f"{where}: expected a non-zero vector of 3 finite numbers, got {shorten(spec)}")
+    norm = np.linalg.norm(v)
+    if not (np.isfinite(norm) and norm > 0):     # [1e308, 1e308, 0] or [1e-320, 0, 0]: scale first
+        v = v / np.max(np.abs(v))
+        norm = np.linalg.norm(v)
+    return v / norm
 
 
 def _contact(spec, where, names, R):
@@ -249,10 +298,70 @@ def _positive(value, where, what="a positive value"):
     return value
 
 
+# plausible SI range of each dimensional field: (what, kind, lower, upper, lower exclusive, unit a plain number
+# probably meant); see VariantSpec
+PLAUSIBLE = {
+    "sphere_radius": ("sphere radius", "length", 0.0, 2.0, True, "mm"),
+    "roller_radius": ("roller radius", "length", 0.0, 1.0, True, "mm"),
+    "crown_radius": ("crown radius", "length", 0.0, 1.0, True, "mm"),
+    "width": ("roller width", "length", 0.0, 1.0, True, "mm"),
+    "preload": ("preload", "force", 0.0, 1e5, True, None),
+    "mount_stiffness": ("mount stiffness", "stiffness", 0.0, 1e10, True, None),
+    "youngs_modulus": ("Young's modulus", "pressure", 1e5, 1.2e12, False, "MPa"),
+    "friction": ("friction coefficient", "dimensionless", 0.0, 3.0, True, None),
+    "allowable_pressure": ("allowable pressure", "pressure", 1e4, 1e11, False, "MPa"),
+    "creep": ("creep constant", "compliance", 0.0, 1.0, True, None),
+    "creep_reference_force": ("creep reference force", "force", 0.0, 1e5, True, None),
+    "direction_angle": ("direction angle", "angle", -2 * math.pi, 2 * math.pi, False, "deg"),
+    "gamma": ("transmission angle γ", "angle", -math.pi, math.pi, False, "deg"),
+    "load": ("load", "torque", -1e4, 1e4, False, None),
+    "motor_speed": ("motor speed", "speed", 0.0, 1e4, True, None),
+    "frame_distance": ("plate distance", "length", 0.0, 10.0, True, "mm"),
+    "frame_thickness": ("plate thickness", "length", 0.0, 1.0, True, "mm"),
+}
+MAX_GRID_POINTS = 100_000      # per envelope axis (γ, load): a 1e-9° step would otherwise allocate terabytes
+# effect parameters that must be above zero (zero would switch the effect off or be unphysical); every effect
+# parameter must also lie within its `effects.Param` bounds (the fit's bounds)
+POSITIVE_EFFECT_PARAMS = {("drive_longitudinal_creep", "scale"), ("steering_lateral_creep", "scale"),
+                          ("drive_spin_creep", "scale"), ("rolling_resistance", "offset")}
+_EFFECT_GUESS = {"length": "mm", "angle": "deg"}
+
+
+def quantity(raw, key: str, where: str, names: dict | None = None, positive: str | None = None):
+    """A dimensional field of PLAUSIBLE[key] in SI: finite (to_si), with `positive` ('a positive radius') the
+    message for a value ≤ 0, then within the plausible range."""
+    what, kind, lo, hi, lo_open, guess = PLAUSIBLE[key]
+    value = to_si(raw, kind, where, names)
+    if positive:
+        _positive(value, where, positive)
+    return check_range(value, raw, where, what, kind, lo, hi, lo_open=lo_open, guess=guess)
+
+
+def effect_value(effect: str, param: str, raw, where: str, names: dict | None = None):
+    """An effect parameter in SI, finite and within its physical range: the `effects.Param` bounds, the lower
+    one exclusive for POSITIVE_EFFECT_PARAMS. Enforced: drive_longitudinal_creep.scale and
+    steering_lateral_creep.scale in (0, 50], drive_spin_creep.scale in (0, 200], normal_force_variation.exponent
+    in [0, 3], rolling_resistance.offset in (0, 5 mm], steering_offset.offset in [-0.2, 0.2] rad (±11.5°),
+    drive_radius_mismatch.delta in [-0.2, 0.2], traction_saturation.mu_scale in [0.05, 5]."""
+    spec = fx.EFFECTS[effect].params[param]
+    value = to_si(raw, spec.kind, where, names)
+    lo = spec.lower if math.isfinite(spec.lower) else None
+    hi = spec.upper if math.isfinite(spec.upper) else None
+    return check_range(value, raw, where, f"{effect}.{param}", spec.kind, lo, hi,
+                       lo_open=(effect, param) in POSITIVE_EFFECT_PARAMS, guess=_EFFECT_GUESS.get(spec.kind))
+
+
 def _grid(r: RangeSpec, kind, where):
-    a, b, s = (to_si(getattr(r, k), kind, f"{where}.{k}") for k in ("start", "stop", "step"))
+    """The points start, start + step, ..., stop of an envelope axis (kind 'angle': γ, 'torque': the load)."""
+    key = {"angle": "gamma", "torque": "load"}.get(kind)
+    a, b = ((quantity(getattr(r, k), key, f"{where}.{k}") if key else to_si(getattr(r, k), kind, f"{where}.{k}"))
+            for k in ("start", "stop"))
+    s = to_si(r.step, kind, f"{where}.step")
     if not s > 0 or b < a:
         raise InputError(f"{where}: expected start <= stop and step > 0")
+    if not (b - a) / s <= MAX_GRID_POINTS - 1:
+        raise InputError(f"{where}.step: a step of {s:.3g} gives {(b - a) / s + 1:.3g} points from start to stop; "
+                         f"expected at most {MAX_GRID_POINTS} points per envelope axis (a larger step)")
     return np.linspace(a, b, int(round((b - a) / s)) + 1)
 
 
@@ -266,10 +375,11 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
     for k, m in spec.materials.items():
         w = f"{where}: materials.{k}"
         mats[k] = Material(
-            E=_positive(to_si(m.youngs_modulus, "pressure", f"{w}.youngs_modulus", names), f"{w}.youngs_modulus"),
+            E=quantity(m.youngs_modulus, "youngs_modulus", f"{w}.youngs_modulus", names, "a positive value"),
             nu=to_si(m.poisson_ratio, "dimensionless", f"{w}.poisson_ratio", names),
-            mu=_positive(to_si(m.friction, "dimensionless", f"{w}.friction", names), f"{w}.friction"),
-            p_allow=None if m.allowable_pressure is None else to_si(m.allowable_pressure, "pressure", f"{w}.allowable_pressure", names))
+            mu=quantity(m.friction, "friction", f"{w}.friction", names, "a positive value"),
+            p_allow=None if m.allowable_pressure is None else quantity(
+                m.allowable_pressure, "allowable_pressure", f"{w}.allowable_pressure", names, "a positive pressure"))
         if isinstance(mats[k].nu, float) and not 0 <= mats[k].nu < 0.5:
             raise InputError(f"{w}.poisson_ratio: expected 0 <= ν < 0.5, got {mats[k].nu:g}")
 
@@ -278,7 +388,7 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
             raise InputError(f"{w}: unknown material '{name}'{suggest(name, mats)}")
         return mats[name]
 
-    R = _positive(to_si(spec.sphere.radius, "length", f"{where}: sphere.radius", names), f"{where}: sphere.radius")
+    R = quantity(spec.sphere.radius, "sphere_radius", f"{where}: sphere.radius", names, "a positive radius")
     forks = {}
     for i, f in enumerate(spec.steering.forks):
         w = f"{where}: steering.forks[{i}]"
@@ -304,9 +414,9 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
             raise InputError(f"{w}.shaft: a steering roller is an idler and has no shaft")
         if r.role == "steering" and rn not in forks:
             raise InputError(f"{w}: steering roller is on no fork (steering.forks[].rollers)")
-        radius = _positive(to_si(r.radius, "length", f"{w}.radius", names), f"{w}.radius", "a positive radius")
-        crown = radius if r.crown_radius is None else _positive(
-            to_si(r.crown_radius, "length", f"{w}.crown_radius", names), f"{w}.crown_radius", "a positive radius")
+        radius = quantity(r.radius, "roller_radius", f"{w}.radius", names, "a positive radius")
+        crown = radius if r.crown_radius is None else quantity(
+            r.crown_radius, "crown_radius", f"{w}.crown_radius", names, "a positive radius")
         normal = _contact(r.contact, f"{w}.contact", names, R)
         axle = _vector(r.axle, f"{w}.axle", names)
         dot = ca.dot(ca.vec(ca.DM(normal) if isinstance(normal, np.ndarray) else normal),
@@ -317,15 +427,20 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         ratio = to_si(r.ratio, "dimensionless", f"{w}.ratio", names)
         if isinstance(ratio, float) and ratio == 0:
             raise InputError(f"{w}.ratio: expected a non-zero coupling ratio")
+        if isinstance(ratio, float) and not 1e-3 <= abs(ratio) <= 1e3:
+            raise InputError(f"{w}.ratio: {ratio:g} is not a plausible coupling ratio (expected 1e-3 <= |ratio| <= 1e3)")
         axis, sign = forks.get(rn, (None, 0))
         rollers.append(Roller(
             name=rn, role=r.role, shaft=r.shaft, ratio=ratio if r.role == "follower" else 1.0,
             normal=normal, axle=axle, radius=radius, crown_radius=crown,
-            width=_positive(to_si(r.width, "length", f"{w}.width", names), f"{w}.width"),
+            width=quantity(r.width, "width", f"{w}.width", names, "a positive value"),
             material=material(r.material, f"{w}.material"),
-            preload=_positive(to_si(r.preload if r.preload is not None else defaults.preload, "force", f"{w}.preload", names), f"{w}.preload"),
-            stiffness=_positive(to_si(r.mount_stiffness if r.mount_stiffness is not None else defaults.mount_stiffness,
-                                      "stiffness", f"{w}.mount_stiffness", names), f"{w}.mount_stiffness"),
+            preload=quantity(r.preload if r.preload is not None else defaults.preload, "preload",
+                             f"{w}.preload" if r.preload is not None else f"{where}: roller_defaults.preload",
+                             names, "a positive value"),
+            stiffness=quantity(r.mount_stiffness if r.mount_stiffness is not None else defaults.mount_stiffness,
+                               "mount_stiffness", f"{w}.mount_stiffness" if r.mount_stiffness is not None
+                               else f"{where}: roller_defaults.mount_stiffness", names, "a positive value"),
             fork_axis=axis, fork_sign=sign))
     for s in (1, 2):
         if not any(r.role == "drive" and r.shaft == s for r in rollers):
@@ -341,51 +456,154 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
             known = fx.EFFECTS[e].params
             if p not in known:
                 raise InputError(f"{where}: effect_parameters.{e}.{p}: unknown parameter{suggest(p, known)}")
-            eparams[e][p] = to_si(v, known[p].kind, f"{where}: effect_parameters.{e}.{p}", names)
+            eparams[e][p] = effect_value(e, p, v, f"{where}: effect_parameters.{e}.{p}", names)
+    if spec.frame is not None:     # drawn by `cvtdesign export` only, checked here with the rest
+        _vector(spec.frame.side, f"{where}: frame.side", names)
+        quantity(spec.frame.distance, "frame_distance", f"{where}: frame.distance", names, "a positive distance")
+        quantity(spec.frame.thickness, "frame_thickness", f"{where}: frame.thickness", names, "a positive thickness")
 
     c = spec.contact
     env = spec.envelope
     return Layout(
         name=spec.name, file=where, sphere_radius=R, sphere_material=material(spec.sphere.material, f"{where}: sphere.material"),
         rollers=tuple(rollers),
-        creep_drive=None if c.creep_drive is None else _positive(to_si(c.creep_drive, "compliance", f"{where}: contact.creep_drive", names), f"{where}: contact.creep_drive"),
-        creep_steering=None if c.creep_steering is None else _positive(to_si(c.creep_steering, "compliance", f"{where}: contact.creep_steering", names), f"{where}: contact.creep_steering"),
-        creep_reference_force=None if c.creep_reference_force is None else _positive(to_si(c.creep_reference_force, "force", f"{where}: contact.creep_reference_force", names), f"{where}: contact.creep_reference_force"),
+        creep_drive=None if c.creep_drive is None else quantity(c.creep_drive, "creep", f"{where}: contact.creep_drive", names, "a positive value"),
+        creep_steering=None if c.creep_steering is None else quantity(c.creep_steering, "creep", f"{where}: contact.creep_steering", names, "a positive value"),
+        creep_reference_force=None if c.creep_reference_force is None else quantity(c.creep_reference_force, "creep_reference_force", f"{where}: contact.creep_reference_force", names, "a positive value"),
         effects=tuple(spec.effects), effect_parameters=eparams,
         gamma_grid=_grid(env.gamma, "angle", f"{where}: envelope.gamma"),
         load_grid=_grid(env.load, "torque", f"{where}: envelope.load"),
-        motor_speed=_positive(to_si(env.motor_speed, "speed", f"{where}: envelope.motor_speed"), f"{where}: envelope.motor_speed"),
+        motor_speed=quantity(env.motor_speed, "motor_speed", f"{where}: envelope.motor_speed", None, "a positive value"),
         parameters=names, spec=spec)
 
 
 def _param(v, where, names):
-    """A named parameter: any quantity with units (kept in SI) or an expression over earlier parameters."""
+    """A named parameter: any finite quantity with units (kept in SI), a plain number (SI) or an expression
+    over earlier parameters."""
+    from .units import MAX_QUANTITY_TEXT, parse_quantity, registry
+
+    if isinstance(v, bool) or v is None:
+        raise InputError(f"{where}: expected a number or a quantity like '60 mm', got {str(v).lower()}")
     if isinstance(v, (int, float)):
-        return float(v)
+        return to_si(v, "dimensionless", where)
     text = str(v).strip()
     if text.startswith("="):
         return to_si(text, "dimensionless", where, names)
-    from .units import registry
-    import pint
-    try:
-        return float(registry().Quantity(text).to_base_units().magnitude)
-    except (pint.errors.UndefinedUnitError, ValueError, TypeError, AttributeError, AssertionError):
-        raise InputError(f"{where}: expected a number or a quantity like '60 mm', got '{v}'") from None
+    q = parse_quantity(text) if len(text) <= MAX_QUANTITY_TEXT else None
+    value = None
+    if q is not None:
+        try:
+            value = q[0] if q[1] is None else float(registry().Quantity(q[0], q[1]).to_base_units().magnitude)
+        except (ValueError, TypeError, AttributeError, AssertionError, OverflowError):
+            value = None
+    if value is None:
+        raise InputError(f"{where}: expected a number or a quantity like '60 mm', got '{shorten(v)}'")
+    if not math.isfinite(value):
+        raise InputError(f"{where}: expected a finite number or quantity like '60 mm', got '{shorten(v)}'")
+    return value
 
 
-def read_spec(path, model: type[BaseModel], fields: str):
-    """Read a YAML file and validate it against `model`; every failure is one InputError line."""
+MAX_FILE_BYTES = 10 * 1024 * 1024   # a variant, study or protocol file is a few kB
+MAX_NESTING = 50                     # YAML collections inside collections (a variant file needs 4)
+MAX_NODES = 1_000_000                # YAML nodes after expanding aliases ("billion laughs")
+
+
+class StrictLoader(yaml.SafeLoader):
+    """PyYAML's SafeLoader, refusing a key repeated in one mapping (SafeLoader keeps the last silently) and
+    collections nested deeper than MAX_NESTING (the composer recurses: 20,000 '[' exhaust Python's stack)."""
+
+    def __init__(self, stream):
+        super().__init__(stream)
+        self._depth = 0
+
+    def compose_node(self, parent, index):
+        if self._depth >= MAX_NESTING:
+            raise yaml.composer.ComposerError(None, None, f"collections nested more than {MAX_NESTING} deep",
+                                              self.peek_event().start_mark)
+        self._depth += 1
+        try:
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen = {}
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    first = seen.get(key)
+                except TypeError:       # an unhashable key: SafeLoader's own error follows
+                    continue
+                if first is not None:
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"duplicate key '{shorten(key)}' (first on line {first + 1}); every key may "
+                        "appear once in a mapping", key_node.start_mark)
+                seen[key] = key_node.start_mark.line
+        return super().construct_mapping(node, deep)
+
+
+def _expanded_nodes(root) -> int:
+    """Number of nodes of the document with every alias expanded (shared nodes counted at each use), stopping
+    past MAX_NODES; a node that contains itself (a recursive alias) counts as too many."""
+    size, state, stack = {}, {}, [root]
+    while stack:
+        node = stack[-1]
+        children = [] if isinstance(node, yaml.ScalarNode) else \
+            node.value if isinstance(node, yaml.SequenceNode) else [n for kv in node.value for n in kv]
+        if state.get(id(node)) is None:
+            state[id(node)] = "open"
+            stack.extend(c for c in children if id(c) not in size)
+            if any(state.get(id(c)) == "open" for c in children):
+                return MAX_NODES + 1
+            continue
+        stack.pop()
+        if id(node) not in size:
+            size[id(node)] = min(1 + sum(size[id(c)] for c in children), MAX_NODES + 1)
+            state[id(node)] = "done"
+    return size[id(root)]
+
+
+def load_yaml(path):
+    """The YAML document of a file, read with the limits above; every failure is one InputError line."""
     where = str(path)
     try:
-        text = Path(path).read_text()
+        with open(path, "rb") as f:
+            raw = f.read(MAX_FILE_BYTES + 1)
     except OSError as e:
-        raise InputError(f"{where}: cannot read file ({e.strerror})") from None
+        raise InputError(f"{where}: cannot read file ({e.strerror or type(e).__name__})") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise InputError(f"{where}: larger than {MAX_FILE_BYTES // 2**20} MB; expected a YAML file of a few kB")
     try:
-        data = yaml.safe_load(text)
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw[:e.start].count(b"\n") + 1
+        raise InputError(f"{where}: line {line}: not UTF-8 text (byte 0x{raw[e.start]:02x}); expected a YAML "
+                         "file saved as UTF-8") from None
+    loader = StrictLoader(text)
+    try:
+        node = loader.get_single_node()
+        if node is not None and _expanded_nodes(node) > MAX_NODES:
+            raise InputError(f"{where}: its aliases expand to more than {MAX_NODES} YAML nodes (or refer to "
+                             "themselves); expected a plain YAML file")
+        return None if node is None else loader.construct_document(node)
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         line = f" (line {mark.line + 1})" if mark else ""
-        raise InputError(f"{where}: not valid YAML{line}: {getattr(e, 'problem', e)}") from None
+        problem = getattr(e, "problem", None) or getattr(e, "reason", None) or str(e)
+        raise InputError(f"{where}: not valid YAML{line}: {' '.join(str(problem).split())}") from None
+    except (ValueError, OverflowError, RecursionError) as e:   # e.g. an integer beyond Python's 4300 digits
+        raise InputError(f"{where}: not valid YAML: {' '.join(str(e).split()) or type(e).__name__}") from None
+    finally:
+        loader.dispose()
+
+
+def read_spec(path, model: type[BaseModel], fields: str):
+    """Read a YAML file (`load_yaml`) and validate it against `model`; every failure is one InputError line."""
+    where = str(path)
+    data = load_yaml(path)
     if not isinstance(data, dict):
         raise InputError(f"{where}: expected a YAML mapping with fields {fields}")
     try:
