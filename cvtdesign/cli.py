@@ -149,6 +149,8 @@ def cmd_optimise(args):
 
     from . import optimise
 
+    if args.starts is not None and args.starts < 1:
+        raise InputError(f"--starts: expected a positive number of multistart points, got {args.starts}")
     console = Console(width=110)
     with _progress(console, "multistart", lambda sol: f"last: {sol.status}, f = {sol.objective:.5g}",
                    transient=True) as progress:
@@ -200,6 +202,9 @@ def cmd_study(args):
     from .cluster import check_workers
 
     check_workers(args.workers)
+    if args.scheduler:      # refuse a scheduler that does not answer before the results store is created
+        from .cluster import connect
+        connect(args.scheduler).close()
     console = Console(width=120)
     with _progress(console, "cases", lambda row: f"last: {row['case_id']} {row['status']}") as progress:
         res = study.run_study(args.study, args.out, args.scheduler, args.workers, progress,
@@ -265,11 +270,13 @@ def cmd_rig(args):
     from . import rig
     from .variant import load_variant
 
+    if args.replicates is not None and args.replicates < 1:
+        raise InputError(f"--replicates: expected at least 1 replicate of each operating point, got {args.replicates}")
     layout = load_variant(args.variant)
     effects = _effects_arg(args.effects, layout.effects, "--effects")
     params = rig.parse_settings(args.set, effects)
     protocol = rig.read_protocol(args.protocol, layout) if args.protocol else rig.kim_protocol(layout)
-    if args.replicates:
+    if args.replicates is not None:
         protocol = rig.Protocol(protocol.gammas, protocol.loads, protocol.speeds, protocol.load_kind, args.replicates)
     noise = rig.parse_noise(args.noise)
     rows, failed = rig.simulate(layout, effects, params, protocol, noise, args.seed, axis=not args.no_axis)
@@ -312,6 +319,8 @@ def cmd_selfcheck(args):
 
     from . import selfcheck
 
+    if args.seeds < 1:
+        raise InputError(f"--seeds: expected a positive integer (null datasets per noise level / 2), got {args.seeds}")
     console = Console(width=120)
     with _progress(console, "datasets", lambda row: f"last: {row['id']} → {row['verdict']}") as progress:
         only = [x.strip() for x in args.only.split(",")] if args.only else None
@@ -337,6 +346,8 @@ def cmd_resteer(args):
     from .units import to_si
     from .variant import load_variant
 
+    if args.truth_set and args.truth_effects is None:
+        raise InputError("--truth-set: sets a parameter of the rig's effects; expected --truth-effects with it")
     layout = load_variant(args.variant)
     effects = _effects_arg(args.effects, layout.effects, "--effects")
     # the arguments first (a finite load inside the envelope, finite positive ratios), then the data
@@ -404,8 +415,16 @@ def cmd_export(args):
     return 0 if all(row["ok"] for row in res["checks"]) else 1
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with its errors as one line (no usage block): 'cvtdesign rig: error: argument --seed: invalid
+    int value: 'x' (see cvtdesign rig --help)', exit status 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
+
+
 def build_parser():
-    p = argparse.ArgumentParser(prog="cvtdesign", description="Design, optimise and compare spherical CVTs.")
+    p = _Parser(prog="cvtdesign", description="Design, optimise and compare spherical CVTs.")
     sub = p.add_subparsers(dest="command", required=True)
     c = sub.add_parser("compare", help="evaluate variants over their envelope and print a side-by-side table")
     c.add_argument("variants", nargs="+", help="variant YAML files")

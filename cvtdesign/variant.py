@@ -582,8 +582,9 @@ def load_yaml(path):
         line = raw[:e.start].count(b"\n") + 1
         raise InputError(f"{where}: line {line}: not UTF-8 text (byte 0x{raw[e.start]:02x}); expected a YAML "
                          "file saved as UTF-8") from None
-    loader = StrictLoader(text)
+    loader = None
     try:
+        loader = StrictLoader(text)      # its reader refuses control characters (a NUL byte) here already
         node = loader.get_single_node()
         if node is not None and _expanded_nodes(node) > MAX_NODES:
             raise InputError(f"{where}: its aliases expand to more than {MAX_NODES} YAML nodes (or refer to "
@@ -597,7 +598,8 @@ def load_yaml(path):
     except (ValueError, OverflowError, RecursionError) as e:   # e.g. an integer beyond Python's 4300 digits
         raise InputError(f"{where}: not valid YAML: {' '.join(str(e).split()) or type(e).__name__}") from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
 
 
 def read_spec(path, model: type[BaseModel], fields: str):
