@@ -446,7 +446,7 @@ def build_parser():
     b.add_argument("--step", action="store_true",
                    help="also export the best optimum of each variant/sweep point and every Pareto point as STEP")
     b.set_defaults(func=cmd_study)
-    r = sub.add_parser("rig", help="virtual test rig: measured-like data (DESIGN.md sec. 2) from the full model")
+    r = sub.add_parser("rig", help="virtual test rig: measured-like data (the measured-data CSV format) from the full model")
     r.add_argument("variant", help="variant YAML file")
     r.add_argument("--effects", help="effects on, comma-separated (default: the variant's; 'none' for the ideal CVT)")
     r.add_argument("--set", action="append", metavar="EFFECT.PARAM=VALUE",
@@ -460,7 +460,7 @@ def build_parser():
     r.add_argument("--out", required=True, help="CSV file to write")
     r.set_defaults(func=cmd_rig)
     d = sub.add_parser("diagnose", help="where the model and the data disagree, which effect causes it, how far it shrinks")
-    d.add_argument("data", help="measured data CSV (DESIGN.md sec. 2 format)")
+    d.add_argument("data", help="measured data CSV (columns gamma_cmd_deg, omega_1, omega_2, tau_1, tau_2 [, gamma_axis_deg])")
     d.add_argument("--variant", required=True, help="variant YAML file the data was measured on")
     d.add_argument("--base", help="effects of the model to diagnose, comma-separated (default: the variant's)")
     d.add_argument("--candidates", help="candidate effects to try (default: every effect not in the base)")

@@ -3,7 +3,7 @@
 Method (each step is a plain function below):
  1. Prediction. Every row is an operating point (γ_cmd, ω1 and the lateral load τ⊥ = −τ1 sin γ + τ2 cos γ
     from the measured torques, Kim eq 17: the load the rig controls); the model with a set of effects
-    (DESIGN.md sec. 3) predicts the slip angle α, the parallel torque τ∥ = τ1 cos γ + τ2 sin γ (the other,
+    (the effect vocabulary) predicts the slip angle α, the parallel torque τ∥ = τ1 cos γ + τ2 sin γ (the other,
     orthogonal torque component: ω1 τ∥ / cos γ is the power loss, so it carries the efficiency) and the axis
     angle γ_axis. Residuals = measured − predicted, in ° and N·m. Both torque components see the same
     torque noise, so the channels' noise does not grow with tan γ as τ1 given τ2 would.

@@ -1,4 +1,4 @@
-"""Measured data in the format of DESIGN.md sec. 2: read, validate, derive slip angle, load and efficiency.
+"""Measured data in the project's CSV format: read, validate, derive slip angle, load and efficiency.
 
 One operating point per CSV row: `gamma_cmd_deg` [deg], `omega_1`, `omega_2` [rad/s], `tau_1`, `tau_2`
 [N m] (external torques, positive in the sense of positive ω), optionally `gamma_axis_deg` [deg] (the

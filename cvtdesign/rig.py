@@ -1,4 +1,4 @@
-"""Virtual test rig: measured-like data (DESIGN.md sec. 2) from the full model with chosen effects and noise.
+"""Virtual test rig: measured-like data (the measured-data CSV format) from the full model with chosen effects and noise.
 
 Kim's protocol (sec. 4.2) by default: commanded γ −80°..80° in 10° steps, lateral load τ⊥ −1..1 N·m in
 0.2 N·m steps (17 × 11 = 187 operating points), shaft 1 held at the variant's motor speed, shaft 2 loaded.

@@ -1,4 +1,4 @@
-"""Quantities with units in variant and study files → SI floats (DESIGN.md sec. 1).
+"""Quantities with units in variant and study files → SI floats (SI inside the code; docs/conventions.md).
 
 A field may hold a plain number (already SI), a string with units ("40 mm", "0.0049 1/N", "10 deg"), or an
 expression "= asin(d / (2*R))" over the file's named parameters (evaluated in SI, angles in rad). Pint
