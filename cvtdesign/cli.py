@@ -199,12 +199,7 @@ def cmd_study(args):
     from rich.table import Table
 
     from . import study
-    from .cluster import check_workers
 
-    check_workers(args.workers)
-    if args.scheduler:      # refuse a scheduler that does not answer before the results store is created
-        from .cluster import connect
-        connect(args.scheduler).close()
     console = Console(width=120)
     with _progress(console, "cases", lambda row: f"last: {row['case_id']} {row['status']}") as progress:
         res = study.run_study(args.study, args.out, args.scheduler, args.workers, progress,

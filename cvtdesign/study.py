@@ -333,13 +333,15 @@ def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: i
     follows the cases; `notice(text)` gets one-line notices (a corrupt case file run again). Bad input
     (the study, `workers`, a scheduler that does not answer, a store held by another run) is an
     InputError before any case runs; Ctrl-C raises `Interrupted` once the cluster is closed."""
-    from .cluster import check_workers
+    from .cluster import check_workers, connect
     from .optimise import load_study
 
     check_workers(workers)
     spec, base = load_study(study_file)
     cases = make_cases(study_file, spec, base)
     check_study(study_file, spec, cases)
+    if scheduler:          # a scheduler that does not answer is refused before the results store is created
+        connect(scheduler).close()
     out_dir = Path(out_dir or Path("results") / spec.name)
     with store_lock(out_dir):
         man = prepare_store(study_file, spec, base, out_dir)
