@@ -20,7 +20,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from .kinematics import shaft_frame
+from .kinematics import shaft_frame, vec
 
 S2 = np.sqrt(2.0)
 FRAME = {
@@ -104,11 +104,6 @@ def steering_angle_guess(t0s, forks, frame, gammas, n_scan: int = 721) -> tuple[
 
 def _np(v):
     return np.asarray(v, float).ravel() if isinstance(v, np.ndarray) else np.asarray(np.array(v.full() if hasattr(v, "full") else v, float)).ravel()
-
-
-def vec(x):
-    """A 3-vector (numpy array, list or CasADi expression) as a CasADi column."""
-    return ca.vec(ca.DM(x)) if isinstance(x, np.ndarray) else ca.vec(x)
 
 
 def roller_pose(r, phi):

@@ -78,7 +78,7 @@ class ShaftFrame:
         """Commanded axis u(γ) = cos γ u1 + sin γ u2: a CasADi column for a symbolic γ or frame, else a numpy
         array of shape γ.shape + (3,)."""
         if _symbolic(gamma, self.u1):
-            return ca.cos(gamma) * _as_vector(self.u1) + ca.sin(gamma) * _as_vector(self.u2)
+            return ca.cos(gamma) * vec(self.u1) + ca.sin(gamma) * vec(self.u2)
         g = np.asarray(gamma, float)[..., None]
         return np.cos(g) * self.u1 + np.sin(g) * self.u2
 
@@ -120,8 +120,9 @@ class ShaftFrame:
         return f"ω2/ω1 = {k:.4g} · ({c:.4g} + {s:.4g} tan γ)  (shaft axes {np.degrees(np.arccos(c)):.4g}° apart)"
 
 
-def _as_vector(v):
-    return ca.vec(ca.DM(v)) if isinstance(v, np.ndarray) else ca.vec(v)
+def vec(x):
+    """A 3-vector (numpy array, list or CasADi expression) as a CasADi column."""
+    return ca.vec(ca.DM(x)) if isinstance(x, np.ndarray) else ca.vec(x)
 
 
 def shaft_gain(layout, shaft: int):
@@ -129,7 +130,7 @@ def shaft_gain(layout, shaft: int):
     p = next((r for r in layout.rollers if r.role == "drive" and r.shaft == shaft), None)
     if p is None:
         raise InputError(f"{layout.file}: rollers: no drive roller on shaft {shaft} (role: drive, shaft: {shaft})")
-    return -layout.sphere_radius * _as_vector(p.axle) / (p.ratio * p.radius)
+    return -layout.sphere_radius * vec(p.axle) / (p.ratio * p.radius)
 
 
 def shaft_frame(layout) -> ShaftFrame:
