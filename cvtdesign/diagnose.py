@@ -670,25 +670,30 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
     return report
 
 
+def _heldout_errors(data: Measured, noise: dict, before: Score, after: Score) -> dict:
+    """Held-out RMS α [deg] and efficiency [-] of two models on the points both predict, and the fraction of
+    each gap beyond its noise floor that `after` removes."""
+    both = before.ok & after.ok
+    eff, effm = data.rows["efficiency"].to_numpy(), _efficiency_mask(data) & both
+    ra = [_rms(residuals(data, x.pred)["alpha"], both) for x in (before, after)]
+    re = [_rms(eff - _model_efficiency(data, x.pred), effm) for x in (before, after)]
+    return {"alpha": ra, "shrink_alpha": _shrink(*ra, _rms(noise["alpha"], both)),
+            "efficiency": re, "shrink_efficiency": _shrink(*re, _efficiency_noise(data, noise))}
+
+
 def _ranking(first_round, ctx, accepted) -> list:
     """The first round's candidates, best first: held-out RMS α and efficiency before and after (on the
     points where both models predict), shrink, p-value, ΔBIC, the fraction of points where the candidate
     fails, and its fitted parameters."""
-    data, base, noise = ctx["data"], ctx["base"], ctx["noise"]
-    floor_alpha, floor_eff = _rms(noise["alpha"]), _efficiency_noise(data, noise)
     out = []
     for r in first_round:
         s, c = r["score"], r["cmp"]
-        both = base.ok & s.ok
-        ra_b, ra_a = (_rms(residuals(data, x.pred)["alpha"], both) for x in (base, s))
-        effm = _efficiency_mask(data) & both
-        eff = data.rows["efficiency"].to_numpy()
-        re_b, re_a = (_rms(eff - _model_efficiency(data, x.pred), effm) for x in (base, s))
+        e = _heldout_errors(ctx["data"], ctx["noise"], ctx["base"], s)
         out.append({
-            "effect": r["effect"], "heldout_rms_before": ra_b, "heldout_rms_after": ra_a,
-            "shrink": _shrink(ra_b, ra_a, floor_alpha), "gap_shrink": gap_shrink(c),
-            "heldout_rms_efficiency_before": re_b, "heldout_rms_efficiency_after": re_a,
-            "shrink_efficiency": _shrink(re_b, re_a, floor_eff),
+            "effect": r["effect"], "heldout_rms_before": e["alpha"][0], "heldout_rms_after": e["alpha"][1],
+            "shrink": e["shrink_alpha"], "gap_shrink": gap_shrink(c),
+            "heldout_rms_efficiency_before": e["efficiency"][0], "heldout_rms_efficiency_after": e["efficiency"][1],
+            "shrink_efficiency": e["shrink_efficiency"],
             "heldout_msz_before": c.msz[0], "heldout_msz_after": c.msz[1], "p_value": c.p,
             "bic_change": c.dbic, "failed_fraction": s.failed, "params": s.fit.params(),
             "accepted": r["effect"] in accepted})
@@ -699,21 +704,16 @@ def _how_far(ctx) -> dict:
     """Held-out RMS α and efficiency of the base and the diagnosed model on the points both predict, the
     shrinks (α, efficiency, and over every channel in z units), and the shrink in the gap's largest regions."""
     data, base, final, noise = ctx["data"], ctx["base"], ctx["final"], ctx["noise"]
-    both = base.ok & final.ok
-    res_b, res_a = residuals(data, base.pred), residuals(data, final.pred)
-    eff = data.rows["efficiency"].to_numpy()
-    effm = _efficiency_mask(data) & both
-    rb, ra = _rms(res_b["alpha"], both), _rms(res_a["alpha"], both)
-    eb, ea = (_rms(eff - _model_efficiency(data, x.pred), effm) for x in (base, final))
-    in_reg = (_in_regions(data, ctx["regs"][:3]) & both) if ctx["regs"] else np.zeros(len(data.rows), bool)
-    floor_eff = _efficiency_noise(data, noise)
+    e = _heldout_errors(data, noise, base, final)
+    res_b, res_a = residuals(data, base.pred)["alpha"], residuals(data, final.pred)["alpha"]
+    in_reg = (_in_regions(data, ctx["regs"][:3]) & base.ok & final.ok) if ctx["regs"] else np.zeros(len(data.rows), bool)
+    region = [_rms(res_b, in_reg), _rms(res_a, in_reg)] if in_reg.any() else None
     return {
-        "heldout_rms_alpha_deg": [rb, ra], "shrink_alpha": _shrink(rb, ra, _rms(noise["alpha"], both)),
-        "heldout_rms_efficiency": [eb, ea], "shrink_efficiency": _shrink(eb, ea, floor_eff),
+        "heldout_rms_alpha_deg": e["alpha"], "shrink_alpha": e["shrink_alpha"],
+        "heldout_rms_efficiency": e["efficiency"], "shrink_efficiency": e["shrink_efficiency"],
         "shrink": gap_shrink(compare(base, final, ctx["nch"], data)) if final is not base else 0.0,
-        "region_rms_alpha_deg": [_rms(res_b["alpha"], in_reg), _rms(res_a["alpha"], in_reg)] if in_reg.any() else None,
-        "shrink_region": _shrink(_rms(res_b["alpha"], in_reg), _rms(res_a["alpha"], in_reg),
-                                 _rms(noise["alpha"], in_reg)) if in_reg.any() else None,
+        "region_rms_alpha_deg": region,
+        "shrink_region": _shrink(*region, _rms(noise["alpha"], in_reg)) if region else None,
     }
 
 
