@@ -19,8 +19,10 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
-from cvtdesign import diagnose, measured, rig
-from cvtdesign.variant import load_variant
+from cvtdesign.diagnosis import diagnose
+from cvtdesign.diagnosis import measured
+from cvtdesign.diagnosis import rig
+from cvtdesign.io.variant import load_variant
 from timing import best_of
 
 ROOT = Path(__file__).resolve().parents[1]

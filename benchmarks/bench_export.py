@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign import cad
-from cvtdesign.geometry import pose
-from cvtdesign.variant import load_variant
+from cvtdesign.cad import assembly as cad
+from cvtdesign.core.geometry import pose
+from cvtdesign.io.variant import load_variant
 from timing import best_of
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -44,7 +44,7 @@ def bare_assembly(path, out):
 def cold_start(tmp):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     run = lambda c: subprocess.run(c, cwd=ROOT, env=env, check=True, capture_output=True)
-    t_exp, _ = best_of(lambda: run([sys.executable, "-m", "cvtdesign.cli", "export", "variants/box.yaml", "--out", tmp]), 3)
+    t_exp, _ = best_of(lambda: run([sys.executable, "-m", "cvtdesign", "export", "variants/box.yaml", "--out", tmp]), 3)
     t_cq, _ = best_of(lambda: run([sys.executable, "-c", "import cadquery"]), 3)
     print("cold start (new process)")
     print(f"  cvtdesign export variants/box.yaml       {t_exp:6.2f} s   target < 10 s")

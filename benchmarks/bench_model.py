@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import root
 
-from cvtdesign.model import compile_model
-from cvtdesign.variant import load_variant
+from cvtdesign.core.model import compile_model
+from cvtdesign.io.variant import load_variant
 from timing import best_of
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -27,8 +27,8 @@ import numpy as np
 import yaml
 from scipy.optimize import minimize
 
-from cvtdesign.optimise import _rows_at, build_problem, solve_from, starts
-from cvtdesign.study import run_case, run_study, warm_worker
+from cvtdesign.design.optimise import _rows_at, build_problem, solve_from, starts
+from cvtdesign.design.study import run_case, run_study, warm_worker
 import timing
 
 ROOT = Path(__file__).resolve().parents[1]

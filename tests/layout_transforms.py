@@ -13,7 +13,7 @@ A test helper, not part of the package. Every transform returns a new dict and l
 * `relabel_shafts(data)`: shafts 1 and 2 swapped on every drive and follower roller;
 * `set_envelope`, `set_radius` and `consistent_ratio` for the property tests.
 
-`layout_of(data)` writes a dict to a temporary file and loads it with `cvtdesign.variant.load_variant`.
+`layout_of(data)` writes a dict to a temporary file and loads it with `cvtdesign.io.variant.load_variant`.
 """
 from __future__ import annotations
 
@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from cvtdesign.geometry import named_vector, pose, spherical
-from cvtdesign.units import to_si
-from cvtdesign.variant import load_variant
+from cvtdesign.core.geometry import named_vector, pose, spherical
+from cvtdesign.io.units import to_si
+from cvtdesign.io.variant import load_variant
 
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ROOT / "variants"

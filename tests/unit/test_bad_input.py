@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from cvtdesign.cli import main
-from cvtdesign.model import STATUS, compile_model
-from cvtdesign.variant import load_variant
+from cvtdesign.core.model import STATUS, compile_model
+from cvtdesign.io.variant import load_variant
 
 EXISTING = Path(__file__).resolve().parents[2] / "variants" / "existing.yaml"
 

@@ -288,8 +288,11 @@ vcase("fork field typo", ("steering.forks.0.axes", "did you mean 'axis'"), (FORK
       (FORK0 + ("axes",), "c1"))
 for field in ("name", "materials", "sphere", "rollers", "steering"):
     vcase(f"missing {field}", f"{field}: missing required field", ((field,), DEL))
-for field in ("role", "contact", "axle", "radius", "material"):
+for field in ("role", "contact", "axle"):
     vcase(f"roller without {field}", f"rollers.D1.{field}: missing required field", (D1 + (field,), DEL))
+for field in ("radius", "material"):     # these may come from roller_defaults instead
+    vcase(f"roller without {field}", f"rollers.D1.{field}: missing (give it on the roller or in roller_defaults)",
+          (D1 + (field,), DEL))
 vcase("sphere without radius", "sphere.radius: missing required field", (("sphere", "radius"), DEL))
 vcase("material without poisson_ratio", "urethane_82A.poisson_ratio: missing", (M82 + ("poisson_ratio",), DEL))
 vcase("fork without rollers", "steering.forks.0.rollers: missing", (FORK0 + ("rollers",), DEL))
@@ -495,7 +498,6 @@ for id, expect, args in [
 case("compare: no variant file", ("compare", "variants"), cli("compare"), "compare", "command line")
 case("compare: unknown option", "unrecognized arguments: --colour", cli("compare", "{v}", "--colour", "red"),
      "compare", "command line")
-case("no command at all", "command", cli(), "-", "command line")
 case("unknown command", "invalid choice: 'compar'", cli("compar", "{v}"), "-", "command line")
 
 # ------------------------------------------------------------------------------- study YAML: optimise, study
@@ -880,7 +882,7 @@ def test_table_covers_every_command_and_file_type():
 
 def _entry_point() -> list[str]:
     script = Path(sys.executable).parent / "cvtdesign"
-    return [str(script)] if script.exists() else [sys.executable, "-m", "cvtdesign.cli"]
+    return [str(script)] if script.exists() else [sys.executable, "-m", "cvtdesign"]
 
 
 SUBPROCESS = [

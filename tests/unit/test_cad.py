@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cvtdesign import cad
+from cvtdesign.cad import assembly as cad
 from cvtdesign.cli import main
-from cvtdesign.geometry import pose
-from cvtdesign.model import compile_model
-from cvtdesign.variant import load_variant
+from cvtdesign.core.geometry import pose
+from cvtdesign.core.model import compile_model
+from cvtdesign.io.variant import load_variant
 
 ROOT = Path(__file__).resolve().parents[2]
 BOX, EXISTING = ROOT / "variants/box.yaml", ROOT / "variants/existing.yaml"
@@ -213,7 +213,7 @@ def test_failed_drawing_leaves_no_file(tmp_path, monkeypatch):
 
 
 def test_model_path_does_not_import_cadquery():
-    code = ("import sys, cvtdesign.cli, cvtdesign.model, cvtdesign.optimise, cvtdesign.study, cvtdesign.cad; "
+    code = ("import sys, cvtdesign.cli, cvtdesign.core.model, cvtdesign.design.optimise, cvtdesign.design.study, cvtdesign.cad.assembly; "
             "print(sorted(m for m in ('cadquery', 'OCP') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

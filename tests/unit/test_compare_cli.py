@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cvtdesign.cli import main
-from cvtdesign.model import EPS_RIGID
+from cvtdesign.core.model import EPS_RIGID
 
 ROOT = Path(__file__).resolve().parents[2]
 KEYS = {"name", "file", "max_abs_alpha_deg", "rms_alpha_deg", "max_abs_alpha_steering_deg",

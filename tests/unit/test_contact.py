@@ -1,4 +1,4 @@
-"""Unit tests for cvtdesign.contact: elliptic integrals, Hertz ellipse, Kalker table interpolation."""
+"""Unit tests for cvtdesign.core.contact: elliptic integrals, Hertz ellipse, Kalker table interpolation."""
 
 import math
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy import optimize, special
 
-from cvtdesign import contact as c
+from cvtdesign.core import contact as c
 
 
 def floats(values):

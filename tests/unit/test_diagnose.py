@@ -8,11 +8,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cvtdesign import diagnose, measured, resteer, rig
+from cvtdesign.diagnosis import diagnose
+from cvtdesign.diagnosis import measured
+from cvtdesign.diagnosis import resteer
+from cvtdesign.diagnosis import rig
 from cvtdesign.cli import main
-from cvtdesign.kinematics import shaft_frame
-from cvtdesign.model import compile_model
-from cvtdesign.variant import load_variant
+from cvtdesign.core.kinematics import shaft_frame
+from cvtdesign.core.model import compile_model
+from cvtdesign.io.variant import load_variant
 
 ROOT = Path(__file__).resolve().parents[2]
 EXISTING = ROOT / "variants" / "existing.yaml"
@@ -201,7 +204,8 @@ def test_independent_simulators_moderate_spin_creep_is_named(layout):
     """Data from the independent simulator (its own spin law: a sliding line contact with an elliptical
     pressure, in series with elastic creep) at a moderate strength: the vocabulary's drive_spin_creep is
     named, its held-out share of the structured gap at least 0.8, and nothing structured remains."""
-    from cvtdesign import independent_sim, selfcheck
+    from cvtdesign.diagnosis import independent_sim
+    from cvtdesign.diagnosis import selfcheck
 
     case = next(c for c in selfcheck.make_cases(matrices=("independent",)) if c["id"].endswith("spin_creep-moderate"))
     rows, left_out = independent_sim.simulate(case["effects"], seed=case["seed"])

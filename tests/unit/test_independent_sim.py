@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cvtdesign import independent_sim as sim
+from cvtdesign.diagnosis import independent_sim as sim
 
 ROOT = Path(__file__).resolve().parents[2]
 VALIDATION = ROOT / "tests" / "validation"
@@ -34,7 +34,7 @@ def report(msg):
 
 def test_module_imports_nothing_from_cvtdesign():
     """Independent: numpy, scipy and pandas only."""
-    tree = ast.parse((ROOT / "cvtdesign" / "independent_sim.py").read_text())
+    tree = ast.parse((ROOT / "cvtdesign" / "diagnosis" / "independent_sim.py").read_text())
     mods = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
@@ -123,8 +123,8 @@ def test_base_agrees_with_the_package_model():
     """The same machine: the base-case α over Kim's protocol (187 points) against the package's model of
     variants/existing.yaml (its default effects are the same two creeps). Measured: RMS 0.0052°, max 0.017°
     (0.26 noise σ per point; RMS α itself 4.6°); both the same formulation-independent statics, τ∥ = 0."""
-    from cvtdesign.model import compile_model
-    from cvtdesign.variant import load_variant
+    from cvtdesign.core.model import compile_model
+    from cvtdesign.io.variant import load_variant
 
     m = compile_model(load_variant(ROOT / "variants" / "existing.yaml"))
     pk = m.evaluate(KIM_G, KIM_T)
@@ -210,8 +210,8 @@ def test_past_the_physics_left_out_and_counted():
 def test_simulate_format_noise_and_replicates(tmp_path):
     """Exactly the measured-data columns (axis optional), 187 rows per replicate on Kim's protocol, the noise
     as asked and reproducible by seed; the package's reader accepts the data and derives the same α."""
-    from cvtdesign.measured import load_measured
-    from cvtdesign.variant import load_variant
+    from cvtdesign.diagnosis.measured import load_measured
+    from cvtdesign.io.variant import load_variant
 
     rows, left = sim.simulate(sim.BASE)
     assert list(rows.columns) == list(sim.COLUMNS) and len(rows) == 187 and left == {}

@@ -48,9 +48,9 @@ if str(TESTS) not in sys.path:
 
 import layout_transforms as lt  # noqa: E402
 
-from cvtdesign import evaluate as ev  # noqa: E402
-from cvtdesign.geometry import pose, rigid_constraints  # noqa: E402
-from cvtdesign.model import compile_model  # noqa: E402
+from cvtdesign.core import metrics as ev  # noqa: E402
+from cvtdesign.core.geometry import pose, rigid_constraints  # noqa: E402
+from cvtdesign.core.model import compile_model  # noqa: E402
 
 SHIPPED = ("existing", "box", "unequal")
 SMALL = dict(gamma_deg=(-60, 60, 30), load_nm=(-1, 1, 1))

@@ -10,12 +10,13 @@ import numpy as np
 import pytest
 import yaml
 
-from cvtdesign import measured, rig
+from cvtdesign.diagnosis import measured
+from cvtdesign.diagnosis import rig
 from cvtdesign.cli import main
-from cvtdesign.geometry import FRAME
-from cvtdesign.kinematics import shaft_frame
-from cvtdesign.model import STATUS, compile_model
-from cvtdesign.variant import load_variant
+from cvtdesign.core.geometry import FRAME
+from cvtdesign.core.kinematics import shaft_frame
+from cvtdesign.core.model import STATUS, compile_model
+from cvtdesign.io.variant import load_variant
 
 EXISTING = "variants/existing.yaml"
 

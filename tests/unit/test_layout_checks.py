@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 import yaml
 
-from cvtdesign.checks import check_preload_equilibrium
+from cvtdesign.core.checks import check_preload_equilibrium
 from cvtdesign.cli import main
-from cvtdesign.geometry import FRAME
-from cvtdesign.units import InputError
-from cvtdesign.variant import load_spec, load_variant, resolve
+from cvtdesign.core.geometry import FRAME
+from cvtdesign.errors import InputError
+from cvtdesign.io.variant import load_spec, load_variant, resolve
 
 VARIANTS = Path(__file__).resolve().parents[2] / "variants"
 R_MM = 63.5                      # sphere radius of existing.yaml

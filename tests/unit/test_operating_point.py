@@ -4,9 +4,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cvtdesign.geometry import ideal_gamma, kim_gamma_from_phi
-from cvtdesign.model import compile_model
-from cvtdesign.variant import load_variant
+from cvtdesign.core.geometry import ideal_gamma, kim_gamma_from_phi
+from cvtdesign.core.model import compile_model
+from cvtdesign.io.variant import load_variant
 
 ROOT = Path(__file__).resolve().parents[2]
 

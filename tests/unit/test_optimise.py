@@ -8,10 +8,10 @@ import pytest
 import yaml
 
 from cvtdesign.cli import main
-from cvtdesign.model import compile_model
-from cvtdesign.optimise import build_problem, check_envelope, constraint_report, solve_from, starts
-from cvtdesign.units import InputError
-from cvtdesign.variant import load_spec, load_variant, resolve
+from cvtdesign.core.model import compile_model
+from cvtdesign.design.optimise import build_problem, check_envelope, constraint_report, solve_from, starts
+from cvtdesign.errors import InputError
+from cvtdesign.io.variant import load_spec, load_variant, resolve
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -151,7 +151,7 @@ def test_design_variable_free_in_some_variants_only(tmp_path, capsys):
                  batch={"variants": [str(ROOT / "variants/existing.yaml"), str(ROOT / "variants/box.yaml")]},
                  envelope={"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
                            "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "2 N*m"}})
-    from cvtdesign.optimise import load_study
+    from cvtdesign.design.optimise import load_study
     spec, _ = load_study(path)
     assert build_problem(path, spec, ROOT / "variants/existing.yaml").names == ["r_steer"]
     assert sorted(build_problem(path, spec, ROOT / "variants/box.yaml").names) == ["d", "r_steer"]
@@ -165,8 +165,8 @@ def test_design_variable_free_in_some_variants_only(tmp_path, capsys):
 def test_written_variant_carries_sweep_parameters_and_study_envelope(tmp_path):
     """A sweep case's optimum is written with its fixed parameters and the envelope it was optimised over,
     so the variant file reproduces the optimum (it kept the base's r_steer and envelope before)."""
-    from cvtdesign.optimise import load_study, write_variant
-    from cvtdesign.variant import load_variant
+    from cvtdesign.design.optimise import load_study, write_variant
+    from cvtdesign.io.variant import load_variant
 
     env = {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "30 deg"},
            "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}
@@ -270,7 +270,7 @@ def test_optimum_failing_the_envelope_check_is_not_an_optimum(tmp_path):
     assert sol.ipopt_status == "Solve_Succeeded" and not sol.success
     assert sol.status.startswith("Failed_Envelope_Check: 4 of 15 envelope points") and sol.check.gross_slip == 4
     assert sol.check.lost_contact == 0 and "gross slip (|F| > μN) at S" in sol.check.worst
-    from cvtdesign.optimise import write_variant
+    from cvtdesign.design.optimise import write_variant
     with pytest.raises(ValueError):
         write_variant(pr, sol, tmp_path)
     out = tmp_path / "res"

@@ -13,12 +13,12 @@ import yaml
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from cvtdesign import output  # noqa: E402
+from cvtdesign.io import output  # noqa: E402
 from cvtdesign.cli import main  # noqa: E402
-from cvtdesign.output import OutputError, staged, write_file, write_files  # noqa: E402
-from cvtdesign.plots import save  # noqa: E402
-from cvtdesign.study import read_case, write_case  # noqa: E402
-from cvtdesign.units import InputError  # noqa: E402
+from cvtdesign.io.output import OutputError, staged, write_file, write_files  # noqa: E402
+from cvtdesign.io.plots import save  # noqa: E402
+from cvtdesign.design.study import read_case, write_case  # noqa: E402
+from cvtdesign.io.units import InputError  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 BOX, EXISTING = ROOT / "variants/box.yaml", ROOT / "variants/existing.yaml"

@@ -5,10 +5,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cvtdesign import measured, rig
+from cvtdesign.diagnosis import measured
+from cvtdesign.diagnosis import rig
 from cvtdesign.cli import main
-from cvtdesign.model import compile_model
-from cvtdesign.variant import load_variant
+from cvtdesign.errors import InputError
+from cvtdesign.core.model import compile_model
+from cvtdesign.io.variant import load_variant
 
 ROOT = Path(__file__).resolve().parents[2]
 EXISTING = ROOT / "variants" / "existing.yaml"
@@ -140,7 +142,7 @@ def test_drop_bad_counts_rows(layout, tmp_path):
     text = GOOD + "10,10,abc,0.1,0.1\n20,0,1,1,1\n,10,1,1,1\n70,10,nan,1,1\n"
     path = tmp_path / "d.csv"
     path.write_text(text)
-    with pytest.raises(measured.InputError, match=r"line 5: .*\(3 more bad rows; --drop-bad"):
+    with pytest.raises(InputError, match=r"line 5: .*\(3 more bad rows; --drop-bad"):
         measured.load_measured(path, layout)
     data = measured.load_measured(path, layout, drop_bad=True)
     assert len(data.rows) == 3

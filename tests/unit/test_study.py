@@ -14,10 +14,11 @@ import pytest
 import yaml
 from filelock import FileLock
 
-from cvtdesign import cluster, study as study_mod
+from cvtdesign.design import cluster
+from cvtdesign.design import study as study_mod
 from cvtdesign.cli import main
-from cvtdesign.study import make_cases, read_store, run_study
-from cvtdesign.units import InputError
+from cvtdesign.design.study import make_cases, read_store, run_study
+from cvtdesign.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -14,10 +14,12 @@ import numpy as np
 import pytest
 import yaml
 
-from cvtdesign import measured, rig
+from cvtdesign.diagnosis import measured
+from cvtdesign.diagnosis import rig
 from cvtdesign.cli import main
-from cvtdesign.units import InputError, to_si
-from cvtdesign.variant import load_variant, quantity
+from cvtdesign.errors import InputError
+from cvtdesign.io.units import to_si
+from cvtdesign.io.variant import load_variant, quantity
 
 ROOT = Path(__file__).resolve().parents[2]
 EXISTING = ROOT / "variants" / "existing.yaml"
@@ -267,7 +269,7 @@ def test_shipped_variants_load_unchanged(path):
 
 
 def test_shipped_studies_build(tmp_path):
-    from cvtdesign.optimise import build_problem, load_study
+    from cvtdesign.design.optimise import build_problem, load_study
 
     for f in STUDIES:
         spec, base = load_study(f)

@@ -11,7 +11,7 @@ DESIGN.md sec. 1 (Kim's frames; τ⊥ = −τ1 sin γ + τ2 cos γ; α = atan2(�
 
 Where a printed equation is inconsistent with the vectors it is derived from, the function implements
 the corrected form and its docstring says what was changed and why; the tests in test_papers.py
-show that the generalised model (cvtdesign.model) reproduces the corrected form, not the printed one.
+show that the generalised model (cvtdesign.core.model) reproduces the corrected form, not the printed one.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""A hand-written reference model of Kim's existing CVT (refs/001 sec. 2), independent of cvtdesign.model.
+"""A hand-written reference model of Kim's existing CVT (refs/001 sec. 2), independent of cvtdesign.core.model.
 
 In the manner of PyBaMM's hand-written "basic" models that are cross-checked against the composed ones:
 the equations of the existing CVT's four contacts are written out by hand here, with Kim's vectors, in
@@ -19,7 +19,7 @@ Equations (14):
         c_t = ε_D V on drive rollers, c_a = ε_S V on steering rollers, and a rigid floor eps_rigid·V_ref
         [m/(N s)] (V_ref = |ω1| r_D) added to every direction, as in model.py (it keeps the statically
         indeterminate split of the drive rollers' axial forces regular; a numerical regularisation, not
-        physics, so the cross-check passes the model's value, cvtdesign.model.EPS_RIGID);
+        physics, so the cross-check passes the model's value, cvtdesign.core.model.EPS_RIGID);
     sphere moment balance:                 Σ R n × F = 0 (3);
     idler torque balance:                  F_t = 0 at S1 and S2 (2);
     load:                                  −τ1 sin γ_cmd + τ2 cos γ_cmd = τ⊥, τ_s = r_D F_t of shaft s's roller (1).

@@ -1,9 +1,9 @@
-"""DESIGN.md sec. 4 anchors for cvtdesign.contact, plus symbolic (CasADi) evaluation and derivatives."""
+"""DESIGN.md sec. 4 anchors for cvtdesign.core.contact, plus symbolic (CasADi) evaluation and derivatives."""
 
 import casadi as ca
 import pytest
 
-from cvtdesign import contact as c
+from cvtdesign.core import contact as c
 
 # Hertz anchors, in N and mm (the function is unit-agnostic)
 G, NU, N = 82000.0, 0.28, 82000.0

@@ -1,4 +1,4 @@
-"""The generalised model (cvtdesign.model) against the two papers' equations and a hand-written reference.
+"""The generalised model (cvtdesign.core.model) against the two papers' equations and a hand-written reference.
 
 Kim et al. (refs/001): ideal law (eq 8) and steering linkage (eq 5) at zero load; steering-roller slip
 (eqs 19-24), drive-roller slip (eqs 25-31) and their sum (eq 32) at small load; the box CVT's halved drive
@@ -25,10 +25,10 @@ if str(HERE) not in sys.path:          # the closed forms and the reference mode
 import kim_closed_forms as kim  # noqa: E402
 from reference_existing import ExistingCVT  # noqa: E402
 
-from cvtdesign import contact  # noqa: E402
-from cvtdesign.effects import EFFECTS  # noqa: E402
-from cvtdesign.model import EPS_RIGID, compile_model  # noqa: E402
-from cvtdesign.variant import load_variant  # noqa: E402
+from cvtdesign.core import contact  # noqa: E402
+from cvtdesign.core.effects import EFFECTS  # noqa: E402
+from cvtdesign.core.model import EPS_RIGID, compile_model  # noqa: E402
+from cvtdesign.io.variant import load_variant  # noqa: E402
 
 # --- helpers -------------------------------------------------------------------------------------------
 

@@ -1,0 +1,82 @@
+"""`cvtdesign compare`: variants side by side over their envelope, with the ideal CVT and Kim's existing CVT."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from cvtdesign.cli.printing import json_text, left_out_text
+from cvtdesign.core.metrics import envelope, metrics
+from cvtdesign.core.model import compile_model
+from cvtdesign.io import plots
+from cvtdesign.io.output import make_folder, write_file
+from cvtdesign.io.variant import load_variant, shipped_variant
+
+
+COLUMNS = [
+    ("max_abs_alpha_deg", "max |α| [°]", "{:.3f}"),
+    ("rms_alpha_deg", "RMS α [°]", "{:.3f}"),
+    ("max_abs_alpha_steering_deg", "max |α| steering [°]", "{:.3f}"),
+    ("max_abs_alpha_drive_deg", "max |α| drive [°]", "{:.3f}"),
+    ("ratio_error_pct_at_max_load", "ratio error at max load [%]", "{:.2f}"),
+    ("min_efficiency", "worst efficiency", "{:.3f}"),
+    ("max_traction_utilisation", "max F/(μN)", "{:.3f}"),
+    ("max_hertz_pressure_MPa", "max Hertz p [MPa]", "{:.2f}"),
+]
+
+
+def run(args):
+    painter = plots.Background()   # imports matplotlib in a second process while we compute
+    try:
+        return _compare(args, painter)
+    finally:
+        painter.close()
+
+
+def _compare(args, painter):
+    files = [Path(f) for f in args.variants]
+    layouts = [load_variant(f) for f in files]
+    rows, results = [], []
+    if len(files) == 1:
+        ideal = compile_model(layouts[0], effects=())
+        res = envelope(ideal)
+        row = metrics(ideal, res)
+        row["name"] = f"ideal ({layouts[0].name})"
+        rows.append(row)
+        existing = shipped_variant("existing")     # Kim's CVT, wherever the command runs from
+        if existing.resolve() != files[0].resolve():
+            layouts.insert(0, load_variant(existing))
+    for L in layouts:
+        m = compile_model(L)
+        res = envelope(m)
+        rows.append(metrics(m, res))
+        results.append((L, res))
+
+
+    table = Table(title="CVT comparison over the operating envelope (γ × τ⊥)")
+    table.add_column("figure")
+    for row in rows:
+        table.add_column(row["name"], justify="right")
+    for key, label, fmt in COLUMNS:
+        table.add_row(label, *["—" if r[key] is None else fmt.format(r[key]) for r in rows])
+    console = Console(width=max(100, 30 + 22 * len(rows)))
+    console.print(table)
+    for r in rows:
+        console.print(f"{r['name']}: {r['ideal_law']}")
+        if r["ok"] < r["points"]:
+            console.print(f"[red]{r['name']}: {r['points'] - r['ok']} of {r['points']} operating points left out "
+                          f"of the figures: {left_out_text(r)}[/red]")
+
+    figure = make_folder(args.out, kind="--out") / "compare.png"
+    painter.draw("compare_figure", [(L.name, res) for L, res in results], figure)
+    if args.json:
+        write_file(args.json, json_text({"variants": rows}), kind="--json")
+        console.print(f"figures written to {args.json}")
+    error = painter.wait()
+    if error:
+        print(f"cvtdesign: error: plotting failed: {error}", file=sys.stderr)
+        return 1
+    console.print(f"plots: {figure}")
+    return 0

@@ -1,0 +1,172 @@
+"""The `cvtdesign` command line: its arguments, and `main`, which runs the command module (cvtdesign.cli.<name>)."""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from importlib.metadata import version
+
+from cvtdesign.errors import InputError
+from cvtdesign.io.output import check_folder, check_target
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with its errors as one line (no usage block): 'cvtdesign rig: error: argument --seed: invalid
+    int value: 'x' (see cvtdesign rig --help)', exit status 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
+
+
+COMMANDS = {     # name -> one-line help; cvtdesign.cli.<name> runs it
+    "new": "write a commented variant file from a template (existing, box or unequal) to start from",
+    "show": "draw a variant's layout (sphere, rollers, axles, forks, frames) and print its ideal law",
+    "compare": "evaluate variants over their envelope and print a side-by-side table",
+    "optimise": "optimise a variant's parameters under slip/efficiency objectives (IPOPT)",
+    "study": "run a study's cases (sweeps, multistarts, Pareto fronts) in batch on Dask",
+    "export": "write the variant's assembly as STEP (+ SVG, PNG) for mechanical review",
+    "rig": "virtual test rig: measured-like data (the measured-data CSV format) from the full model",
+    "diagnose": "where the model and the data disagree, which effect causes it, how far it shrinks",
+    "resteer": "steering commands for requested speed ratios under a known load (Brokowski sec. 5)",
+    "selfcheck": "prove the diagnosis on rig data with withheld effects; exit 1 if a target is missed",
+}
+
+
+def build_parser():
+    p = _Parser(prog="cvtdesign", description="Design, optimise, compare and diagnose spherical CVTs.",
+                epilog="`cvtdesign COMMAND --help` describes a command; docs/ has the rest.")
+    p.add_argument("--version", action="version", version=f"%(prog)s {version('cvtdesign')}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    adders = {"new": _add_new, "show": _add_show, "compare": _add_compare, "optimise": _add_optimise,
+              "study": _add_study, "export": _add_export, "rig": _add_rig, "diagnose": _add_diagnose,
+              "resteer": _add_resteer, "selfcheck": _add_selfcheck}
+    for name, text in COMMANDS.items():
+        adders[name](sub.add_parser(name, help=text, description=text))
+    return p
+
+
+def _add_new(p):
+    p.add_argument("name", help="the variant's name (letters, digits, '_', '.', '+', '-'); the file is NAME.yaml")
+    p.add_argument("--template", choices=("existing", "box", "unequal"), default="existing",
+                   help="layout to start from (default: existing, Kim's two-steering-roller CVT)")
+    p.add_argument("--out", help="file to write (default: NAME.yaml in the current folder; never overwritten)")
+
+
+def _add_show(p):
+    p.add_argument("variant", help="variant YAML file")
+    p.add_argument("--gamma", type=float, default=0.0, help="commanded γ [deg] the forks are drawn at (default 0)")
+    p.add_argument("--out", default="out/show", help="folder for <name>_layout.png (default: out/show)")
+
+
+def _add_compare(p):
+    p.add_argument("variants", nargs="+", help="variant YAML files")
+    p.add_argument("--out", default="out/compare", help="folder for the plots (default: out/compare)")
+    p.add_argument("--json", help="also write the figures to this JSON file")
+
+
+def _add_optimise(p):
+    p.add_argument("study", help="study YAML file (studies/*.yaml)")
+    p.add_argument("--out", help="folder for the optimised variant (default: results/<study name>)")
+    p.add_argument("--starts", type=int, help="number of multistart points (default: the study's)")
+    p.add_argument("--json", help="also write the result to this JSON file")
+    p.add_argument("--step", action="store_true", help="also export the optimum as a STEP assembly (+ SVG, PNG)")
+
+
+def _add_study(p):
+    p.add_argument("study", help="study YAML file (studies/*.yaml)")
+    p.add_argument("--out", help="results store (default: results/<study name>)")
+    p.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a local cluster)")
+    p.add_argument("--workers", type=int, help="local cluster size (default: one single-threaded worker per core)")
+    p.add_argument("--step", action="store_true",
+                   help="also export the best optimum of each variant/sweep point and every Pareto point as STEP")
+
+
+def _add_rig(p):
+    p.add_argument("variant", help="variant YAML file")
+    p.add_argument("--effects", help="effects on, comma-separated (default: the variant's; 'none' for the ideal CVT)")
+    p.add_argument("--set", action="append", metavar="EFFECT.PARAM=VALUE",
+                   help="an effect parameter, e.g. steering_lateral_creep.scale=1.2 or 'rolling_resistance.offset=0.2 mm'")
+    p.add_argument("--noise", help="measurement noise σ, e.g. 'speed=0.01 rad/s,torque=0.005 N*m,axis=0.05 deg' "
+                                   "(these are the defaults; plain numbers are SI)")
+    p.add_argument("--protocol", help="protocol YAML (gamma, load, load_kind, motor_speed, replicates); default Kim's")
+    p.add_argument("--replicates", type=int, help="repeat every operating point this many times")
+    p.add_argument("--seed", type=int, default=0, help="random seed of the noise (default 0)")
+    p.add_argument("--no-axis", action="store_true", help="do not record the axis angle gamma_axis_deg")
+    p.add_argument("--out", required=True, help="CSV file to write")
+
+
+def _add_diagnose(p):
+    p.add_argument("data", help="measured data CSV (columns gamma_cmd_deg, omega_1, omega_2, tau_1, tau_2 [, gamma_axis_deg])")
+    p.add_argument("--variant", required=True, help="variant YAML file the data was measured on")
+    p.add_argument("--base", help="effects of the model to diagnose, comma-separated (default: the variant's)")
+    p.add_argument("--candidates", help="candidate effects to try (default: every effect not in the base)")
+    p.add_argument("--drop-bad", action="store_true", help="drop (and count) bad rows instead of stopping")
+    p.add_argument("--json", help="write the report to this JSON file")
+    p.add_argument("--plots", help="folder for the residual-map and fit plots")
+
+
+def _add_selfcheck(p):
+    p.add_argument("--variant", help="variant of the rig matrix (default: variants/existing.yaml)")
+    p.add_argument("--matrices", help="comma-separated: rig (the project's own model makes the data), independent "
+                                      "(an independently written simulator of Kim's CVT); default: both")
+    p.add_argument("--quick", action="store_true", help="a reduced matrix (one value and noise level per effect)")
+    p.add_argument("--seeds", type=int, default=3, help="null datasets per noise level / 2 (default 3)")
+    p.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a local cluster)")
+    p.add_argument("--workers", type=int, help="local cluster size (default: one worker per core)")
+    p.add_argument("--only", help="run only the datasets whose id contains one of these comma-separated texts")
+    p.add_argument("--json", help="write the per-dataset results and the summary to this JSON file")
+
+
+def _add_resteer(p):
+    p.add_argument("data", nargs="?", help="measured data CSV: fit the model to it and add the inverted data lookup")
+    p.add_argument("--variant", required=True, help="variant YAML file")
+    p.add_argument("--effects", help="effects of the model (default: the variant's)")
+    p.add_argument("--load", help="lateral load τ⊥, e.g. '1 N*m' (default: the data's highest load level)")
+    p.add_argument("--ratios", help="requested ω2/ω1, comma-separated (default Brokowski's 0.4,0.5,0.8,1,1.25,2,2.5)")
+    p.add_argument("--truth-effects", help="score each command on the virtual rig with these effects (eq 23)")
+    p.add_argument("--truth-set", action="append", metavar="EFFECT.PARAM=VALUE", help="a parameter of the rig's effects")
+    p.add_argument("--drop-bad", action="store_true", help="drop (and count) bad data rows instead of stopping")
+    p.add_argument("--json", help="write the commands and scores to this JSON file")
+    p.add_argument("--plots", help="folder for the Fig. 17-style plot")
+
+
+def _add_export(p):
+    p.add_argument("variant", help="variant YAML file")
+    p.add_argument("--out", default="cad_out", help="folder for <name>.step/.svg/.png (default: cad_out)")
+    p.add_argument("--gamma", type=float, default=45.0, help="commanded γ [deg] the forks are turned for (default 45)")
+    p.add_argument("--check", action="store_true", help="re-read the STEP file and check names, validity, contacts, "
+                   "interference and bounding box (exit status 1 if a check fails)")
+
+
+def check_outputs(args):
+    """Refuse an output path that cannot be written before any computation (each write checks again):
+    --json and rig's --out are files, --plots and the other commands' --out are folders."""
+    if getattr(args, "json", None):
+        check_target(args.json, kind="--json")
+    if getattr(args, "plots", None):
+        check_folder(args.plots, kind="--plots")
+    if getattr(args, "out", None):
+        if args.command == "rig":
+            check_target(args.out, kind="--out")
+        else:
+            check_folder(args.out, kind="--out")
+
+
+def main(argv=None) -> int:
+    """Run one command; returns its exit status (2 for bad input, with one line on stderr)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 0
+    try:
+        check_outputs(args)
+        # the one place a command's module (and its libraries: Dask, CadQuery, SciPy) is imported
+        return importlib.import_module(f"cvtdesign.cli.{args.command}").run(args)
+    except InputError as e:
+        print(f"cvtdesign: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt as e:   # study.Interrupted says how much is kept
+        print(f"cvtdesign: {str(e) or 'interrupted'}", file=sys.stderr)
+        return 130
+

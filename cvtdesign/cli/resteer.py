@@ -1,0 +1,67 @@
+"""`cvtdesign resteer`: steering commands for requested speed ratios under a known load (Brokowski sec. 5)."""
+from __future__ import annotations
+
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+
+from cvtdesign.cli.arguments import effects_arg
+from cvtdesign.cli.printing import json_text
+from cvtdesign.core.model import compile_model
+from cvtdesign.diagnosis import resteer, rig
+from cvtdesign.errors import InputError
+from cvtdesign.diagnosis import measured
+from cvtdesign.io import plots
+from cvtdesign.io.output import make_folder, write_file
+from cvtdesign.io.units import to_si
+from cvtdesign.io.variant import load_variant
+
+
+def run(args):
+
+    if args.truth_set and args.truth_effects is None:
+        raise InputError("--truth-set: sets a parameter of the rig's effects; expected --truth-effects with it")
+    layout = load_variant(args.variant)
+    effects = effects_arg(args.effects, layout.effects, "--effects")
+    # the arguments first (a finite load inside the envelope, finite positive ratios), then the data
+    load = None if args.load is None else resteer.check_load(layout, to_si(args.load, "torque", "--load"), "--load")
+    ratios = resteer.parse_ratios(args.ratios, "--ratios") if args.ratios else list(resteer.RATIOS)
+    truth = truth_params = None
+    if args.truth_effects is not None:
+        truth = effects_arg(args.truth_effects, layout.effects, "--truth-effects")
+        truth_params = rig.parse_settings(args.truth_set, truth, "--truth-set")
+    data = measured.load_measured(args.data, layout, args.drop_bad) if args.data else None
+    if load is None:
+        load = float(data.load_levels.max()) if data is not None else float(layout.load_grid.max())
+    cmds = resteer.commands(layout, effects, load, ratios, data)
+    console = Console(width=120)
+    table = None
+    if truth is not None:
+        tmodel = compile_model(layout.with_effects(truth, truth_params))
+        table = resteer.achieved(tmodel, cmds)
+    t = Table(title=f"resteering under τ⊥ = {load:+.3g} N·m: commanded γ \\[deg]"
+                    + (" / achieved ω2/ω1 / error by Brokowski eq 23 \\[%]" if table else ""))
+    t.add_column("requested ω2/ω1", justify="right")
+    for m in cmds["methods"]:
+        t.add_column(m, justify="right")
+    for i, q in enumerate(ratios):
+        cells = []
+        for m, gs in cmds["methods"].items():
+            c = f"{np.degrees(gs[i]):.2f}°"
+            if table:
+                c += f" / {table[m]['achieved'][i]:.3f} / {table[m]['error_pct'][i]:+.1f}"
+            cells.append(c)
+        t.add_row(f"{q:g}", *cells)
+    if table:
+        t.add_row("mean |error| \\[%]", *[f"{table[m]['mean_abs_error_pct']:.2f}" for m in cmds["methods"]])
+    console.print(t)
+    if cmds["fit"]:
+        console.print("fitted: " + ", ".join(f"{n} = {p['value']:.4g} ± {p['std']:.2g}" for n, p in cmds["fit"].items())
+                      + f"; lookup at the data's load level {cmds['lookup_load']:+.3g} N·m")
+    if args.plots and table:
+        f = make_folder(args.plots, kind="--plots") / "resteer.png"
+        plots.resteer_figure(ratios, load, table, f)
+        console.print(f"plot: {f}")
+    if args.json:
+        write_file(args.json, json_text({"commands": cmds, "achieved": table}), kind="--json")
+    return 0

@@ -1,0 +1,160 @@
+"""Frames, roller poses, the steering linkage and ideal kinematics.
+
+The named frame vectors are those of Kim et al., "Causes of microslip in a continuously variable
+transmission" (sec. 2.1): sphere centre at the origin of N (x, y, z); d1 = (1, 1, 0)/√2, d2 = (−1, 1, 0)/√2,
+d3 = z; c1 = (0, −1, 1)/√2, c2 = (0, −1, −1)/√2, c3 = x. They are only names a variant file may use for
+directions: γ, α and the ideal law come from each layout's own shaft axes (kinematics.py).
+
+A roller is described at its contact with the sphere by the outward unit normal n (contact point R·n) and
+the unit axle a (its positive spin direction, a ⊥ n). Its rolling direction is t = n × a: a roller spinning
+at +ω about a moves its surface at the contact with velocity r·ω·t. A steered roller's pose (n and a) turns
+about its fork axis k, which passes through the sphere centre, by sign·φ (φ = steering angle), so the
+roller stays in contact whatever φ is. Kim's forks turn about the contact normal itself (n unchanged); the
+box CVT's forks carry a tandem pair about the sphere's pole axis (n and a both turn).
+
+Functions here take and return plain 3-vectors of floats or CasADi expressions (lists/ca.SX); numeric
+helpers at the bottom work on numpy arrays.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from cvtdesign.core.kinematics import shaft_frame, vec
+
+S2 = np.sqrt(2.0)
+FRAME = {
+    "x": np.array([1.0, 0.0, 0.0]),
+    "y": np.array([0.0, 1.0, 0.0]),
+    "z": np.array([0.0, 0.0, 1.0]),
+    "d1": np.array([1.0, 1.0, 0.0]) / S2,
+    "d2": np.array([-1.0, 1.0, 0.0]) / S2,
+    "d3": np.array([0.0, 0.0, 1.0]),
+    "c1": np.array([0.0, -1.0, 1.0]) / S2,
+    "c2": np.array([0.0, -1.0, -1.0]) / S2,
+    "c3": np.array([1.0, 0.0, 0.0]),
+}
+
+
+def named_vector(name: str) -> np.ndarray | None:
+    """Unit vector for a frame name such as 'd1', '-c2' or 'z'; None if the name is not a frame vector."""
+    sign = -1.0 if name.startswith("-") else 1.0
+    v = FRAME.get(name.lstrip("+-"))
+    return None if v is None else sign * v
+
+
+def spherical(polar, azimuth):
+    """Unit vector from polar angle [rad] (from +z) and azimuth [rad] (from +x towards +y)."""
+    return ca.vertcat(ca.sin(polar) * ca.cos(azimuth), ca.sin(polar) * ca.sin(azimuth), ca.cos(polar))
+
+
+def rotate(v, k, angle):
+    """Rotate 3-vector v about unit axis k by angle [rad] (Rodrigues); v, k may be CasADi expressions."""
+    v, k = vec(v), vec(k)
+    c, s = ca.cos(angle), ca.sin(angle)
+    return v * c + ca.cross(k, v) * s + k * ca.dot(k, v) * (1 - c)
+
+
+def kim_gamma_from_phi(phi):
+    """Kim eq 5: commanded transmission angle γ [rad] for steering angle φ [rad] of the existing CVT.
+
+    Written with atan2 so the branch is continuous: tan γ = (√2 + tan φ)/(√2 − tan φ) ⇔
+    γ = atan2(√2 cos φ + sin φ, √2 cos φ − sin φ)."""
+    return np.arctan2(S2 * np.cos(phi) + np.sin(phi), S2 * np.cos(phi) - np.sin(phi))
+
+
+def steering_residuals_numeric(t0s, forks, frame, gammas, phis):
+    """Lateral-constraint misfit t_i(φ)·u(γ) of every steered roller, shape (len(gammas), len(phis), n).
+
+    t0s: rolling directions at φ = 0 (n, 3); forks: (axis (n, 3), sign (n,)); frame: the layout's
+    kinematics.ShaftFrame, whose u(γ) is the commanded axis. A linkage reaches γ where every steered roller
+    rolls without lateral slip about u."""
+    axes, signs = forks
+    u = frame.axis(np.asarray(gammas, float))                                # (G, 3)
+    phis = np.broadcast_to(np.atleast_2d(phis), (len(gammas), np.shape(phis)[-1]))  # (G, P): shared or per γ
+    th = phis[:, :, None] * signs[None, None, :]                             # (G, P, n)
+    # t_i(φ)·u = t0 · R(−sφ) u  (rotation preserves dot products)
+    ku = u @ axes.T                                                          # (G, n)
+    kxu = np.cross(axes[None, :, :], u[:, None, :])                          # (G, n, 3)
+    t0u = u @ t0s.T                                                          # (G, n)
+    t0kxu = np.einsum("gnk,nk->gn", kxu, t0s)                                # (G, n)
+    t0k = np.einsum("nk,nk->n", t0s, axes)                                   # (n,)
+    c, s = np.cos(th), np.sin(th)
+    return t0u[:, None, :] * c - t0kxu[:, None, :] * s + (ku * t0k)[:, None, :] * (1 - c)
+
+
+def steering_angle_guess(t0s, forks, frame, gammas, n_scan: int = 721) -> tuple[np.ndarray, np.ndarray]:
+    """Steering angle φ ∈ (−90°, 90°] [rad] that best realises each commanded γ [rad], by a scan.
+
+    Returns (φ, worst residual). The compiled model refines φ with Newton; the scan only seeds it and
+    tells whether the linkage can reach γ at all."""
+    gammas, inverse = np.unique(np.atleast_1d(gammas), return_inverse=True)
+    phis = np.linspace(-np.pi / 2, np.pi / 2, n_scan)[1:]
+    cost = np.sum(steering_residuals_numeric(t0s, forks, frame, gammas, phis) ** 2, axis=-1)
+    best = phis[np.argmin(cost, axis=1)]
+    width = phis[1] - phis[0]
+    for _ in range(6):  # zoom in around each best angle: 6 passes of 41 points refine it by 20^6
+        local = best[:, None] + np.linspace(-width, width, 41)[None, :]
+        cost = np.sum(steering_residuals_numeric(t0s, forks, frame, gammas, local) ** 2, axis=-1)
+        best = local[np.arange(len(gammas)), np.argmin(cost, axis=1)]
+        width /= 20
+    wrapped = (best + np.pi / 2) % np.pi - np.pi / 2
+    return wrapped[inverse], np.sqrt(np.min(cost, axis=1))[inverse]
+
+
+def _np(v):
+    return np.asarray(v, float).ravel() if isinstance(v, np.ndarray) else np.asarray(np.array(v.full() if hasattr(v, "full") else v, float)).ravel()
+
+
+def roller_pose(r, phi):
+    """Contact normal and axle of roller r at steering angle φ [rad] (CasADi; fixed rollers ignore φ)."""
+    n, a = vec(r.normal), vec(r.axle)
+    if r.fork_axis is None:
+        return n, a
+    k = vec(r.fork_axis)
+    return rotate(n, k, r.fork_sign * phi), rotate(a, k, r.fork_sign * phi)
+
+
+def pose(r, phi):
+    """Numeric (normal, axle) of roller r at steering angle φ [rad], numpy arrays."""
+    return tuple(_np(v) for v in roller_pose(r, phi))
+
+
+def steering_data(layout):
+    """Rolling directions at φ = 0, (fork axes, signs) of the steered rollers and the layout's ShaftFrame:
+    the arguments of `steering_angle_guess` before the γ."""
+    steered = [r for r in layout.rollers if r.fork_axis is not None]
+    t0 = np.array([np.cross(*pose(r, 0.0)) for r in steered]).reshape(-1, 3)
+    forks = (np.array([_np(r.fork_axis) for r in steered]).reshape(-1, 3), np.array([r.fork_sign for r in steered], float))
+    return t0, forks, shaft_frame(layout)
+
+
+def rigid_constraints(layout, phi: float) -> np.ndarray:
+    """Rolling constraints of rigid contacts, rows × unknowns [Ω (3), ω1, ω2, idler speeds].
+
+    Lateral: R Ω·t_i = 0 (no sideways slip); longitudinal: −R Ω·a_i − r_i ρ_i ω_s = 0."""
+    R = float(layout.sphere_radius)
+    idlers = [r.name for r in layout.rollers if r.role == "steering"]
+    rows = []
+    for r in layout.rollers:
+        n, a = pose(r, phi)
+        t = np.cross(n, a)
+        lat = np.zeros(5 + len(idlers))
+        lat[:3] = R * t
+        lon = np.zeros_like(lat)
+        lon[:3] = -R * a
+        if r.role == "steering":
+            lon[5 + idlers.index(r.name)] = -float(r.radius)
+        else:
+            lon[2 + r.shaft] = -float(r.radius) * float(r.ratio)
+        rows += [lat, lon]
+    return np.array(rows)
+
+
+def ideal_gamma(layout, phi: float) -> float:
+    """Forward kinematics: the transmission angle γ [rad] the rigid rollers give at steering angle φ [rad],
+    from the one motion the rolling constraints leave (sign chosen so that shaft 1 turns forwards)."""
+    A = rigid_constraints(layout, phi)
+    motion = np.linalg.svd(A)[2][-1]
+    om = motion[:3] * np.sign(motion[3])
+    return float(shaft_frame(layout).axis_angle(om))

@@ -1,0 +1,63 @@
+"""The resolved layout: what the model compiler reads, in SI (built from a variant file by io.variant).
+
+Numeric fields are floats, or CasADi expressions of design parameters when the optimiser builds a layout
+with symbolic parameters.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Material:
+    E: object          # Young's modulus [Pa]
+    nu: object         # Poisson's ratio [-]
+    mu: object         # friction coefficient [-]
+    p_allow: object    # allowable Hertz peak pressure [Pa] (None: not checked)
+
+
+@dataclass(frozen=True)
+class Roller:
+    """One roller in SI; numeric fields are floats or CasADi expressions of design parameters."""
+    name: str
+    role: str                      # 'drive' | 'follower' | 'steering'
+    shaft: int | None              # 1 or 2 for drive/follower rollers
+    ratio: object                  # roller speed / shaft speed [-]
+    normal: object                 # unit contact normal at φ = 0 (3-vector)
+    axle: object                   # unit positive spin axis at φ = 0 (3-vector, ⊥ normal)
+    radius: object                 # rolling radius [m]
+    crown_radius: object           # crown radius [m]
+    width: object                  # [m]
+    material: Material
+    preload: object                # normal force with the sphere centred [N]
+    stiffness: object              # mount + contact normal stiffness [N/m]
+    fork_axis: object = None       # steering fork axis through the sphere centre (unit), None if fixed
+    fork_sign: int = 0
+
+
+@dataclass(frozen=True)
+class Layout:
+    """A resolved variant: what the compiler needs, in SI."""
+    name: str
+    file: str
+    sphere_radius: object
+    sphere_material: Material
+    rollers: tuple[Roller, ...]
+    creep_drive: object            # ε_D at the preload [1/N] or None (Hertz + Kalker)
+    creep_steering: object         # ε_S at the preload [1/N] or None
+    creep_reference_force: object  # normal force [N] at which ε_D, ε_S hold; None: each roller's preload
+    effects: tuple[str, ...]
+    effect_parameters: dict        # effect -> {param: SI value}
+    gamma_grid: np.ndarray         # [rad]
+    load_grid: np.ndarray          # [N m]
+    motor_speed: float             # [rad/s]
+    parameters: dict = field(default_factory=dict)
+    spec: object = None            # the io.schema.VariantSpec it was read from
+
+    def with_effects(self, effects, parameters=None) -> "Layout":
+        params = {k: dict(v) for k, v in self.effect_parameters.items()}
+        for k, v in (parameters or {}).items():
+            params.setdefault(k, {}).update(v)
+        return replace(self, effects=tuple(effects), effect_parameters=params)

@@ -1,0 +1,73 @@
+"""Operating envelopes and the figures of merit that `cvtdesign compare` prints.
+
+Figures (all over the variant's envelope, Kim's protocol by default: γ −80°..80° step 10°, τ⊥ −1..1 N·m):
+ * max_abs_alpha_deg, rms_alpha_deg: CVT slip angle α = atan2(ω2·r2/r1, ω1) − γ_cmd (Kim eq 15);
+ * max_abs_alpha_steering_deg / _drive_deg: its steering part γ_axis − γ_cmd and the rest (Kim eqs 24, 31);
+ * ratio_error_pct_at_max_load: largest |Brokowski eq 23 error| (requested − achieved)/requested of the
+   speed ratio ω2/ω1 at the highest |τ⊥|, over the γ whose ideal |ratio| lies in Brokowski's resteering
+   range 0.4..2.5 (near γ = 0 and ±90° the ratio itself goes to 0 or ∞ and a relative error means little);
+ * min_efficiency: power out / power in (DESIGN sec. 1) over the points that transmit power, |γ| ≥ 5° and
+   |τ⊥| ≥ 25 % of the largest load (at γ = 0 no power leaves the CVT, at zero load none enters);
+ * max_traction_utilisation: max |F|/(μN) over all contacts; max_hertz_pressure_MPa: max Hertz peak pressure.
+
+The ideal law, γ and α are the layout's own (kinematics.py). Every figure is taken over the points where the
+physics holds; the points that lost contact, slip grossly or did not converge are counted (`lost_contact`,
+`gross_slip`, `not_converged`, with the contacts behind them) and left out. A figure with no point to take
+it over is None, never NaN.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from cvtdesign.core.model import CompiledModel, status_counts
+
+
+def envelope(model: CompiledModel, theta=None) -> dict:
+    """Evaluate the model on the variant's γ × τ⊥ grid; arrays have shape (n_gamma, n_load)."""
+    L = model.layout
+    G, T = np.meshgrid(L.gamma_grid, L.load_grid, indexing="ij")
+    res = model.evaluate(G, T, theta=theta)
+    res["efficiency"] = efficiency(res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"])
+    return res
+
+
+def efficiency(p1, p2):
+    """Power out / power in [-], whichever shaft the power enters (p_i = τ_i ω_i [W]); NaN without power in,
+    0 when power enters both shafts (no power out: e.g. at γ = 0 with rolling resistance)."""
+    p_in = np.maximum(p1, p2)
+    p_out = np.maximum(-np.minimum(p1, p2), 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(p_in > 1e-12, p_out / p_in, np.nan)
+
+
+def metrics(model: CompiledModel, res: dict) -> dict:
+    """The figures of merit of an `envelope` result (module docstring), with the points' status counts."""
+    L = model.layout
+    deg = np.degrees
+    G, T = res["gamma_cmd"], res["load"]
+    ideal = model.frame.ideal_ratio(G)
+    achieved = res["omega_2"] / res["omega_1"]
+    in_range = (np.abs(ideal) >= 0.4) & (np.abs(ideal) <= 2.5)
+    at_max = np.isclose(np.abs(T), np.max(np.abs(L.load_grid)))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio_err = 100 * (ideal - achieved) / ideal
+    eff_mask = (np.abs(G) >= np.radians(5) - 1e-12) & (np.abs(T) >= 0.25 * np.max(np.abs(L.load_grid)))
+
+    def nanmax(x, mask=None):
+        x = np.where(mask, x, np.nan) if mask is not None else x
+        return float(np.nanmax(x)) if np.any(np.isfinite(x)) else None
+
+    a = deg(res["alpha"])
+    min_eff = nanmax(-res["efficiency"], eff_mask)
+    return {
+        "name": L.name, "file": L.file, "ideal_law": model.frame.law_text(),
+        "max_abs_alpha_deg": nanmax(np.abs(a)),
+        "rms_alpha_deg": float(np.sqrt(np.nanmean(a ** 2))) if np.any(np.isfinite(a)) else None,
+        "max_abs_alpha_steering_deg": nanmax(np.abs(deg(res["alpha_steering"]))),
+        "max_abs_alpha_drive_deg": nanmax(np.abs(deg(res["alpha_drive"]))),
+        "ratio_error_pct_at_max_load": nanmax(np.abs(ratio_err), in_range & at_max),
+        "min_efficiency": None if min_eff is None else -min_eff,
+        "max_traction_utilisation": nanmax(res["utilisation"]),
+        "max_hertz_pressure_MPa": None if nanmax(res["p_max"]) is None else nanmax(res["p_max"]) / 1e6,
+        "points": int(res["status"].size), **status_counts(res, model.roller_names),
+    }

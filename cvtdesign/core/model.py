@@ -1,0 +1,387 @@
+"""compile(layout, effects) → CasADi functions of one steady operating point and of a grid.
+
+One generalised model for every layout; no layout-specific equations. Notation (per contact i): n_i outward
+contact normal, a_i roller axle (positive spin axis), t_i = n_i × a_i rolling direction, R sphere radius,
+r_i roller radius, Ω sphere angular velocity, ω_i roller speed about a_i, F_i the tangential force ON THE
+SPHERE from roller i (components F_t along t_i, F_a along a_i), N_i normal force.
+
+Equations (derived from the vectors; the effects' terms come from effects.py, by hook):
+ * slip velocity of sphere over roller at the contact: s_i = R·Ω × n_i − r_i·ω_i·t_i
+   (no slip: r_i ω_i = −R Ω·a_i, so shaft s turns at ω_s = g_s·Ω, kinematics.py);
+ * creep law, dissipative (F·s ≤ 0): s_t + c_t·F_t = 0, s_a + c_a·F_a = 0, with the compliances c the effects
+   contribute (`compliance`, scaled by `saturation`) plus a floor EPS_RIGID·V_ref on every direction (rigid in
+   Kim's sense where no effect adds compliance; it keeps the statically indeterminate system regular);
+ * sphere moment balance: Σ R n_i × F_i − Σ M_i a_i = 0 (M_i: `resistance` moments on the rollers);
+ * sphere force balance on preloaded compliant mounts: N_i = P_i + k_i n_i·δ, Σ (F_i − N_i n_i) = 0, solved
+   for the sphere's displacement δ in closed form (a 3×3 solve), so the normal-force distribution of an
+   over-constrained layout comes from compliance;
+ * idler (steering) roller torque balance: −r_i F_t,i + M_i = 0;
+ * shaft torques τ_s = Σ_{i on s} ρ_i (r_i F_t,i − M_i) (torque applied to the shaft from outside);
+ * the operating point fixes ω1 and either the lateral load τ⊥ (kinematics.ShaftFrame.load_split; Kim eq 17
+   for Kim's layout) or the brake torque τ2; the steering angle φ comes from the linkage's inverse kinematics.
+Unknowns: Ω, ω2, idler speeds, (F_t, F_a) per contact. Solved by CasADi's Newton rootfinder, whose implicit
+derivatives give the optimiser exact gradients.
+
+A solution is returned only where the physics holds (`status`): the solve converged, every N_i > 0 (else
+`lost_contact`) and every |F_i| ≤ μ_i N_i (else `gross_slip`, which is also what a saturation law that needs
+|F| → μN means).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from cvtdesign.core import contact
+from cvtdesign.core.effects import EFFECTS, ContactState, parameter_vector, smooth_abs
+from cvtdesign.core.geometry import ideal_gamma, roller_pose, steering_angle_guess, steering_data, vec
+from cvtdesign.core.kinematics import ShaftFrame, shaft_frame, shaft_gain, wrap_axis_angle
+from cvtdesign.core.layout import Layout
+
+EPS_RIGID = 1e-9      # [1/N] creep-compliance floor of the directions that are rigid in the model
+F_SCALE = 10.0        # [N] force scaling of the unknowns
+RES_TOL = 1e-8        # scaled residual above which a point is reported as not converged
+SAT_LIMIT = 0.999     # traction utilisation |F|/(μN) of a saturation law beyond which a point is gross slip
+
+STATUS = ("ok", "not_converged", "lost_contact", "gross_slip")   # the `status` output's codes, in order
+CONTACT_OUTPUTS = ("N", "F_t", "F_a", "utilisation", "p_max", "xi", "eta", "spin", "mu")
+POINT_OUTPUTS = ("omega_2", "tau_1", "tau_2", "phi", "gamma_axis", "alpha", "alpha_steering", "alpha_drive",
+                 "power_loss", "residual", "status", "Omega_x", "Omega_y", "Omega_z")
+
+
+@dataclass
+class CompiledModel:
+    """The compiled model of one layout with one set of effects.
+
+    `point` maps (γ_cmd [rad], ω1 [rad/s], load [N m], load_is_τ2 (0: the load is τ⊥, 1: it is the brake
+    torque τ2), φ guess [rad], θ effect parameters, p design) to a dict of POINT_OUTPUTS (scalars) and
+    CONTACT_OUTPUTS (one entry per roller). `evaluate` evaluates many points at once, compiled and mapped."""
+    layout: Layout
+    effects: tuple
+    param_names: list
+    param_values: list
+    design: ca.SX
+    point: ca.Function
+    roller_names: list
+    residual: ca.Function          # (x, params) → scaled residual; params = [γ, ω1, load, load_is_τ2, φ_cmd, θ, p]
+    initial_guess: ca.Function     # params → x0 (ideal kinematics, no forces)
+    outputs: ca.Function           # (x, params) → the point outputs
+    frame: ShaftFrame = None       # the layout's shaft axes and ideal law
+    _maps: dict = field(default_factory=dict)
+    _point_builder: object = None  # names → a `point` function with only those outputs
+    hertz_p0: ca.Function = None       # design → Hertz peak pressure of each contact at its preload [Pa]
+    peak_pressure: ca.Function = None  # (N, p0, design) → Hertz peak pressure p0·(max(N, 0)/preload)^(1/3) [Pa]
+
+    def point_function(self, outputs) -> ca.Function:
+        """`point` restricted to the named outputs (POINT_OUTPUTS, CONTACT_OUTPUTS, 'steer_misfit'): same
+        inputs and the same expressions, but only what those outputs need is evaluated and differentiated
+        (the Newton solve is left out when only 'steer_misfit' is asked for)."""
+        return self._point_builder(list(outputs))
+
+    def steering_guess(self, gammas):
+        return steering_angle_guess(*steering_data(self.layout), np.asarray(gammas, float))
+
+    def evaluate(self, gammas, loads, speeds=None, theta=None, design=None, load_kind="tau_perp",
+                 steering_angles=None):
+        """Evaluate operating points (broadcastable arrays): commanded γ [rad] (or, with `steering_angles`
+        [rad], the linkage's angle φ, and γ_cmd is then the ideal γ of that φ), loads [N m] that are the
+        lateral load τ⊥ (load_kind 'tau_perp') or the brake-shaft torque τ2 ('tau_2'), motor speeds ω1
+        [rad/s] (default: the variant's). Returns a dict of numpy arrays. `status` holds each point's
+        STATUS code, `ok` is status == ok, `failed_contact` the index of the contact that lost contact or
+        slips grossly (−1 where none); every other output is NaN where the point is not ok."""
+        if load_kind not in ("tau_perp", "tau_2"):
+            raise ValueError(f"load_kind must be 'tau_perp' or 'tau_2', not {load_kind!r}")
+        if steering_angles is not None:
+            gammas = np.vectorize(lambda p: ideal_gamma(self.layout, p))(np.asarray(steering_angles, float))
+        gammas, loads = np.broadcast_arrays(np.asarray(gammas, float), np.asarray(loads, float))
+        shape = gammas.shape
+        g, l = gammas.ravel(), loads.ravel()
+        w = np.broadcast_to(self.layout.motor_speed if speeds is None else np.asarray(speeds, float), shape).ravel()
+        phi0, _ = self.steering_guess(g)
+        th = np.asarray(self.param_values if theta is None else theta, float)
+        p = np.zeros(self.design.numel()) if design is None else np.asarray(design, float)
+        n = g.size
+        if n not in self._maps:
+            self._maps[n] = self.point.map(n, "thread", 2)
+        out = self._maps[n](g, w, l, float(load_kind == "tau_2"), phi0, th, p)
+        res = {k: np.asarray(v) for k, v in zip(self.point.name_out(), out)}
+        status = np.where(np.isfinite(res["status"][0]), res["status"][0], 1).astype(int)
+        ok = status == 0
+        result = {"status": status.reshape(shape), "ok": ok.reshape(shape),
+                  "converged": (status != 1).reshape(shape),
+                  "failed_contact": failed_contact(res, status).reshape(shape),
+                  "gamma_cmd": gammas, "load": loads, "omega_1": w.reshape(shape)}
+        for k, v in res.items():
+            if k == "status":
+                continue
+            v = np.where(ok, v, np.nan)
+            result[k] = v[0].reshape(shape) if v.shape[0] == 1 else v.reshape((v.shape[0],) + shape)
+        return result
+
+
+def failed_contact(res: dict, status: np.ndarray) -> np.ndarray:
+    """Per point, the index of the contact behind a lost_contact (smallest N) or gross_slip (largest
+    |F| − μN) status; −1 for the other points."""
+    out = np.full(status.shape, -1)
+    lost, slip = status == 2, status == 3
+    if lost.any():
+        out[lost] = np.argmin(res["N"][:, lost], axis=0)
+    if slip.any():
+        excess = np.hypot(res["F_t"], res["F_a"]) - res["mu"] * res["N"]
+        out[slip] = np.argmax(np.nan_to_num(excess[:, slip], nan=-np.inf), axis=0)
+    return out
+
+
+def status_counts(res: dict, roller_names) -> dict:
+    """{status: count} over an evaluate() result (every STATUS key), with the contacts behind lost_contact and
+    gross_slip: {'lost_contact_at': {roller: count}, 'gross_slip_at': {...}}."""
+    st, fc = res["status"].ravel(), res["failed_contact"].ravel()
+    counts = {name: int(np.sum(st == k)) for k, name in enumerate(STATUS)}
+    for k, name in ((2, "lost_contact"), (3, "gross_slip")):
+        idx = fc[st == k]
+        counts[f"{name}_at"] = {roller_names[i]: int(np.sum(idx == i)) for i in np.unique(idx) if i >= 0}
+    return counts
+
+
+def _steering_solver(layout: Layout, frame: ShaftFrame, design: ca.SX):
+    """Rootfinder φ(γ_cmd): the steering angle at which every steered roller rolls without lateral slip
+    about the commanded axis u(γ) (least squares, so over-determined linkages work). For Kim's linkage it
+    reproduces Kim eq 5 inverted."""
+    phi, gamma = ca.SX.sym("phi"), ca.SX.sym("gamma")
+    u = frame.axis(gamma)
+    res = ca.vertcat(*[ca.dot(ca.cross(*roller_pose(r, phi)), u) for r in layout.rollers if r.fork_axis is not None])
+    g = ca.jacobian(ca.sumsqr(res) / 2, phi)
+    f = ca.Function("steer_res", [phi, ca.vertcat(gamma, design)], [g])
+    misfit = ca.Function("steer_misfit", [phi, ca.vertcat(gamma, design)], [ca.sqrt(ca.sumsqr(res) + 1e-30)])
+    return ca.rootfinder("steer", "newton", f, {"abstol": 1e-14, "max_iter": 30, "error_on_fail": False,
+                                                  "show_eval_warnings": False}), misfit
+
+
+class _Hooks:
+    """The hooks of the effects that are on, with their parameter symbols, in the vocabulary's order."""
+
+    def __init__(self, effects, theta, names):
+        ordered = [e for e in EFFECTS if e in effects]
+        self.items = [(EFFECTS[e], {p: theta[names.index(f"{e}.{p}")] for p in EFFECTS[e].params}) for e in ordered]
+
+    def transform(self, hook, value, *context):
+        """value ← f(*context, value, p) for every effect with that hook."""
+        for eff, p in self.items:
+            if hook in eff.hooks:
+                value = eff.hooks[hook](*context, value, p)
+        return value
+
+    def collect(self, hook, *context) -> list:
+        return [eff.hooks[hook](*context, p) for eff, p in self.items if hook in eff.hooks]
+
+
+def _contact_constants(layout: Layout) -> list[dict]:
+    """Per contact, at its preload: the Hertz ellipse (a, b, peak p0), the creep constant ε0 [1/N] (Kim's
+    fitted constants when the variant gives them, else Hertz + Kalker C11/C22), the normal force n_ref at
+    which ε0 holds, and μ."""
+    R, sm = layout.sphere_radius, layout.sphere_material
+    const = []
+    for r in layout.rollers:
+        A, B = contact.curvature_sums(R, r.radius, r.crown_radius)
+        Es, G, nu = contact.contact_material(r.material.E, r.material.nu, sm.E, sm.nu)
+        a, b, p0, _ = contact.hertz_ellipse(A, B, r.preload, Es)
+        C11, C22, _ = contact.kalker_coefficients(a / b, nu)
+        e_long, e_lat = contact.creep_compliances(G, a, b, C11, C22)
+        drive = r.role != "steering"
+        kim = layout.creep_drive if drive else layout.creep_steering
+        eps0 = kim if kim is not None else (e_long if drive else e_lat)
+        # Kim's constants were fitted at a reference force (100 N); Hertz + Kalker ones hold at the preload
+        n_ref = layout.creep_reference_force if kim is not None and layout.creep_reference_force is not None \
+            else r.preload
+        const.append(dict(a=a, b=b, p0=p0, eps0=eps0, mu=ca.fmin(r.material.mu, sm.mu), n_ref=n_ref))
+    return const
+
+
+@dataclass
+class _Unknowns:
+    x: ca.SX
+    Om: object
+    w2: object
+    w_idle: dict
+    Ft: object
+    Fa: object
+    v_ref: object
+    om_ref: object
+
+
+def _unknowns(layout: Layout, w1) -> _Unknowns:
+    """The unknowns, scaled: Ω by the ideal sphere speed, ω2 and idler speeds by ω1, forces by F_SCALE."""
+    rollers = layout.rollers
+    idlers = [r for r in rollers if r.role == "steering"]
+    nc, ni = len(rollers), len(idlers)
+    primary = next(r for r in rollers if r.role == "drive" and r.shaft == 1)
+    v_ref = w1 * primary.radius                      # [m/s] speed scale
+    om_ref = v_ref / layout.sphere_radius            # [rad/s] sphere speed scale
+    x = ca.SX.sym("x", 4 + ni + 2 * nc)
+    return _Unknowns(x, om_ref * x[0:3], w1 * x[3], {r.name: w1 * x[4 + j] for j, r in enumerate(idlers)},
+                     F_SCALE * x[4 + ni: 4 + ni + nc], F_SCALE * x[4 + ni + nc:], v_ref, om_ref)
+
+
+def _normal_forces(layout: Layout, poses, Fvec):
+    """Sphere force balance on preloaded compliant mounts: K δ = Σ (F_i − P_i n_i), N_i = P_i + k_i n_i·δ."""
+    rollers = layout.rollers
+    K = sum(r.stiffness * ca.mtimes(n, n.T) for r, (n, _) in zip(rollers, poses))
+    rhs = sum(Fvec[i] - rollers[i].preload * poses[i][0] for i in range(len(rollers)))
+    delta = ca.solve(K, rhs)
+    return [r.preload + r.stiffness * ca.dot(n, delta) for r, (n, _) in zip(rollers, poses)]
+
+
+def _equations(layout: Layout, hooks: _Hooks, const, u: _Unknowns, w1, phi):
+    """Every contact's creep law, the sphere's moment balance, the idlers' torque balance and the shaft
+    torques, with the effects' terms. Returns (slip rows, moment, idler rows, shaft torques, per-contact
+    outputs, saturation utilisations)."""
+    R = layout.sphere_radius
+    poses = [roller_pose(r, phi) for r in layout.rollers]
+    tdirs = [ca.cross(n, a) for n, a in poses]
+    Fvec = [u.Ft[i] * tdirs[i] + u.Fa[i] * poses[i][1] for i in range(len(poses))]
+    N = _normal_forces(layout, poses, Fvec)
+    slip, moment, idle, tau, sat = [], ca.SX.zeros(3), [], {1: 0, 2: 0}, []
+    per = {k: [] for k in ("xi", "eta", "spin", "utilisation", "mu")}
+    floor = EPS_RIGID * ca.fabs(u.v_ref)
+    for i, r in enumerate(layout.rollers):
+        (n, a), t, c = poses[i], tdirs[i], const[i]
+        drive = r.role != "steering"
+        r_eff = hooks.transform("rolling_radius", r.radius, r)
+        w_i = r.ratio * (w1 if r.shaft == 1 else u.w2) if drive else u.w_idle[r.name]
+        s = R * ca.cross(u.Om, n) - r_eff * w_i * t
+        s_t, s_a = ca.dot(s, t), ca.dot(s, a)
+        roll, spin = ca.dot(u.Om, a), ca.dot(u.Om, n)
+        V = smooth_abs(R * roll, 1e-9 * u.v_ref)                          # rolling speed [m/s]
+        N_creep, n_exp = hooks.transform("creep_normal", (r.preload, 2.0 / 3.0), N[i])   # default: ε ∝ P^(-2/3)
+        state = ContactState(r, drive, V, spin, 1e-9 * u.om_ref, 1e-6 * u.om_ref, roll, N[i], N_creep,
+                             c["eps0"] * (c["n_ref"] / N_creep) ** n_exp, c["b"],
+                             hooks.transform("friction", c["mu"]), u.Ft[i], u.Fa[i])
+        terms = hooks.collect("compliance", state)
+        ct, ca_ = sum(x[0] for x in terms), sum(x[1] for x in terms)
+        for gain, util in hooks.collect("saturation", state):
+            ct, ca_ = ct * gain, ca_ * gain
+            sat.append(util)
+        slip += [(s_t + (ct + floor) * u.Ft[i]) / u.v_ref, (s_a + (ca_ + floor) * u.Fa[i]) / u.v_ref]
+        M = sum(hooks.collect("resistance", state))
+        moment += R * ca.cross(n, Fvec[i]) - M * a
+        if drive:
+            tau[r.shaft] = tau[r.shaft] + r.ratio * (r_eff * u.Ft[i] - M)
+        else:
+            idle.append((-r_eff * u.Ft[i] + M) / (r.radius * F_SCALE))
+        per["xi"].append(s_t / V)
+        per["eta"].append(s_a / V)
+        per["spin"].append(spin / V)
+        per["mu"].append(state.mu)
+        per["utilisation"].append(ca.sqrt(u.Ft[i] ** 2 + u.Fa[i] ** 2 + 1e-6) / (state.mu * N[i]))  # 1 mN smoothing
+    per["N"] = N
+    return slip, moment, idle, tau, per, sat
+
+
+def _status(resid, per, sat):
+    """STATUS code of a solution: not_converged unless the scaled residual is below RES_TOL (a saturation law
+    pushed to |F| → μN counts as gross slip), then lost_contact if some N ≤ 0, gross_slip if some |F| > μN."""
+    N = ca.vertcat(*per["N"])
+    excess = ca.vertcat(*[ca.sqrt(ft ** 2 + fa ** 2) - mu * n for ft, fa, mu, n in
+                          zip(per["F_t"], per["F_a"], per["mu"], per["N"])])
+    saturated = ca.mmax(ca.vertcat(0, *sat)) > SAT_LIMIT
+    converged = ca.norm_inf(resid) < RES_TOL
+    physical = ca.if_else(ca.mmin(N) <= 0, 2, ca.if_else(ca.logic_or(ca.mmax(excess) > 0, saturated), 3, 0))
+    return ca.if_else(converged, physical, ca.if_else(saturated, 3, 1))
+
+
+def _peak_pressure_functions(layout: Layout, const, design):
+    """Hertz peak pressure p0·(N/P)^(1/3): p0, the peak at the preload P, depends on the design only, so an
+    optimiser evaluates it once per design (hertz_p0) and per operating point only the cheap scaling."""
+    nc = len(layout.rollers)
+    n_sym, p0_sym = ca.SX.sym("N", nc), ca.SX.sym("p0", nc)
+    peak_pressure = ca.Function("peak_pressure", [n_sym, p0_sym, design], [ca.vertcat(*[
+        p0_sym[i] * (ca.fmax(n_sym[i], 0) / r.preload) ** (1.0 / 3.0) for i, r in enumerate(layout.rollers)])],
+        ["N", "p0", "design"], ["p_max"])
+    p0_all = ca.vertcat(*[c["p0"] for c in const])
+    hertz_p0 = ca.Function("hertz_p0", [design], [ca.cse(p0_all)], ["design"], ["p0"])
+    return hertz_p0, peak_pressure, p0_all
+
+
+def _initial_guess(layout: Layout, frame: ShaftFrame, gamma, w1, phi, om_ref):
+    """Ideal kinematics about the commanded axis u(γ), no forces (in the scaled unknowns)."""
+    R = layout.sphere_radius
+    g1, g2 = shaft_gain(layout, 1), shaft_gain(layout, 2)
+    u = frame.axis(gamma)
+    Om0 = u * w1 / ca.dot(g1, u)
+    idlers = [r for r in layout.rollers if r.role == "steering"]
+    nc = len(layout.rollers)
+    return ca.vertcat(Om0 / om_ref, ca.dot(g2, Om0) / w1,
+                      *[-R * ca.dot(Om0, roller_pose(r, phi)[1]) / (r.radius * w1) for r in idlers],
+                      ca.SX.zeros(2 * nc))
+
+
+def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> CompiledModel:
+    """Compile `layout` with the given effects (default: the variant's) into a CompiledModel.
+
+    `design` is the vector of CasADi symbols that the layout's fields may depend on (design variables of
+    an optimisation study); numeric layouts need none."""
+    effects = tuple(layout.effects if effects is None else effects)
+    for e in effects:
+        if e not in EFFECTS:
+            raise ValueError(f"unknown effect '{e}'")
+    design = ca.SX(0, 1) if design is None else design
+    pnames, pvalues = parameter_vector(effects, layout.effect_parameters)
+    theta = ca.SX.sym("theta", len(pnames))
+    hooks = _Hooks(effects, theta, pnames)
+    frame = shaft_frame(layout)
+    const = _contact_constants(layout)
+    gamma, w1, load, brake, phi_cmd = (ca.SX.sym(s) for s in ("gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_cmd"))
+    phi = hooks.transform("steering_angle", phi_cmd)
+    u = _unknowns(layout, w1)
+    slip, moment, idle, tau, per, sat = _equations(layout, hooks, const, u, w1, phi)
+    per["F_t"], per["F_a"] = ca.vertsplit(u.Ft), ca.vertsplit(u.Fa)
+    hertz_p0, peak_pressure, p0_all = _peak_pressure_functions(layout, const, design)
+    tau_perp, _ = frame.load_split(gamma, tau[1], tau[2])
+    load_res = (1 - brake) * (tau_perp - load) + brake * (tau[2] - load)
+    resid = ca.vertcat(*slip, moment / (layout.sphere_radius * F_SCALE), *idle, load_res)
+    params = ca.vertcat(gamma, w1, load, brake, phi_cmd, theta, design)
+    G = ca.Function("residual", [u.x, params], [ca.cse(resid)])
+    solver = ca.rootfinder("cvt", "newton", G, {"abstol": 1e-12, "max_iter": 40, "error_on_fail": False,
+                                                  "show_eval_warnings": False})
+    x0_fn = ca.Function("x0", [params], [_initial_guess(layout, frame, gamma, w1, phi, u.om_ref)])
+
+    alpha = frame.slip_angle(w1, u.w2, gamma)
+    alpha_s = wrap_axis_angle(frame.axis_angle(u.Om) - gamma)
+    outs = {
+        "omega_2": u.w2, "tau_1": tau[1], "tau_2": tau[2], "phi": phi, "gamma_axis": frame.axis_angle(u.Om),
+        "alpha": alpha, "alpha_steering": alpha_s, "alpha_drive": wrap_axis_angle(alpha - alpha_s),
+        "power_loss": tau[1] * w1 + tau[2] * u.w2, "residual": ca.norm_inf(resid),
+        "status": _status(resid, per, sat), "Omega_x": u.Om[0], "Omega_y": u.Om[1], "Omega_z": u.Om[2],
+        "N": ca.vertcat(*per["N"]), "F_t": u.Ft, "F_a": u.Fa, "utilisation": ca.vertcat(*per["utilisation"]),
+        "p_max": peak_pressure(ca.vertcat(*per["N"]), p0_all, design), "xi": ca.vertcat(*per["xi"]),
+        "eta": ca.vertcat(*per["eta"]), "spin": ca.vertcat(*per["spin"]), "mu": ca.vertcat(*per["mu"]),
+    }
+    steer, misfit = _steering_solver(layout, frame, design)
+    build = _point_builder(outs, u.x, params, solver, x0_fn, steer, misfit, theta, design)
+    point = build(list(POINT_OUTPUTS) + list(CONTACT_OUTPUTS) + ["steer_misfit"])
+    return CompiledModel(layout, effects, pnames, pvalues, design, point, [r.name for r in layout.rollers], G,
+                         x0_fn, ca.Function("post", [u.x, params], [outs[k] for k in POINT_OUTPUTS + CONTACT_OUTPUTS]),
+                         frame=frame, _point_builder=lambda sel: build(sel, "point_" + "_".join(sel)),
+                         hertz_p0=hertz_p0, peak_pressure=peak_pressure)
+
+
+def _point_builder(outs, x, params, solver, x0_fn, steer, misfit, theta, design):
+    """names → a CasADi Function of one operating point: φ from the linkage's inverse kinematics, then the
+    Newton solve, then only the selected outputs' expressions."""
+    def build(selected, name="point"):
+        in_names = ["gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_guess", "theta", "design"]
+        ins = [ca.MX.sym(n, *(theta.shape if n == "theta" else design.shape if n == "design" else (1, 1)))
+               for n in in_names]
+        g_m, w_m, l_m, b_m, pg_m, th_m, d_m = ins
+        phi_m = steer(pg_m, ca.vertcat(g_m, d_m))
+        p_m = ca.vertcat(g_m, w_m, l_m, b_m, phi_m, th_m, d_m)
+        model_names = [k for k in selected if k != "steer_misfit"]
+        res = {}
+        if model_names:
+            sel = ca.Function("post_sel", [x, params], ca.cse([outs[k] for k in model_names]))
+            res = dict(zip(model_names, sel.call([solver(x0_fn(p_m), p_m), p_m])))
+        # how far the linkage is from rolling about the commanded axis (0 where it reaches γ)
+        res["steer_misfit"] = misfit(phi_m, ca.vertcat(g_m, d_m))
+        return ca.Function(name, ins, [res[k] for k in selected], in_names, list(selected))
+    return build

@@ -1,0 +1,107 @@
+"""Dask: a local cluster sized to the machine (one single-threaded worker process per core), or an existing
+scheduler given by address; the same code runs on both.
+
+Bad settings are one InputError line: `--workers` must be a positive integer (LocalCluster would wait
+forever for -1 workers), and a scheduler that does not answer within CONNECT_TIMEOUT seconds is refused.
+The local cluster's worker processes ignore Ctrl-C (SIGINT reaches the whole process group at a terminal):
+only this process is interrupted, and it closes the cluster, with distributed's logging of the shutdown
+silenced (`quiet_logs`), instead of every worker printing its own traceback.
+"""
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import threading
+from contextlib import contextmanager, nullcontext
+
+from cvtdesign.errors import InputError
+
+CONNECT_TIMEOUT = 5.0   # seconds to wait for an existing scheduler to answer
+
+
+def check_workers(workers) -> None:
+    """`--workers`: None (one per core) or a positive integer."""
+    if workers is None:
+        return
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InputError(f"--workers: expected a positive number of worker processes, got {workers}")
+
+
+def connect(scheduler: str, timeout: float | None = None):
+    """A Client on an existing scheduler; one InputError line if none answers within `timeout` seconds."""
+    from dask.distributed import Client
+
+    timeout = CONNECT_TIMEOUT if timeout is None else timeout
+    try:
+        return Client(scheduler, timeout=timeout)
+    except (OSError, TimeoutError):
+        why = f"no Dask scheduler answered within {timeout:g} s"
+    except (ValueError, TypeError) as e:
+        why = f"not a scheduler address ({e})"
+    raise InputError(f"--scheduler {scheduler}: {why}; expected the address of a running scheduler, "
+                     "e.g. tcp://host:8786")
+
+
+def local_cluster(workers: int | None = None):
+    """A LocalCluster of `workers` single-threaded worker processes (default: one per core), started with
+    SIGINT ignored so that the worker processes inherit that and leave Ctrl-C to this process (a Ctrl-C
+    during those ~1.5 s of start-up is therefore lost: press it again)."""
+    from dask.distributed import LocalCluster
+
+    check_workers(workers)
+    main = threading.current_thread() is threading.main_thread()
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:
+        return LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1, processes=True,
+                            dashboard_address=":0", silence_logs=logging.ERROR)
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, old)
+
+
+@contextmanager
+def quiet_logs():
+    """No log records in this process inside the block (logging.disable): for the shutdown after Ctrl-C,
+    whose connection errors distributed would log. The previous setting is restored afterwards."""
+    before = logging.root.manager.disable
+    logging.disable(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logging.disable(before)
+
+
+def _close(client, cluster):
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
+@contextmanager
+def dask_client(scheduler: str | None = None, workers: int | None = None):
+    """A dask.distributed Client: on `scheduler` if given, else on a LocalCluster started (and closed) here.
+    On Ctrl-C (KeyboardInterrupt) the client and cluster are closed with distributed's logging silenced,
+    and the KeyboardInterrupt goes on to the caller."""
+    from dask.distributed import Client
+
+    check_workers(workers)
+    cluster = None
+    if scheduler:
+        client = connect(scheduler)
+    else:
+        cluster = local_cluster(workers)
+        try:
+            client = Client(cluster)
+        except BaseException:
+            cluster.close()
+            raise
+    interrupted = False
+    try:
+        yield client
+    except KeyboardInterrupt:
+        interrupted = True
+        raise
+    finally:
+        with quiet_logs() if interrupted else nullcontext():
+            _close(client, cluster)

@@ -1,0 +1,103 @@
+"""Measured data in the project's CSV format: read and validate (the dataset it becomes: diagnosis.measured).
+
+One operating point per CSV row: `gamma_cmd_deg` [deg], `omega_1`, `omega_2` [rad/s], `tau_1`, `tau_2`
+[N m] (external torques, positive in the sense of positive ω), optionally `gamma_axis_deg` [deg] (the
+measured axis angle). Other columns are ignored. Rows that repeat an operating point are replicates.
+
+docs/measured-data.md describes the format.
+"""
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pandas as pd
+
+from cvtdesign.errors import InputError, shorten, suggest
+
+REQUIRED = ("gamma_cmd_deg", "omega_1", "omega_2", "tau_1", "tau_2")
+OPTIONAL = ("gamma_axis_deg",)
+
+
+def read_measured(path, gamma_range_deg=None, drop_bad: bool = False) -> tuple[pd.DataFrame, dict]:
+    """Read and check a measured-data CSV.
+
+    frame: the variant's shaft kinematics (α, τ⊥, τ∥ as kinematics.py defines them); gamma_range_deg:
+    (lo, hi) the variant's operating range [deg]. Every problem is one InputError line naming the file, the line (the
+    header is line 1) or the column, and what was expected. With `drop_bad`, rows with empty or non-numeric
+    cells (non-finite ones too: 'inf' is not a measurement), a motor shaft at rest or γ outside the range are
+    dropped and counted instead. The file must be UTF-8 text (the line of the first other byte is named)."""
+    where = str(path)
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except FileNotFoundError:
+        raise InputError(f"{where}: no such file") from None
+    except OSError as e:
+        raise InputError(f"{where}: cannot read file ({e.strerror or type(e).__name__})") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = data[:e.start].count(b"\n") + 1
+        raise InputError(f"{where}: line {line}: not a readable CSV file (byte 0x{data[e.start]:02x} is not UTF-8 "
+                         "text); expected UTF-8 text with the header " + ",".join(REQUIRED)) from None
+    if "\x00" in text:
+        line = text[:text.index("\x00")].count("\n") + 1
+        raise InputError(f"{where}: line {line}: not a readable CSV file (a NUL byte: binary data, not text); "
+                         "expected UTF-8 text with the header " + ",".join(REQUIRED))
+    try:
+        raw = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False, skipinitialspace=True)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as e:
+        raise InputError(f"{where}: not a readable CSV file ({' '.join(str(e).split()) or type(e).__name__})") from None
+    raw.columns = [str(c).strip() for c in raw.columns]
+    for c in REQUIRED:
+        if c not in raw.columns:
+            other = [x for x in raw.columns if x not in REQUIRED + OPTIONAL]
+            raise InputError(f"{where}: missing column '{c}'{suggest(c, other)} "
+                             f"(required: {', '.join(REQUIRED)}; found: {', '.join(raw.columns) or 'none'})")
+    if raw.empty:
+        raise InputError(f"{where}: no data rows under the header")
+    cols = list(REQUIRED) + [c for c in OPTIONAL if c in raw.columns]
+    bad = pd.Series("", index=raw.index)      # the first problem of each row
+    kind = pd.Series("", index=raw.index)     # its category, for the count of dropped rows
+    num = pd.DataFrame(index=raw.index)
+    for c in cols:
+        text = raw[c].str.strip()
+        v = pd.to_numeric(text, errors="coerce").astype(float)
+        for i in raw.index[v.isna() & bad.eq("")]:
+            cell = text[i]
+            empty = cell in ("", "nan", "NaN", "NA")
+            bad[i] = f"column '{c}' is empty" if empty else f"column '{c}': '{shorten(cell)}' is not a number"
+            kind[i] = "empty cell" if empty else "non-numeric cell"
+        for i in raw.index[v.notna() & ~np.isfinite(v) & bad.eq("")]:
+            bad[i] = f"column '{c}': '{shorten(text[i])}' is not a finite number"
+            kind[i] = "non-finite cell"
+        num[c] = v
+    if gamma_range_deg is not None:
+        lo, hi = gamma_range_deg
+        out = ~num["gamma_cmd_deg"].between(lo - 1e-9, hi + 1e-9) & bad.eq("") & num["gamma_cmd_deg"].notna()
+        for i in raw.index[out]:
+            bad[i] = (f"gamma_cmd_deg = {num['gamma_cmd_deg'][i]:g} is outside the variant's range "
+                      f"{lo:g}..{hi:g} deg")
+            kind[i] = "gamma out of range"
+    still = bad.eq("") & (num["omega_1"] == 0)
+    for i in raw.index[still]:
+        bad[i] = "omega_1 is 0: the motor shaft must turn for a slip angle to exist"
+        kind[i] = "motor at rest"
+    dropped = {}
+    if bad.ne("").any():
+        if not drop_bad:
+            i = raw.index[bad.ne("")][0]
+            n = int(bad.ne("").sum())
+            more = f" ({n - 1} more bad rows; --drop-bad drops and counts them)" if n > 1 else \
+                " (--drop-bad drops and counts such rows)"
+            raise InputError(f"{where}: line {i + 2}: {bad[i]}{more}")
+        dropped = {k: int(v) for k, v in kind[bad.ne("")].value_counts().items()}
+        num = num[bad.eq("")]
+        if num.empty:
+            raise InputError(f"{where}: every row was dropped as bad")
+    rows = num.reset_index(drop=True)
+    rows.insert(0, "line", (np.asarray(num.index) + 2).astype(int))
+    return rows, dropped
+
+

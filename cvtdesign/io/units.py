@@ -1,0 +1,292 @@
+"""Quantities with units in variant and study files → SI floats (SI inside the code; docs/conventions.md).
+
+A field may hold a plain number (already SI), a string with units ("40 mm", "0.0049 1/N", "10 deg"), or an
+expression "= asin(d / (2*R))" over the file's named parameters (evaluated in SI, angles in rad). Pint
+does the unit arithmetic; the evaluator accepts only arithmetic, parameter names and a few math functions,
+so a file can never run code.
+
+Every value is checked, one InputError line each: a quantity is a number followed by a unit (pint parses
+only the unit, and only a unit without numeric powers beyond a single digit, so no text can make it
+compute a huge integer); the number, the converted value and an expression's result must be finite
+(`.inf`, `nan`, `= 1/0`, `= 10**400` are refused); booleans are not numbers. `check_range` refuses values
+that are not plausible for this machine, and says which unit a plain number probably meant.
+"""
+from __future__ import annotations
+
+import ast
+import functools
+import math
+import operator
+import re
+
+import casadi as ca
+
+from cvtdesign.errors import InputError, shorten
+
+MAX_QUANTITY_TEXT = 100    # characters of a quantity or expression string
+
+
+@functools.cache
+def registry():
+    import pint
+
+    try:  # pint caches its parsed definitions on disk: 0.05 s instead of 0.2 s per start
+        return pint.UnitRegistry(cache_folder=":auto:")
+    except OSError:
+        return pint.UnitRegistry()
+
+
+# SI unit of each kind of quantity, and an example for error messages
+KINDS = {
+    "length": ("m", "'40 mm'"),
+    "force": ("N", "'100 N'"),
+    "compliance": ("1/N", "'0.0038 1/N'"),
+    "stiffness": ("N/m", "'2e5 N/m'"),
+    "pressure": ("Pa", "'25 MPa'"),
+    "angle": ("rad", "'10 deg'"),
+    "torque": ("N*m", "'1 N*m'"),
+    "speed": ("rad/s", "'10 rad/s'"),
+    "dimensionless": ("", "'0.8'"),
+}
+
+# ------------------------------------------------------------------------------------------ quantities
+
+_NUMBER = re.compile(r"\s*(?P<num>[-+]?(?:(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?|inf(?:inity)?|nan))"
+                     r"(?P<unit>.*)", re.IGNORECASE | re.DOTALL)
+_UNIT_CHARS = re.compile(r"[\sA-Za-zµμΩ°%_*/·()]*")
+_EXPONENT = r"(?:\*\*|\^)\s*\(?\s*[-+]?\s*\d\s*\)?"          # a power of one digit: m**2, s^-1, m**(-1)
+
+
+def parse_quantity(text: str):
+    """'40 mm' → (40.0, the pint Unit), '45' → (45.0, None). None when the text is not a number followed by
+    a unit made of unit names, '*', '/', '·', parentheses and one-digit powers (pint would otherwise evaluate
+    numbers and powers in the unit, e.g. 'm**10**10**10', without bound)."""
+    m = _NUMBER.fullmatch(text)
+    if not m:
+        return None
+    value, unit = float(m["num"]), m["unit"].strip()
+    if not unit:
+        return value, None
+    if re.search(_EXPONENT + r"\s*(?:\*\*|\^)", unit):          # a power of a power
+        return None
+    rest = re.sub(_EXPONENT, "", unit)
+    rest = re.sub(r"^1\s*/", "/", rest)                        # '1/N'
+    if not _UNIT_CHARS.fullmatch(rest) or "**" in rest or "^" in rest:
+        return None
+    import pint
+
+    try:
+        return value, registry().parse_units(unit)
+    except (pint.errors.UndefinedUnitError, pint.errors.DefinitionSyntaxError, ValueError, TypeError,
+            AttributeError, AssertionError, KeyError, SyntaxError):
+        return None
+
+
+def is_plain_number(raw) -> bool:
+    """A value written without units: a YAML number or a string holding only a number."""
+    if isinstance(raw, bool):
+        return False
+    if isinstance(raw, (int, float)):
+        return True
+    if isinstance(raw, str):
+        q = parse_quantity(raw.strip()) if len(raw) <= MAX_QUANTITY_TEXT else None
+        return q is not None and q[1] is None
+    return False
+
+
+def dimension_of(raw):
+    """The pint dimensionality of a file value ({} for a plain number: SI of an unstated kind; None for an
+    expression or an unreadable value)."""
+    if isinstance(raw, bool) or raw is None:
+        return None
+    if isinstance(raw, (int, float)):
+        return registry().parse_units("").dimensionality
+    text = str(raw).strip()
+    if text.startswith("=") or len(text) > MAX_QUANTITY_TEXT:
+        return None
+    q = parse_quantity(text)
+    if q is None:
+        return None
+    return (q[1] or registry().parse_units("")).dimensionality
+
+
+def kind_name(dim) -> str:
+    """'length', 'force', ... for a pint dimensionality, else its text ('[mass]')."""
+    if dim is None:
+        return "an expression"
+    if not dim:
+        return "a plain number or an angle"
+    for kind, (unit, _) in KINDS.items():
+        if unit and registry().parse_units(unit).dimensionality == dim and kind != "angle":
+            return f"a {kind}"
+    names = {"[mass]": "a mass", "[time]": "a time", "[temperature]": "a temperature", "[current]": "a current"}
+    return names.get(str(dim), f"a quantity of dimension {dim}")
+
+
+# ------------------------------------------------------------------------------------------ expressions
+
+_BINOPS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
+           ast.Pow: operator.pow}
+_FUNCS = {f: getattr(ca, f) for f in ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sqrt", "exp", "log")}
+_ARITY = {f: 2 if f == "atan2" else 1 for f in _FUNCS}
+_CONSTS = {"pi": 3.141592653589793}
+MAX_DEPTH = 40             # nesting of an expression
+
+
+def _finite_number(v) -> bool:
+    return not isinstance(v, float) or math.isfinite(v)
+
+
+def evaluate_expression(text: str, names: dict, where: str):
+    """Evaluate '= expr' over `names` (SI values, floats or CasADi symbols). Every numeric intermediate
+    result must be a finite real number: division by zero, overflow (|x| > 1.8e308), a complex power or a
+    function outside its domain (sqrt(-1), log(0)) is one InputError line."""
+    shown = shorten(text)
+
+    def fail(why):
+        return InputError(f"{where}: expression '= {shown}' {why}; expected a finite number")
+
+    def ev(node, depth):
+        if depth > MAX_DEPTH:
+            raise InputError(f"{where}: expression '= {shown}' is nested more than {MAX_DEPTH} deep")
+        v = _ev(node, depth + 1)
+        if isinstance(v, complex):
+            raise fail("has a complex result (a negative number to a fractional power)")
+        if isinstance(v, float) and not math.isfinite(v):
+            raise fail(f"gives {v}")
+        return v
+
+    def _ev(node, depth):
+        if isinstance(node, ast.Expression):
+            return ev(node.body, depth)
+        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
+            return float(node.value)
+        if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
+            a, b = ev(node.left, depth), ev(node.right, depth)
+            try:
+                return _BINOPS[type(node.op)](a, b)
+            except ZeroDivisionError:
+                raise fail("divides by zero") from None
+            except OverflowError:
+                raise fail("overflows (beyond ±1.8e308)") from None
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+            return -ev(node.operand, depth) if isinstance(node.op, ast.USub) else ev(node.operand, depth)
+        if isinstance(node, ast.Name):
+            if node.id in names:
+                return names[node.id]
+            if node.id in _CONSTS:
+                return _CONSTS[node.id]
+            raise InputError(f"{where}: unknown name '{shorten(node.id)}' in expression (parameters: "
+                             f"{', '.join(names) or 'none'})")
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _FUNCS
+                and not node.keywords and len(node.args) == _ARITY[node.func.id]):
+            args = [ev(a, depth) for a in node.args]
+            try:
+                return _FUNCS[node.func.id](*args)
+            except (OverflowError, ValueError, ZeroDivisionError):
+                raise fail(f"is outside the domain of {node.func.id}") from None
+        raise InputError(f"{where}: unsupported expression '= {shown}' (arithmetic, parameter names and "
+                         f"{', '.join(_FUNCS)} only)")
+
+    if len(text) > MAX_QUANTITY_TEXT:
+        raise InputError(f"{where}: expression '= {shown}' is longer than {MAX_QUANTITY_TEXT} characters")
+    try:
+        tree = ast.parse(text, mode="eval")
+    except (SyntaxError, ValueError, RecursionError, MemoryError):
+        raise InputError(f"{where}: cannot parse expression '= {shown}'") from None
+    return ev(tree, 0)
+
+
+# ------------------------------------------------------------------------------------------ SI values
+
+def to_si(raw, kind: str, where: str, names: dict | None = None):
+    """Convert a file value to SI for a quantity of `kind` (see KINDS). Plain numbers (a YAML number or a
+    string holding only a number, e.g. a command-line value) are taken as SI. The result is finite, or a
+    CasADi expression (an optimiser's symbolic parameter)."""
+    unit, example = KINDS[kind]
+    kind = "plain number" if kind == "dimensionless" else kind
+    if isinstance(raw, bool) or raw is None:
+        raise InputError(f"{where}: expected a {kind} like {example}, got {str(raw).lower() if isinstance(raw, bool) else 'nothing'}"
+                         + (" (true/false are not numbers)" if isinstance(raw, bool) else ""))
+    if isinstance(raw, (int, float)):
+        try:
+            value = float(raw)
+        except OverflowError:       # a YAML integer of hundreds of digits
+            value = math.inf
+        if not math.isfinite(value):
+            raise InputError(f"{where}: expected a finite {kind} like {example}, got {shorten(raw)}")
+        return value
+    if not isinstance(raw, str):
+        return raw  # already a number-like (e.g. a CasADi symbol substituted by a study)
+    text = raw.strip()
+    if text.startswith("="):
+        return evaluate_expression(text[1:].strip(), names or {}, where)
+    q = parse_quantity(text) if len(text) <= MAX_QUANTITY_TEXT else None
+    if q is None:
+        raise InputError(f"{where}: expected a {kind} like {example}, got '{shorten(raw)}'")
+    value, u = q
+    if not math.isfinite(value):
+        raise InputError(f"{where}: expected a finite {kind} like {example}, got '{shorten(raw)}'")
+    if u is None:
+        return value
+    import pint
+
+    try:
+        si = float(registry().Quantity(value, u).to(unit or "dimensionless").magnitude)
+    except (pint.errors.DimensionalityError, pint.errors.UndefinedUnitError, ValueError, TypeError,
+            AttributeError, AssertionError, OverflowError):
+        raise InputError(f"{where}: expected a {kind} like {example}, got '{shorten(raw)}'") from None
+    if not math.isfinite(si):
+        raise InputError(f"{where}: expected a finite {kind} like {example}, got '{shorten(raw)}' (beyond ±1.8e308 in SI)")
+    return si
+
+
+# display unit of each kind for the messages of check_range: (unit name, factor from SI)
+_SHOW = {"length": ("m", 1.0), "force": ("N", 1.0), "compliance": ("1/N", 1.0), "stiffness": ("N/m", 1.0),
+         "pressure": ("Pa", 1.0), "angle": ("rad", 1.0), "torque": ("N·m", 1.0), "speed": ("rad/s", 1.0),
+         "dimensionless": ("", 1.0)}
+
+
+def _show(value, kind, units=None) -> str:
+    name, k = units or _SHOW[kind]
+    return f"{value * k:.6g}" + (f" {name}" if name else "")
+
+
+def _show_bound(value, kind) -> str:
+    """A bound in the unit a designer reads it in: mm below 1 m, MPa/GPa, degrees."""
+    if kind == "length" and abs(value) < 1:
+        return _show(value, kind, ("mm", 1e3))
+    if kind == "pressure" and abs(value) >= 1e3:
+        unit = next((u for u in (("GPa", 1e-9), ("MPa", 1e-6), ("kPa", 1e-3)) if abs(value) * u[1] >= 1))
+        return _show(value, kind, unit)
+    if kind == "angle":
+        return _show(value, kind, ("deg", 180 / math.pi))
+    return _show(value, kind)
+
+
+def check_range(value, raw, where: str, what: str, kind: str, lo=None, hi=None, lo_open=False, hi_open=False,
+                guess: str | None = None):
+    """`value` (SI, from the file's `raw`) within the plausible range of `what` (lo/hi in SI, None: unbounded),
+    else one InputError line: "rollers.D1.radius: 45 m is not a plausible roller radius (expected at most
+    1000 mm); did you mean '45 mm'?". `guess`: the unit a plain number probably meant (suggested when the
+    number in that unit is in range). Symbolic values (an optimiser's parameters) pass unchecked."""
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return value
+    below = lo is not None and (value <= lo if lo_open else value < lo)
+    above = hi is not None and (value >= hi if hi_open else value > hi)
+    if not (below or above):
+        return value
+    if below:
+        need = f"more than {_show_bound(lo, kind)}" if lo_open else f"at least {_show_bound(lo, kind)}"
+    else:
+        need = f"less than {_show_bound(hi, kind)}" if hi_open else f"at most {_show_bound(hi, kind)}"
+    hint = ""
+    if guess and is_plain_number(raw):
+        alt = to_si(f"{float(raw) if not isinstance(raw, str) else raw.strip()} {guess}", kind, where)
+        if not ((lo is not None and (alt <= lo if lo_open else alt < lo)) or
+                (hi is not None and (alt >= hi if hi_open else alt > hi))):
+            number = raw.strip() if isinstance(raw, str) else f"{raw:g}"
+            hint = f"; did you mean '{number} {guess}'? (plain numbers are SI)"
+    elif isinstance(raw, str) and raw.strip().startswith("="):
+        hint = "; expressions are evaluated in SI (m, N, Pa, rad)"
+    raise InputError(f"{where}: {_show(value, kind)} is not a plausible {what} (expected {need}){hint}")

@@ -1,0 +1,339 @@
+"""Variant files (YAML) → a validated, SI-valued `Layout` (core.layout) that the model compiler reads.
+
+The schema (io.schema) fixes the fields and io.yaml_file reads the file with limits; here every value is
+converted to SI (io.units), checked against the range that is plausible for this machine (PLAUSIBLE) and
+assembled into a Layout. Geometric checks (core.checks: axle ⊥ normal, contact points on the sphere, preloads
+that balance, overlapping rollers, steering that cannot fix an axis, couplings that fight) then run on it.
+Every problem is one `InputError` line naming the file and the field.
+
+Plain numbers are SI. Rather than requiring units on every dimensional field, each value is checked against
+its plausible range, however it was written, and a plain number outside it is refused with the unit it
+probably meant ("rollers.D1.radius: 45 m is not a plausible roller radius (expected at most 1 m); did you
+mean '45 mm'?"). docs/variant-reference.md lists the ranges.
+"""
+from __future__ import annotations
+
+import math
+from importlib import resources
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from cvtdesign.core import effects as fx
+from cvtdesign.core.checks import check_layout
+from cvtdesign.core.geometry import named_vector, spherical
+from cvtdesign.core.layout import Layout, Material, Roller
+from cvtdesign.errors import InputError, shorten, suggest
+from cvtdesign.io.schema import RangeSpec, Spherical, VariantSpec
+from cvtdesign.io.units import MAX_QUANTITY_TEXT, check_range, parse_quantity, registry, to_si
+from cvtdesign.io.yaml_file import read_spec
+
+SHIPPED = ("existing", "box", "unequal")     # the variants that come with the package (cvtdesign/variants/)
+
+
+def shipped_variant(name: str) -> Path:
+    """The path of a shipped variant file ('existing': Kim's two-steering-roller CVT, 'box', 'unequal')."""
+    return Path(str(resources.files("cvtdesign") / "variants" / f"{name}.yaml"))
+
+
+def vector(spec, where, names, point=False):
+    if isinstance(spec, str):
+        v = named_vector(spec.strip())
+        if v is None:
+            forms = "a list of 3 numbers, a point of 3 lengths" if point else "a list of 3 numbers"
+            raise InputError(f"{where}: expected a frame vector name (x, y, z, d1, d2, c1, c2, c3, optionally "
+                             f"with '-'), {forms} or {{polar, azimuth}}, got '{spec}'")
+        return v
+    if isinstance(spec, Spherical):
+        return spherical(quantity(spec.polar, "direction_angle", f"{where}.polar", names),
+                         quantity(spec.azimuth, "direction_angle", f"{where}.azimuth", names))
+    v = np.asarray(spec, dtype=float)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or not np.any(v):
+        raise InputError(f"{where}: expected a non-zero vector of 3 finite numbers, got {shorten(spec)}")
+    norm = np.linalg.norm(v)
+    if not (np.isfinite(norm) and norm > 0):     # [1e308, 1e308, 0] or [1e-320, 0, 0]: scale first
+        v = v / np.max(np.abs(v))
+        norm = np.linalg.norm(v)
+    return v / norm
+
+
+def _contact(spec, where, names, R):
+    """The unit contact normal of a roller's `contact` (see RollerSpec): a direction as `_vector` reads it,
+    or a point of three lengths, which must lie on the sphere of radius R (checked when both are numbers;
+    an optimiser's symbolic parameters skip the check)."""
+    if not isinstance(spec, list):
+        return vector(spec, where, names, point=True)
+    quantity = [isinstance(c, str) for c in spec]
+    if not any(quantity):
+        return vector(spec, where, names, point=True)
+    if not all(quantity):
+        raise InputError(f"{where}: mixes plain numbers and quantities ({', '.join(map(str, spec))}); give three "
+                         "plain numbers (a direction) or three lengths like '44.9 mm' (a point on the sphere)")
+    if len(spec) != 3:
+        raise InputError(f"{where}: expected a point of 3 lengths, got {len(spec)}")
+    p = [to_si(c, "length", f"{where}[{i}]", names) for i, c in enumerate(spec)]
+    if not all(isinstance(c, float) for c in p):
+        p = ca.vertcat(*p)
+        return p / ca.norm_2(p)
+    p = np.array(p)
+    dist = float(np.linalg.norm(p))
+    if isinstance(R, float) and not abs(dist - R) <= 1e-6 * R:
+        raise InputError(f"{where}: the contact point is {dist * 1e3:.6g} mm from the sphere centre but the sphere "
+                         f"radius is {R * 1e3:.6g} mm; a contact point must lie on the sphere (three plain numbers "
+                         "give a direction instead)")
+    if dist == 0:
+        raise InputError(f"{where}: the contact point is the sphere centre; a contact point must lie on the sphere")
+    return p / dist
+
+
+def _positive(value, where, what="a positive value"):
+    if isinstance(value, float) and not value > 0:
+        raise InputError(f"{where}: expected {what}, got {value:g}")
+    return value
+
+
+# plausible SI range of each dimensional field: (what, kind, lower, upper, lower exclusive, unit a plain number
+# probably meant); see VariantSpec
+PLAUSIBLE = {
+    "sphere_radius": ("sphere radius", "length", 0.0, 2.0, True, "mm"),
+    "roller_radius": ("roller radius", "length", 0.0, 1.0, True, "mm"),
+    "crown_radius": ("crown radius", "length", 0.0, 1.0, True, "mm"),
+    "width": ("roller width", "length", 0.0, 1.0, True, "mm"),
+    "preload": ("preload", "force", 0.0, 1e5, True, None),
+    "mount_stiffness": ("mount stiffness", "stiffness", 0.0, 1e10, True, None),
+    "youngs_modulus": ("Young's modulus", "pressure", 1e5, 1.2e12, False, "MPa"),
+    "friction": ("friction coefficient", "dimensionless", 0.0, 3.0, True, None),
+    "allowable_pressure": ("allowable pressure", "pressure", 1e4, 1e11, False, "MPa"),
+    "creep": ("creep constant", "compliance", 0.0, 1.0, True, None),
+    "creep_reference_force": ("creep reference force", "force", 0.0, 1e5, True, None),
+    "direction_angle": ("direction angle", "angle", -2 * math.pi, 2 * math.pi, False, "deg"),
+    "gamma": ("transmission angle γ", "angle", -math.pi, math.pi, False, "deg"),
+    "load": ("load", "torque", -1e4, 1e4, False, None),
+    "motor_speed": ("motor speed", "speed", 0.0, 1e4, True, None),
+    "frame_distance": ("plate distance", "length", 0.0, 10.0, True, "mm"),
+    "frame_thickness": ("plate thickness", "length", 0.0, 1.0, True, "mm"),
+}
+MAX_GRID_POINTS = 100_000      # per envelope axis (γ, load): a 1e-9° step would otherwise allocate terabytes
+# effect parameters that must be above zero (zero would switch the effect off or be unphysical); every effect
+# parameter must also lie within its `effects.Param` bounds (the fit's bounds)
+POSITIVE_EFFECT_PARAMS = {("drive_longitudinal_creep", "scale"), ("steering_lateral_creep", "scale"),
+                          ("drive_spin_creep", "scale"), ("rolling_resistance", "offset")}
+_EFFECT_GUESS = {"length": "mm", "angle": "deg"}
+
+
+def quantity(raw, key: str, where: str, names: dict | None = None, positive: str | None = None):
+    """A dimensional field of PLAUSIBLE[key] in SI: finite (to_si), with `positive` ('a positive radius') the
+    message for a value ≤ 0, then within the plausible range."""
+    what, kind, lo, hi, lo_open, guess = PLAUSIBLE[key]
+    value = to_si(raw, kind, where, names)
+    if positive:
+        _positive(value, where, positive)
+    return check_range(value, raw, where, what, kind, lo, hi, lo_open=lo_open, guess=guess)
+
+
+def effect_value(effect: str, param: str, raw, where: str, names: dict | None = None):
+    """An effect parameter in SI, finite and within its physical range: the `effects.Param` bounds, the lower
+    one exclusive for POSITIVE_EFFECT_PARAMS. Enforced: drive_longitudinal_creep.scale and
+    steering_lateral_creep.scale in (0, 50], drive_spin_creep.scale in (0, 200], normal_force_variation.exponent
+    in [0, 3], rolling_resistance.offset in (0, 5 mm], steering_offset.offset in [-0.2, 0.2] rad (±11.5°),
+    drive_radius_mismatch.delta in [-0.2, 0.2], traction_saturation.mu_scale in [0.05, 5]."""
+    spec = fx.EFFECTS[effect].params[param]
+    value = to_si(raw, spec.kind, where, names)
+    lo = spec.lower if math.isfinite(spec.lower) else None
+    hi = spec.upper if math.isfinite(spec.upper) else None
+    return check_range(value, raw, where, f"{effect}.{param}", spec.kind, lo, hi,
+                       lo_open=(effect, param) in POSITIVE_EFFECT_PARAMS, guess=_EFFECT_GUESS.get(spec.kind))
+
+
+def grid(r: RangeSpec, kind, where):
+    """The points start, start + step, ..., stop of an envelope axis (kind 'angle': γ, 'torque': the load)."""
+    key = {"angle": "gamma", "torque": "load"}.get(kind)
+    a, b = ((quantity(getattr(r, k), key, f"{where}.{k}") if key else to_si(getattr(r, k), kind, f"{where}.{k}"))
+            for k in ("start", "stop"))
+    s = to_si(r.step, kind, f"{where}.step")
+    if not s > 0 or b < a:
+        raise InputError(f"{where}: expected start <= stop and step > 0")
+    if not (b - a) / s <= MAX_GRID_POINTS - 1:
+        raise InputError(f"{where}.step: a step of {s:.3g} gives {(b - a) / s + 1:.3g} points from start to stop; "
+                         f"expected at most {MAX_GRID_POINTS} points per envelope axis (a larger step)")
+    return np.linspace(a, b, int(round((b - a) / s)) + 1)
+
+
+def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Layout:
+    """Build the SI Layout. `overrides` maps parameter names to values (floats or CasADi symbols)."""
+    names, overrides = {}, overrides or {}
+    for k, v in spec.parameters.items():   # in order, so later parameters may use earlier ones
+        names[k] = overrides[k] if k in overrides else parameter_value(v, f"{where}: parameters.{k}", names)
+    mats = _materials(spec, where, names)
+    R = quantity(spec.sphere.radius, "sphere_radius", f"{where}: sphere.radius", names, "a positive radius")
+    forks = _forks(spec, where, names)
+    rollers = tuple(_roller(spec, rn, where, names, mats, forks, R) for rn in spec.rollers)
+    for s in (1, 2):
+        if not any(r.role == "drive" and r.shaft == s for r in rollers):
+            raise InputError(f"{where}: rollers: no drive roller on shaft {s} (role: drive, shaft: {s})")
+    fx.check_effects(spec.effects, f"{where}: effects")
+    eparams = _effect_parameters(spec, where, names)
+    if spec.frame is not None:     # drawn by `cvtdesign export` only, checked here with the rest
+        vector(spec.frame.side, f"{where}: frame.side", names)
+        quantity(spec.frame.distance, "frame_distance", f"{where}: frame.distance", names, "a positive distance")
+        quantity(spec.frame.thickness, "frame_thickness", f"{where}: frame.thickness", names, "a positive thickness")
+    c, env = spec.contact, spec.envelope
+
+    def creep(value, key, field):
+        return None if value is None else quantity(value, key, f"{where}: contact.{field}", names, "a positive value")
+
+    return Layout(
+        name=spec.name, file=where, sphere_radius=R,
+        sphere_material=_material(mats, spec.sphere.material, f"{where}: sphere.material"), rollers=rollers,
+        creep_drive=creep(c.creep_drive, "creep", "creep_drive"),
+        creep_steering=creep(c.creep_steering, "creep", "creep_steering"),
+        creep_reference_force=creep(c.creep_reference_force, "creep_reference_force", "creep_reference_force"),
+        effects=tuple(spec.effects), effect_parameters=eparams,
+        gamma_grid=grid(env.gamma, "angle", f"{where}: envelope.gamma"),
+        load_grid=grid(env.load, "torque", f"{where}: envelope.load"),
+        motor_speed=quantity(env.motor_speed, "motor_speed", f"{where}: envelope.motor_speed", None, "a positive value"),
+        parameters=names, spec=spec)
+
+
+def _materials(spec: VariantSpec, where: str, names: dict) -> dict:
+    mats = {}
+    for k, m in spec.materials.items():
+        w = f"{where}: materials.{k}"
+        mats[k] = Material(
+            E=quantity(m.youngs_modulus, "youngs_modulus", f"{w}.youngs_modulus", names, "a positive value"),
+            nu=to_si(m.poisson_ratio, "dimensionless", f"{w}.poisson_ratio", names),
+            mu=quantity(m.friction, "friction", f"{w}.friction", names, "a positive value"),
+            p_allow=None if m.allowable_pressure is None else quantity(
+                m.allowable_pressure, "allowable_pressure", f"{w}.allowable_pressure", names, "a positive pressure"))
+        if isinstance(mats[k].nu, float) and not 0 <= mats[k].nu < 0.5:
+            raise InputError(f"{w}.poisson_ratio: expected 0 <= ν < 0.5, got {mats[k].nu:g}")
+    return mats
+
+
+def _material(mats: dict, name: str, where: str) -> Material:
+    if name not in mats:
+        raise InputError(f"{where}: unknown material '{name}'{suggest(name, mats)}")
+    return mats[name]
+
+
+def _forks(spec: VariantSpec, where: str, names: dict) -> dict:
+    """Steering roller name -> (fork axis, sign)."""
+    forks = {}
+    for i, f in enumerate(spec.steering.forks):
+        w = f"{where}: steering.forks[{i}]"
+        axis = vector(f.axis, f"{w}.axis", names)
+        if not f.rollers:
+            raise InputError(f"{w}.rollers: empty; every fork holds at least one roller (a steering roller's name)")
+        for rn in f.rollers:
+            if rn not in spec.rollers:
+                raise InputError(f"{w}.rollers: unknown roller '{rn}'{suggest(rn, spec.rollers)}")
+            if spec.rollers[rn].role != "steering":
+                raise InputError(f"{w}.rollers: '{rn}' is a {spec.rollers[rn].role} roller; only steering rollers turn with φ")
+            if rn in forks:
+                raise InputError(f"{w}.rollers: '{rn}' is already on another fork")
+            forks[rn] = (axis, f.sign)
+    return forks
+
+
+def _own_or_default(spec: VariantSpec, rn: str, field: str, where: str):
+    """A roller's own value of `field` and the field's name in messages, else roller_defaults' value."""
+    own = getattr(spec.rollers[rn], field)
+    if own is not None:
+        return own, f"{where}: rollers.{rn}.{field}"
+    value = getattr(spec.roller_defaults, field)
+    if value is None:
+        raise InputError(f"{where}: rollers.{rn}.{field}: missing (give it on the roller or in roller_defaults)")
+    return value, f"{where}: roller_defaults.{field}"
+
+
+def _roller(spec: VariantSpec, rn: str, where: str, names: dict, mats: dict, forks: dict, R) -> Roller:
+    r, w = spec.rollers[rn], f"{where}: rollers.{rn}"
+    if r.role in ("drive", "follower") and r.shaft is None:
+        raise InputError(f"{w}.shaft: missing (a {r.role} roller must name shaft 1 or 2)")
+    if r.role == "steering" and r.shaft is not None:
+        raise InputError(f"{w}.shaft: a steering roller is an idler and has no shaft")
+    if r.role == "steering" and rn not in forks:
+        raise InputError(f"{w}: steering roller is on no fork (steering.forks[].rollers)")
+
+    def field(name, key, what="a positive value"):
+        value, at = _own_or_default(spec, rn, name, where)
+        return quantity(value, key, at, names, what)
+
+    radius = field("radius", "roller_radius", "a positive radius")
+    has_crown = r.crown_radius is not None or spec.roller_defaults.crown_radius is not None
+    normal = _contact(r.contact, f"{w}.contact", names, R)
+    axle = vector(r.axle, f"{w}.axle", names)
+    _check_perpendicular(normal, axle, f"{w}.axle")
+    ratio = to_si(r.ratio, "dimensionless", f"{w}.ratio", names)
+    if isinstance(ratio, float) and ratio == 0:
+        raise InputError(f"{w}.ratio: expected a non-zero coupling ratio")
+    if isinstance(ratio, float) and not 1e-3 <= abs(ratio) <= 1e3:
+        raise InputError(f"{w}.ratio: {ratio:g} is not a plausible coupling ratio (expected 1e-3 <= |ratio| <= 1e3)")
+    material, at = _own_or_default(spec, rn, "material", where)
+    axis, sign = forks.get(rn, (None, 0))
+    return Roller(
+        name=rn, role=r.role, shaft=r.shaft, ratio=ratio if r.role == "follower" else 1.0,
+        normal=normal, axle=axle, radius=radius,
+        crown_radius=field("crown_radius", "crown_radius", "a positive radius") if has_crown else radius,
+        width=field("width", "width"), material=_material(mats, material, at),
+        preload=field("preload", "preload"), stiffness=field("mount_stiffness", "mount_stiffness"),
+        fork_axis=axis, fork_sign=sign)
+
+
+def _check_perpendicular(normal, axle, where: str):
+    dot = ca.dot(ca.vec(ca.DM(normal) if isinstance(normal, np.ndarray) else normal),
+                 ca.vec(ca.DM(axle) if isinstance(axle, np.ndarray) else axle))
+    if isinstance(dot, (ca.DM, float)) and abs(float(dot)) > 1e-6:
+        raise InputError(f"{where}: not perpendicular to the contact normal (axle·normal = {float(dot):.4g}); "
+                         "the axle must lie in the sphere's tangent plane at the contact")
+
+
+def _effect_parameters(spec: VariantSpec, where: str, names: dict) -> dict:
+    eparams = {}
+    for e, ps in spec.effect_parameters.items():
+        if e not in fx.EFFECTS:
+            raise InputError(f"{where}: effect_parameters.{e}: unknown effect{suggest(e, fx.EFFECTS)}")
+        eparams[e] = {}
+        for p, v in ps.items():
+            known = fx.EFFECTS[e].params
+            if p not in known:
+                raise InputError(f"{where}: effect_parameters.{e}.{p}: unknown parameter{suggest(p, known)}")
+            eparams[e][p] = effect_value(e, p, v, f"{where}: effect_parameters.{e}.{p}", names)
+    return eparams
+
+
+def parameter_value(v, where, names):
+    """A named parameter: any finite quantity with units (kept in SI), a plain number (SI) or an expression
+    over earlier parameters."""
+    if isinstance(v, bool) or v is None:
+        raise InputError(f"{where}: expected a number or a quantity like '60 mm', got {str(v).lower()}")
+    if isinstance(v, (int, float)):
+        return to_si(v, "dimensionless", where)
+    text = str(v).strip()
+    if text.startswith("="):
+        return to_si(text, "dimensionless", where, names)
+    q = parse_quantity(text) if len(text) <= MAX_QUANTITY_TEXT else None
+    value = None
+    if q is not None:
+        try:
+            value = q[0] if q[1] is None else float(registry().Quantity(q[0], q[1]).to_base_units().magnitude)
+        except (ValueError, TypeError, AttributeError, AssertionError, OverflowError):
+            value = None
+    if value is None:
+        raise InputError(f"{where}: expected a number or a quantity like '60 mm', got '{shorten(v)}'")
+    if not math.isfinite(value):
+        raise InputError(f"{where}: expected a finite number or quantity like '60 mm', got '{shorten(v)}'")
+    return value
+
+
+def load_spec(path) -> VariantSpec:
+    return read_spec(path, VariantSpec, "name, materials, sphere, rollers, steering")
+
+
+def load_variant(path, overrides: dict | None = None, check: bool = True) -> Layout:
+    """Read, validate and resolve a variant file; with `check`, run the geometric checks too."""
+    layout = resolve(load_spec(path), str(path), overrides)
+    if check:
+        check_layout(layout)
+    return layout
