@@ -34,11 +34,15 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 import pandas as pd
+from scipy import ndimage
+from scipy.optimize import least_squares
+from scipy.stats import f_oneway, wilcoxon
 
 from cvtdesign.core.effects import EFFECTS
-from cvtdesign.diagnosis.measured import MEASURED_CHANNELS, Measured, merge_points
-from cvtdesign.core.model import compile_model
 from cvtdesign.core.layout import Layout
+from cvtdesign.core.metrics import efficiency
+from cvtdesign.core.model import compile_model
+from cvtdesign.diagnosis.measured import MEASURED_CHANNELS, Measured, merge_points
 
 CHANNELS = ("alpha", "tau_par", "axis")        # [deg], [N m], [deg]
 UNITS = {"alpha": "deg", "tau_par": "N*m", "axis": "deg"}
@@ -250,8 +254,6 @@ def _starts(P: Predictor, x0):
 def fit(P: Predictor, data: Measured, noise: dict, rows=None, x0=None, multistart=True, max_nfev=40) -> Fit:
     """Least-squares fit of P's parameters to the z-scored residuals of `rows` (default: all); from x0 and,
     with `multistart`, from sign-flipped starts (`_starts`)."""
-    from scipy.optimize import least_squares
-
     rows = np.arange(P.n) if rows is None else np.asarray(rows)
     chans = [c for c in CHANNELS if c in noise]
     x0 = P.defaults if x0 is None else np.asarray(x0, float)
@@ -396,8 +398,6 @@ def point_grid(data: Measured, values: np.ndarray, reduce=np.nanmean) -> np.ndar
 def regions(data: Measured, resid_alpha: np.ndarray, noise_alpha: np.ndarray) -> list[dict]:
     """Where the α gap stands out: operating points whose mean residual exceeds REGION_Z standard errors,
     grouped into connected same-sign regions of the γ × load grid, largest |mean residual|·size first."""
-    from scipy import ndimage
-
     mean = point_grid(data, resid_alpha)
     count = point_grid(data, np.ones_like(resid_alpha), np.nansum)
     se = point_grid(data, noise_alpha) / np.sqrt(np.maximum(count, 1))
@@ -444,7 +444,6 @@ def _efficiency_mask(data: Measured):
 
 
 def model_efficiency(data: Measured, pred: dict):
-    from cvtdesign.core.metrics import efficiency
     r = data.rows
     return efficiency(pred["tau_1"] * r["omega_1"].to_numpy(), pred["tau_2"] * pred["omega_2"])
 
@@ -497,8 +496,6 @@ def compare(before: Score, after: Score, channels: int, data: Measured) -> Compa
     b, a = before.per_point[common], after.per_point[common]
     if not common.any():
         return Comparison(0, (np.nan, np.nan), -np.inf, 1.0, np.inf, (0.0, 0.0), np.inf)
-    from scipy.stats import wilcoxon
-
     d = b - a
     p = 1.0 if np.allclose(d, 0) else float(wilcoxon(d, alternative="greater", zero_method="zsplit").pvalue)
     n = common.sum() * channels
@@ -814,8 +811,6 @@ def form_checks(models: Models, ctx) -> dict:
     quantile bins and the bin means compared by a one-way ANOVA F-test (scale-free, so a misestimated noise
     level does not matter). Returns each variable's smallest p-value over the channels, and the variable
     along which the gap lies: the smallest p, if it is below 0.001 after Bonferroni over every test."""
-    from scipy.stats import f_oneway
-
     data, final, noise = ctx["data"], ctx["final"], ctx["noise"]
     r = data.rows
     ok = final.ok

@@ -146,7 +146,6 @@ C2 = np.array([0.0, -1.0, -1.0]) / _S2
 C3 = np.array([1.0, 0.0, 0.0])
 NORMALS = np.array([D2, D1, C1, C2])                    # contacts D1, D2, S1, S2
 M_INV = np.linalg.inv(np.einsum("ki,kj->ij", NORMALS, NORMALS))   # (Σ n nᵀ)⁻¹ = diag(1, 1/2, 1)
-CONTACTS = ("D1", "D2", "S1", "S2")
 
 # effect name -> (parameter, value that means "off", unit, in the diagnosis's vocabulary)
 EFFECTS = {
@@ -328,7 +327,7 @@ class _Problem:
     def residual(self, x):
         p = self.p
         st = self.state(x)
-        F, v_r = st["F"], st["v_r"]
+        F = st["F"]
         f = self.compliance_factors(st)
         M = self.resisting(st)
         Fr, Vr = self.F_REF, self.v_ref

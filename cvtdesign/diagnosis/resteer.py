@@ -18,6 +18,8 @@ import numpy as np
 from scipy.optimize import brentq
 
 from cvtdesign.core.kinematics import shaft_frame
+from cvtdesign.core.model import compile_model
+from cvtdesign.diagnosis.diagnose import fit_model
 from cvtdesign.errors import InputError, shorten
 
 RATIOS = (0.4, 0.5, 0.8, 1.0, 1.25, 2.0, 2.5)     # Brokowski sec. 5.2 requested speed ratios
@@ -90,9 +92,6 @@ def lookup_command(data, rho, load) -> tuple[float, float]:
 
 def commands(layout, effects, load, ratios=RATIOS, data=None) -> dict:
     """Steering commands γ_cmd [rad] per method for each requested ratio, and the fitted parameters."""
-    from cvtdesign.diagnosis.diagnose import fit_model
-    from cvtdesign.core.model import compile_model
-
     if not math.isfinite(load):     # (the command line also holds an explicit --load to the envelope: check_load)
         raise InputError(f"load: expected a finite lateral load τ⊥ [N m], got {load}")
     if not all(math.isfinite(q) and q > 0 for q in ratios):

@@ -15,10 +15,11 @@ import pandas as pd
 from pydantic import BeforeValidator
 
 from cvtdesign.core.effects import EFFECTS, check_effects
-from cvtdesign.errors import InputError, suggest
-from cvtdesign.io.units import to_si
 from cvtdesign.core.layout import Layout
+from cvtdesign.core.model import compile_model, status_counts
+from cvtdesign.errors import InputError, suggest
 from cvtdesign.io.schema import Num, RangeSpec, Strict, no_bool
+from cvtdesign.io.units import to_si
 from cvtdesign.io.variant import effect_value, grid, quantity
 from cvtdesign.io.yaml_file import read_spec
 
@@ -126,8 +127,6 @@ def simulate(layout: Layout, effects, parameters: dict | None = None, protocol: 
     (rows in the measured-data format, the points not measured: model.status_counts of the points where the
     physics stops holding (lost contact, gross slip) or the solve did not converge; a rig cannot measure a
     steady state there)."""
-    from cvtdesign.core.model import compile_model, status_counts
-
     protocol = protocol or kim_protocol(layout)
     if not (isinstance(protocol.replicates, (int, np.integer)) and protocol.replicates >= 1):
         raise InputError(f"replicates: expected at least 1 replicate of each operating point, got {protocol.replicates}")

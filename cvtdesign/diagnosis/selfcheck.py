@@ -18,10 +18,17 @@ withheld effect.
 """
 from __future__ import annotations
 
-
 import numpy as np
+from dask.distributed import as_completed
 
-from cvtdesign.io.variant import shipped_variant
+from cvtdesign.core.kinematics import shaft_frame
+from cvtdesign.core.metrics import envelope, metrics
+from cvtdesign.core.model import compile_model
+from cvtdesign.design.cluster import dask_client
+from cvtdesign.diagnosis import diagnose, independent_sim, measured, rig
+from cvtdesign.diagnosis.rig import kim_protocol
+from cvtdesign.errors import InputError
+from cvtdesign.io.variant import load_variant, shipped_variant
 
 KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
 EXISTING = str(shipped_variant("existing"))   # Kim's CVT
@@ -66,8 +73,6 @@ def make_cases(quick: bool = False, seeds: int = 3, matrices=MATRICES, variant: 
 
 
 def _independent_cases(quick: bool) -> list[dict]:
-    from cvtdesign.diagnosis import independent_sim
-
     out, seen = [], set()
     for c in independent_sim.CASES:
         kind = {"none": "null", "unexplained": "out_of_vocabulary"}.get(c["truth"], "single")
@@ -84,10 +89,6 @@ def _independent_cases(quick: bool) -> list[dict]:
 
 def _values(variant: str) -> dict:
     """VALUES with the saturation's μ scales for the variant (SATURATION_UTILISATION)."""
-    from cvtdesign.core.metrics import envelope, metrics
-    from cvtdesign.core.model import compile_model
-    from cvtdesign.io.variant import load_variant
-
     m = compile_model(load_variant(variant).with_effects(KIM))
     u = metrics(m, envelope(m))["max_traction_utilisation"]
     return VALUES | {"traction_saturation": ("mu_scale", tuple(round(u / x, 3) for x in SATURATION_UTILISATION))}
@@ -125,11 +126,6 @@ def _rig_cases(quick: bool, seeds: int, values: dict) -> list[dict]:
 def run_case(case: dict, variant: str = EXISTING) -> dict:
     """Make the case's dataset (the rig, or the independent simulator), diagnose it against its base, and
     score the verdict."""
-    from cvtdesign.diagnosis import diagnose
-    from cvtdesign.diagnosis import measured
-    from cvtdesign.core.kinematics import shaft_frame
-    from cvtdesign.io.variant import load_variant
-
     L = load_variant(variant if case["matrix"] == "rig" else EXISTING)
     rows, failed, (snr, chi) = _dataset(case, L)
     kind = "weak" if case["kind"] == "single" and chi < WEAK_CHI else case["kind"]
@@ -152,9 +148,6 @@ def run_case(case: dict, variant: str = EXISTING) -> dict:
 def _dataset(case, layout):
     """(rows, points not measured, (signal per point, χ)) of a case: the withheld effects' noise-free change
     of α, τ∥ and the axis angle, in units of the rig's noise."""
-    from cvtdesign.diagnosis import independent_sim
-    from cvtdesign.diagnosis import rig
-
     if case["matrix"] == "independent":
         rows, failed = independent_sim.simulate(case["effects"], seed=case["seed"])
         if case["kind"] == "null":
@@ -172,10 +165,6 @@ def _signal_to_noise(layout, case, noise) -> tuple[float, float]:
     """How visible the withheld effects are: the change they make (truth with and without them, noise-free,
     over Kim's protocol) in α, τ∥ and the axis angle, in units of the rig's noise of each channel (α:
     σ_ω/|(ω1, ω2)|, τ∥: σ_τ, axis: σ_axis); returns (RMS per point and channel, χ = √Σz² over the dataset)."""
-    from cvtdesign.core.kinematics import shaft_frame
-    from cvtdesign.core.model import compile_model
-    from cvtdesign.diagnosis.rig import kim_protocol
-
     if not case["withheld"]:
         return 0.0, 0.0
     protocol = kim_protocol(layout)
@@ -235,11 +224,6 @@ def run(variant=EXISTING, quick=False, seeds=3, scheduler=None, workers=None, pr
     """Every dataset of the matrices (or those whose id contains one of `only`) on Dask (a local cluster by
     default); results in the matrices' order. The rig matrix uses `variant`; the independent one is Kim's
     existing CVT. A dataset whose diagnosis raises is recorded with verdict 'error: …' and counted as wrong."""
-    from dask.distributed import as_completed
-
-    from cvtdesign.design.cluster import dask_client
-    from cvtdesign.errors import InputError
-
     variant = variant or EXISTING
     every = make_cases(quick, seeds, matrices, variant)
     cases = [c for c in every if any(o in c["id"] for o in only)] if only else every
@@ -257,7 +241,7 @@ def run(variant=EXISTING, quick=False, seeds=3, scheduler=None, workers=None, pr
             except Exception as e:  # recorded, never swallowed
                 r = {"id": c["id"], "matrix": c["matrix"], "kind": c["kind"], "withheld": "+".join(c["withheld"]) or "-",
                      "noise": c["noise"], "verdict": f"error: {type(e).__name__}: {e}", "accepted": "-",
-                     "correct": False, "shrink": None, "shrink_efficiency": None, "signal_to_noise": 0.0,
+                     "correct": False, "shrink": None, "shrink_alpha": None, "shrink_efficiency": None, "signal_to_noise": 0.0,
                      "signal_chi": 0.0, "partial": [], "lies_along": None, "seconds": None, "not_measured": {}}
             results.append(r)
             if progress:

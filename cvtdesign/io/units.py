@@ -20,6 +20,7 @@ import operator
 import re
 
 import casadi as ca
+import pint
 
 from cvtdesign.errors import InputError, shorten
 
@@ -28,9 +29,7 @@ MAX_QUANTITY_TEXT = 100    # characters of a quantity or expression string
 
 @functools.cache
 def registry():
-    import pint
-
-    try:  # pint caches its parsed definitions on disk: 0.05 s instead of 0.2 s per start
+    try:  # pint caches its parsed definitions on disk, which makes every later start faster
         return pint.UnitRegistry(cache_folder=":auto:")
     except OSError:
         return pint.UnitRegistry()
@@ -73,8 +72,6 @@ def parse_quantity(text: str):
     rest = re.sub(r"^1\s*/", "/", rest)                        # '1/N'
     if not _UNIT_CHARS.fullmatch(rest) or "**" in rest or "^" in rest:
         return None
-    import pint
-
     try:
         return value, registry().parse_units(unit)
     except (pint.errors.UndefinedUnitError, pint.errors.DefinitionSyntaxError, ValueError, TypeError,
@@ -131,10 +128,6 @@ _FUNCS = {f: getattr(ca, f) for f in ("sin", "cos", "tan", "asin", "acos", "atan
 _ARITY = {f: 2 if f == "atan2" else 1 for f in _FUNCS}
 _CONSTS = {"pi": 3.141592653589793}
 MAX_DEPTH = 40             # nesting of an expression
-
-
-def _finite_number(v) -> bool:
-    return not isinstance(v, float) or math.isfinite(v)
 
 
 def evaluate_expression(text: str, names: dict, where: str):
@@ -229,8 +222,6 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
         raise InputError(f"{where}: expected a finite {kind} like {example}, got '{shorten(raw)}'")
     if u is None:
         return value
-    import pint
-
     try:
         si = float(registry().Quantity(value, u).to(unit or "dimensionless").magnitude)
     except (pint.errors.DimensionalityError, pint.errors.UndefinedUnitError, ValueError, TypeError,
