@@ -27,7 +27,8 @@ import numpy as np
 import yaml
 from scipy.optimize import minimize
 
-from cvtdesign.design.optimise import _rows_at, build_problem, solve_from, starts
+from cvtdesign.design.problem import build_problem
+from cvtdesign.design.solve import rows_at, solve_from, starts
 from cvtdesign.design.study import run_case, run_study, warm_worker
 import timing
 
@@ -51,7 +52,7 @@ def ipopt_vs_slsqp():
     z0 = starts(pr)[0]
     x0 = np.append(z0, float(pr.start_t(z0)) * 1.05 + 1e-3)
     # IPOPT's working set takes t0 from the largest |load| only: the same start if the worst |α| is there
-    screen = _rows_at(pr, np.append(z0, 0.0), pr.parts.screen)
+    screen = rows_at(pr, np.append(z0, 0.0), pr.parts.screen)
     assert abs(np.max(np.abs(screen[0])) * 1.05 + 1e-3 - x0[-1]) < 1e-12, "not the same start"
 
     t = time.perf_counter()

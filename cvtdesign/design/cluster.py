@@ -15,6 +15,8 @@ import signal
 import threading
 from contextlib import contextmanager, nullcontext
 
+from dask.distributed import Client, LocalCluster
+
 from cvtdesign.errors import InputError
 
 CONNECT_TIMEOUT = 5.0   # seconds to wait for an existing scheduler to answer
@@ -30,8 +32,6 @@ def check_workers(workers) -> None:
 
 def connect(scheduler: str, timeout: float | None = None):
     """A Client on an existing scheduler; one InputError line if none answers within `timeout` seconds."""
-    from dask.distributed import Client
-
     timeout = CONNECT_TIMEOUT if timeout is None else timeout
     try:
         return Client(scheduler, timeout=timeout)
@@ -47,8 +47,6 @@ def local_cluster(workers: int | None = None):
     """A LocalCluster of `workers` single-threaded worker processes (default: one per core), started with
     SIGINT ignored so that the worker processes inherit that and leave Ctrl-C to this process (a Ctrl-C
     during those ~1.5 s of start-up is therefore lost: press it again)."""
-    from dask.distributed import LocalCluster
-
     check_workers(workers)
     main = threading.current_thread() is threading.main_thread()
     old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
@@ -83,8 +81,6 @@ def dask_client(scheduler: str | None = None, workers: int | None = None):
     """A dask.distributed Client: on `scheduler` if given, else on a LocalCluster started (and closed) here.
     On Ctrl-C (KeyboardInterrupt) the client and cluster are closed with distributed's logging silenced,
     and the KeyboardInterrupt goes on to the caller."""
-    from dask.distributed import Client
-
     check_workers(workers)
     cluster = None
     if scheduler:

@@ -15,7 +15,7 @@ different study file (another hash) is refused. Each case's status is recorded: 
 
 A run:
  1. checks `--workers` and the whole study before anything is written or submitted: every variant file ×
-    sweep point's inputs (optimise.problem_inputs: parameters, bounds, geometry, effects, envelope,
+    sweep point's inputs (study_file.problem_inputs: parameters, bounds, geometry, effects, envelope,
     constraints, solver options); a bad input is one InputError line, exit status 2;
  2. takes the store's lock (`<store>/.lock`, filelock): a second run on the same store is refused at once;
  3. reads and checks every case file (readable Parquet, the store's columns, its own case id, the case's
@@ -40,10 +40,24 @@ import time
 from importlib import metadata
 from pathlib import Path
 
+import casadi as ca
 import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+from dask.distributed import as_completed
+from distributed.scheduler import KilledWorker
+from filelock import FileLock, Timeout
 
-from cvtdesign.io.output import OutputError, make_folder, remove_stale_temps, write_file
+from cvtdesign.design import cluster
+from cvtdesign.design.problem import IPOPT_OPTIONS, build_problem
+from cvtdesign.design.report import write_variant
+from cvtdesign.design.solve import pareto_front, solve_from, starts
+from cvtdesign.design.study_file import load_study, problem_inputs
 from cvtdesign.errors import InputError
+from cvtdesign.io.output import OutputError, make_folder, remove_stale_temps, write_file
+from cvtdesign.io.units import registry
+from cvtdesign.io.variant import parameter_value
 
 # the columns every case file has (besides design.<variable>)
 CASE_COLUMNS = ("case_id", "kind", "variant", "fixed", "start", "point", "status", "success", "objective",
@@ -74,9 +88,6 @@ def variant_files(study_file, spec, base) -> list[Path]:
 
 def make_cases(study_file, spec=None, base: Path | None = None) -> list[dict]:
     """The study's cases, each a small picklable dict with a stable id (spec, base: the loaded study)."""
-    from cvtdesign.design.optimise import load_study
-    from cvtdesign.io.variant import parameter_value
-
     if spec is None:
         spec, base = load_study(study_file)
     sweep = {k: [parameter_value(v, f"{study_file}: batch.sweep.{k}", {}) for v in vals] for k, vals in spec.batch.sweep.items()}
@@ -95,9 +106,7 @@ def make_cases(study_file, spec=None, base: Path | None = None) -> list[dict]:
 
 def check_study(study_file, spec, cases: list[dict]) -> None:
     """Every distinct problem's inputs (variant file × sweep point), checked before any case is submitted:
-    one InputError line for the first bad one (see optimise.problem_inputs)."""
-    from cvtdesign.design.optimise import problem_inputs
-
+    one InputError line for the first bad one (see study_file.problem_inputs)."""
     seen = set()
     for c in cases:
         key = (c["variant"], json.dumps(c["fixed"], sort_keys=True))
@@ -111,16 +120,9 @@ _KEEP = 4
 
 
 def warm_worker() -> int:
-    """Start-up of a worker: import what every case needs (CasADi and its IPOPT and Newton plugins, the
-    model, the unit registry, SciPy's Latin hypercube, the Parquet writer), so no case pays for it."""
-    import casadi as ca
-    import pandas  # noqa: F401
-    import pyarrow  # noqa: F401
-    from scipy.stats import qmc  # noqa: F401
-
-    from cvtdesign.design import optimise  # noqa: F401
-    from cvtdesign.io.units import registry
-
+    """Start-up of a worker: load what every case needs, so no case pays for it. Running this in a worker
+    imports this module, and with it CasADi, the model, SciPy's Latin hypercube and the Parquet writer;
+    here, the unit registry and CasADi's IPOPT and Newton plugins."""
     registry()
     x = ca.SX.sym("x")
     ca.nlpsol("warm", "ipopt", {"x": x, "f": x * x}, {"ipopt": {"print_level": 0, "sb": "yes"}, "print_time": False})
@@ -131,8 +133,6 @@ def warm_worker() -> int:
 def cached_problem(study_file: str, spec, base: Path, fixed: dict):
     """The case's NLP, built once per worker: every start of a variant × sweep point shares it (keyed by
     the study's and variant's contents, so an edited file is a new problem)."""
-    from cvtdesign.design.optimise import build_problem
-
     key = (str(study_file), hashlib.sha256(Path(study_file).read_bytes() + base.read_bytes()).hexdigest(),
            str(base), json.dumps(fixed, sort_keys=True))
     if key not in _PROBLEMS:
@@ -146,8 +146,6 @@ def cached_problem(study_file: str, spec, base: Path, fixed: dict):
 
 def run_case(study_file: str, case: dict, out_dir: str) -> list[dict]:
     """Run one case in a worker; returns its rows (one per optimum or Pareto point)."""
-    from cvtdesign.design.optimise import load_study, pareto_front, starts, solve_from, write_variant
-
     t0 = time.perf_counter()
     spec, _ = load_study(study_file)
     base = Path(case["variant"])
@@ -212,9 +210,6 @@ def write_case(out_dir: Path, case_id: str, rows: list[dict]):
     """One Parquet file per case, by output.write_file (pyarrow writes the temporary file, which is then
     renamed: never half-written); pyarrow directly, a third of pandas' time, which matters in the client
     that also runs the scheduler."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
     table = pa.Table.from_pylist(rows)
     d = make_folder(Path(out_dir) / "cases", kind="results store")
     write_file(d / f"{case_id}.parquet", lambda tmp: pq.write_table(table, tmp), kind="case file")
@@ -224,9 +219,6 @@ def read_case(path: Path, rows: set[int] | None = None):
     """A case file, checked: readable Parquet with the store's columns (CASE_COLUMNS), only its own case id
     (the file's name) and, when `rows` is given, a row count in it. Returns the pyarrow Table; raises
     ValueError saying what is wrong."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
     try:
         table = pq.read_table(path)
     except (OSError, ValueError, pa.ArrowException):
@@ -268,10 +260,8 @@ def done_cases(out_dir: Path, cases: list[dict] | None = None, spec=None, notice
     return done
 
 
-def read_store(out_dir) -> "pandas.DataFrame":
+def read_store(out_dir) -> pd.DataFrame:
     """Every case file of the store that passes `read_case`, as one DataFrame (empty if none)."""
-    import pandas as pd
-
     tables = []
     for f in sorted((Path(out_dir) / "cases").glob("[!.]*.parquet")):
         with contextlib.suppress(ValueError):
@@ -280,8 +270,6 @@ def read_store(out_dir) -> "pandas.DataFrame":
 
 
 def manifest(study_file, spec, digest: str) -> dict:
-    from cvtdesign.design.optimise import IPOPT_OPTIONS
-
     versions = {p: metadata.version(p) for p in ("cvtdesign", "casadi", "numpy", "scipy", "dask", "distributed",
                                                  "pyarrow", "pandas")}
     return {"study": spec.name, "study_file": str(study_file), "study_hash": digest, "versions": versions,
@@ -311,8 +299,6 @@ def prepare_store(study_file, spec, base: Path, out_dir: Path) -> dict:
 def store_lock(out_dir: Path):
     """Hold the store's lock (`<store>/.lock`, an OS file lock by filelock, released when the process ends
     however it ends) for the block; refuse at once, in one line, when another run holds it."""
-    from filelock import FileLock, Timeout
-
     path = make_folder(out_dir, kind="results store") / ".lock"
     lock = FileLock(path, timeout=0)
     try:
@@ -334,15 +320,12 @@ def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: i
     follows the cases; `notice(text)` gets one-line notices (a corrupt case file run again). Bad input
     (the study, `workers`, a scheduler that does not answer, a store held by another run) is an
     InputError before any case runs; Ctrl-C raises `Interrupted` once the cluster is closed."""
-    from cvtdesign.design.cluster import check_workers, connect
-    from cvtdesign.design.optimise import load_study
-
-    check_workers(workers)
+    cluster.check_workers(workers)
     spec, base = load_study(study_file)
     cases = make_cases(study_file, spec, base)
     check_study(study_file, spec, cases)
     if scheduler:          # a scheduler that does not answer is refused before the results store is created
-        connect(scheduler).close()
+        cluster.connect(scheduler).close()
     out_dir = Path(out_dir or Path("results") / spec.name)
     with store_lock(out_dir):
         man = prepare_store(study_file, spec, base, out_dir)
@@ -377,13 +360,8 @@ def _run_cases(study_file, spec, man: dict, todo: list[dict], out_dir: Path, whe
                progress) -> tuple[float, float]:
     """Run `todo` on Dask (where: (scheduler, workers)), writing each case's file as it finishes and
     appending its id to `written`; returns (cluster start-up, cases) seconds."""
-    from dask.distributed import as_completed
-    from distributed.scheduler import KilledWorker
-
-    from cvtdesign.design.cluster import dask_client
-
     t_start = time.perf_counter()
-    with dask_client(*where) as client:
+    with cluster.dask_client(*where) as client:
         client.run(warm_worker)
         t0 = time.perf_counter()
         names = sorted(client.scheduler_info()["workers"])

@@ -1,0 +1,90 @@
+"""What a solve returns: the Solution of one IPOPT run, and its check on the whole envelope.
+
+After IPOPT, the optimum is checked on the whole envelope by the numeric model (`Problem.check`, which
+compiles the layout at the optimum and runs `CompiledModel.evaluate` over every envelope point, counted by
+`check_envelope`): a point that did not converge, that has a contact at N ≤ 0 or a contact at |F| > μN
+fails it, and the solve is then reported as failed (status 'Failed_Envelope_Check' with the counts;
+`success` False), so no variant file is written for it (`report.write_variant` refuses to).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from cvtdesign.core.model import STATUS
+
+
+@dataclass
+class Solution:
+    """One solve from one start: IPOPT's status (or the envelope check's), the objective, the design
+    (z normalised to [0, 1], `design` the SI values by name), every row g of the whole formulation with its
+    multipliers lam_g, and the bound multipliers lam_x of z."""
+    status: str
+    success: bool
+    objective: float
+    z: np.ndarray
+    design: dict
+    g: np.ndarray
+    lam_g: np.ndarray
+    lam_x: np.ndarray
+    iterations: int
+    start: int
+    rounds: int = 1          # working-set rounds (IPOPT solves)
+    points: int = 0          # envelope points in the final working set
+    check: EnvelopeCheck | None = None   # the optimum on the whole envelope (None: IPOPT did not succeed)
+    ipopt_status: str = ""   # IPOPT's return status (`status` says Failed_Envelope_Check when the check fails)
+
+
+@dataclass
+class EnvelopeCheck:
+    """A design on the whole envelope by the numeric model: how many points did not converge, lost
+    contact (N ≤ 0 at some contact) or slip grossly (N > 0 but |F| > μN at some contact)."""
+    points: int
+    not_converged: int
+    lost_contact: int
+    gross_slip: int
+    min_normal_force: float    # [N] smallest N over the points that pass (NaN: none passes)
+    max_utilisation: float     # largest |F|/(μN) over the points that pass
+    worst: str = ""            # a failing point of the most serious kind, why, and at which contact
+
+    @property
+    def failed(self) -> int:
+        return self.not_converged + self.lost_contact + self.gross_slip
+
+    @property
+    def ok(self) -> bool:
+        return self.failed == 0
+
+    def summary(self) -> str:
+        return (f"{self.failed} of {self.points} envelope points: {self.lost_contact} lost contact (N ≤ 0), "
+                f"{self.gross_slip} gross slip (|F| > μN), {self.not_converged} not converged")
+
+    def as_dict(self) -> dict:
+        return {"points": self.points, "failed": self.failed, "not_converged": self.not_converged,
+                "lost_contact": self.lost_contact, "gross_slip": self.gross_slip,
+                "min_normal_force_N": self.min_normal_force, "max_utilisation": self.max_utilisation,
+                "worst": self.worst}
+
+
+def check_envelope(model, gammas, loads, speeds=None) -> EnvelopeCheck:
+    """Evaluate a numeric CompiledModel at the operating points (γ [rad], τ⊥ [N m], broadcastable; speeds
+    [rad/s], default the layout's) and count the points outside the model's physics by the model's own
+    `status` (not converged, lost contact: N ≤ 0, gross slip: |F| > μN), naming the first failure of the
+    most serious kind and the contact behind it."""
+    res = model.evaluate(gammas, loads, speeds)
+    st, contact = res["status"].ravel(), res["failed_contact"].ravel()
+    n = st.size
+    N, U = np.reshape(res["N"], (-1, n)), np.reshape(res["utilisation"], (-1, n))
+    ok = st == STATUS.index("ok")
+    g, l = (np.broadcast_to(a, res["status"].shape).ravel() for a in (res["gamma_cmd"], res["load"]))
+    worst = ""
+    for code, what in ((2, "lost contact (N ≤ 0)"), (3, "gross slip (|F| > μN)"), (1, "not converged")):
+        if (st == code).any():
+            k = int(np.flatnonzero(st == code)[0])
+            who = f" at {model.roller_names[contact[k]]}" if contact[k] >= 0 else ""
+            worst = f"γ={np.degrees(g[k]):+.0f}° τ⊥={l[k]:+.3g}: {what}{who}"
+            break
+    return EnvelopeCheck(n, int((st == 1).sum()), int((st == 2).sum()), int((st == 3).sum()),
+                         float(np.min(N[:, ok])) if ok.any() else float("nan"),
+                         float(np.max(U[:, ok])) if ok.any() else float("nan"), worst)

@@ -1,0 +1,245 @@
+"""The study file: what a design optimisation asks for, read and checked.
+
+A study file names a base variant, the variant parameters that are free (with bounds), an objective and
+constraints (StudySpec). `load_study` reads it; `problem_inputs` checks, for one variant file and sweep
+point, everything the NLP is built from (parameters, bounds, geometry, and by `check_settings` the effects,
+envelope, constraint values, duty cycle and solver options), without compiling anything.
+
+Objectives: `worst_alpha` (max |α| over the envelope), `rms_alpha`, `power_loss` (weighted mean power loss
+over a duty cycle of (γ, τ⊥) points [W]).
+Constraints: Hertz peak pressure ≤ the material's allowable, traction |F| ≤ (1 − margin)·μN (no gross
+slip), normal force N ≥ N_min at every contact (the rollers stay in contact), roller–roller clearance, an
+assembly envelope radius, and the steering linkage still reaching every γ of the envelope.
+
+`constraints.min_normal_force` is a force ('5 N'); left out (null) it is 5 % of each roller's base preload
+(`min_normal_force`). It cannot be switched off: a design with a contact at N ≤ 0 is outside the model,
+whatever else the study asks for (a smaller positive floor is allowed).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BeforeValidator, Field, StrictBool
+
+from cvtdesign.core.checks import check_layout
+from cvtdesign.core.effects import check_effects
+from cvtdesign.errors import InputError, shorten, suggest
+from cvtdesign.io.schema import EnvelopeSpec, Name, Num, Strict, no_bool
+from cvtdesign.io.units import check_range, dimension_of, kind_name, to_si
+from cvtdesign.io.variant import grid, load_spec, parameter_value, quantity, resolve
+from cvtdesign.io.yaml_file import read_spec
+
+DEFAULT_MIN_NORMAL_FRACTION = 0.05   # default min_normal_force: this fraction of each roller's base preload
+
+# integers and switches of a study file: YAML's true/false are not numbers, and 1 or "yes" is not a switch
+Int = Annotated[int, BeforeValidator(no_bool)]
+Weight = Annotated[float, BeforeValidator(no_bool)]
+
+
+class DesignVar(Strict):
+    """A free parameter of the base variant, between `lower` and `upper` (lower < upper, finite). Both bounds
+    have the dimension of the parameter as the variant writes it (a parameter '60 mm' needs lengths like
+    '30 mm'; a plain-number parameter, e.g. a ratio, plain-number bounds; an '= expression' parameter any
+    dimension, the same for both bounds)."""
+    lower: Num
+    upper: Num
+    variants: list[str] | None = None   # free only in these variant files (of batch.variants); default: all
+
+
+class DutyPoint(Strict):
+    gamma: Num          # an angle within ±90°
+    load: Num           # a torque
+    weight: Weight = 1.0   # finite, >= 0
+
+
+class Objective(Strict):
+    kind: Literal["worst_alpha", "rms_alpha", "power_loss"] = "worst_alpha"
+    duty_cycle: list[DutyPoint] | None = None
+
+
+class Constraints(Strict):
+    """Constraint settings: `traction_margin` a plain number in [0, 1); `clearance` a length >= 0 (at most
+    1 m) between any two rollers; `envelope_radius` a length (0, 10 m]; `min_normal_force` a force > 0.
+    Each is finite; plain numbers are SI, and an implausible plain length gets the unit it probably meant."""
+    hertz_pressure: StrictBool = True
+    traction_margin: Num | None = 0.2
+    # N_i ≥ this at every contact and envelope point: a force ('5 N'); None: 5 % of each roller's preload at
+    # the base design (DEFAULT_MIN_NORMAL_FRACTION). Not switchable off (bool is kept only to reject it).
+    min_normal_force: bool | Num | None = None
+    clearance: Num | None = "2 mm"
+    envelope_radius: Num | None = None
+    reach_gamma: StrictBool = True
+
+
+class Multistart(Strict):
+    starts: Int = 6
+    seed: Annotated[Int, Field(ge=0)] = 0
+
+
+class Batch(Strict):
+    """What `cvtdesign study` runs as separate cases: every base variant × every combination of the swept
+    (fixed) parameters × every multistart point, and one Pareto chain per variant × sweep combination."""
+    variants: list[str] | None = None                 # default: [base]
+    sweep: dict[str, list[Num]] = {}
+    pareto: StrictBool = False
+
+
+class Pareto(Strict):
+    """ε-constraint sweep: minimise power loss subject to worst |α| ≤ ε, ε from the slip optimum to the
+    loss optimum's slip, warm-started point to point."""
+    points: Int = 8
+
+
+class StudySpec(Strict):
+    name: Name          # part of the results folder's and the optimised variant's file names
+    description: str = ""
+    base: str
+    effects: list[str] | None = None
+    design: dict[str, DesignVar]
+    objective: Objective = Objective()
+    constraints: Constraints = Constraints()
+    multistart: Multistart = Multistart()
+    envelope: EnvelopeSpec | None = None              # default: the variant's envelope
+    batch: Batch = Batch()
+    pareto: Pareto = Pareto()
+    max_iter: Int = 200
+
+
+def load_study(path) -> tuple[StudySpec, Path]:
+    where = str(path)
+    spec = read_spec(path, StudySpec, "name, base, design, objective")
+    base = (Path(path).parent / spec.base)
+    if not base.exists():
+        raise InputError(f"{where}: base: no variant file '{spec.base}' next to the study")
+    return spec, base
+
+
+def _free_in(spec: StudySpec, name: str, base_file: Path, study_path) -> bool:
+    """Whether design variable `name` is free in the variant `base_file` (its `variants` list, if any, names
+    variant files next to the study, as batch.variants does)."""
+    only = spec.design[name].variants
+    if only is None:
+        return True
+    files = [Path(study_path).parent / v for v in only]
+    for v, f in zip(only, files):
+        if not f.exists():
+            raise InputError(f"{study_path}: design.{name}.variants: no variant file '{v}' next to the study")
+    return any(f.resolve() == Path(base_file).resolve() for f in files)
+
+
+def _typed_value(raw, param: str, vspec, where: str) -> float:
+    """A value for the variant parameter `param` (a design bound or a sweep value) in SI, finite, with the
+    dimension of the parameter as the variant writes it (see DesignVar)."""
+    value = parameter_value(raw, where, {})
+    want, got = dimension_of(vspec.parameters[param]), dimension_of(raw)
+    if want is not None and got is not None and want != got:
+        raise InputError(f"{where}: '{shorten(raw)}' is {kind_name(got)} but the variant's parameter {param} is "
+                         f"{kind_name(want)} ({param}: {shorten(vspec.parameters[param])}); expected the same kind")
+    return value
+
+
+def _check_bounds(n: str, spec: StudySpec, vspec, where: str) -> tuple[float, float]:
+    lo = _typed_value(spec.design[n].lower, n, vspec, f"{where}: design.{n}.lower")
+    hi = _typed_value(spec.design[n].upper, n, vspec, f"{where}: design.{n}.upper")
+    d_lo, d_hi = dimension_of(spec.design[n].lower), dimension_of(spec.design[n].upper)
+    if d_lo is not None and d_hi is not None and d_lo != d_hi:
+        raise InputError(f"{where}: design.{n}: lower '{shorten(spec.design[n].lower)}' is {kind_name(d_lo)} but "
+                         f"upper '{shorten(spec.design[n].upper)}' is {kind_name(d_hi)}; expected the same kind")
+    return lo, hi
+
+
+def problem_inputs(study_path, spec: StudySpec, base_file: Path, fixed: dict | None = None) -> tuple:
+    """The checked inputs of a study's NLP for one variant file and sweep point: (variant spec, base layout
+    with the sweep point, free design variables, their lower and upper bounds [SI]). Every bad input is one
+    InputError line naming the study file and the field: an unknown sweep or design parameter, a swept
+    design variable, inverted bounds, impossible geometry, and the study-wide settings (`check_settings`).
+    Nothing is compiled (milliseconds), so `study` checks every case's inputs before it runs any."""
+    where = str(study_path)
+    vspec = load_spec(base_file)
+    fixed = fixed or {}
+    for n in fixed:
+        if n not in vspec.parameters:
+            raise InputError(f"{where}: batch.sweep.{n}: the variant {base_file.name} has no parameter '{n}'"
+                             f"{suggest(n, vspec.parameters)}")
+        if n in spec.design:
+            raise InputError(f"{where}: batch.sweep.{n}: '{n}' is a design variable; sweep fixed parameters only")
+    base = resolve(vspec, str(base_file), overrides=fixed)
+    check_layout(base)
+    names = [n for n in spec.design if _free_in(spec, n, base_file, study_path)]
+    if not names:
+        raise InputError(f"{where}: design: no design variables" + (f" for {base_file.name}" if spec.design else ""))
+    lower, upper = [], []
+    for n in names:
+        if n not in vspec.parameters:
+            raise InputError(f"{where}: design.{n}: the variant {base_file.name} has no parameter '{n}'"
+                             f"{suggest(n, vspec.parameters)} (parameters: {', '.join(vspec.parameters) or 'none'})")
+        lo, hi = _check_bounds(n, spec, vspec, where)
+        if not lo < hi:
+            raise InputError(f"{where}: design.{n}: inverted bounds (lower {spec.design[n].lower} must be below "
+                             f"upper {spec.design[n].upper})")
+        lower.append(lo)
+        upper.append(hi)
+    for n, values in spec.batch.sweep.items():
+        if n in vspec.parameters:
+            for i, v in enumerate(values):
+                _typed_value(v, n, vspec, f"{where}: batch.sweep.{n}[{i}]")
+    check_settings(study_path, spec, base)
+    return vspec, base, names, np.array(lower), np.array(upper)
+
+
+def check_settings(study_path, spec: StudySpec, base) -> None:
+    """The study-wide settings the NLP reads, checked against the base layout `base`: the effects, the
+    envelope, the constraint values, the duty cycle and the solver options (IPOPT's max_iter, the number
+    of starts and of Pareto points)."""
+    where = str(study_path)
+    if spec.effects is not None:
+        check_effects(spec.effects, f"{where}: effects")
+    if spec.envelope is not None:
+        grid(spec.envelope.gamma, "angle", f"{where}: envelope.gamma")
+        grid(spec.envelope.load, "torque", f"{where}: envelope.load")
+    cs = spec.constraints
+    if cs.traction_margin is not None:
+        w = f"{where}: constraints.traction_margin"
+        check_range(to_si(cs.traction_margin, "dimensionless", w), cs.traction_margin, w,
+                    "traction margin", "dimensionless", 0.0, 1.0, hi_open=True)
+    if cs.clearance is not None:
+        w = f"{where}: constraints.clearance"
+        check_range(to_si(cs.clearance, "length", w), cs.clearance, w, "clearance between rollers", "length",
+                    0.0, 1.0, guess="mm")
+    if cs.envelope_radius is not None:
+        w = f"{where}: constraints.envelope_radius"
+        check_range(to_si(cs.envelope_radius, "length", w), cs.envelope_radius, w, "assembly envelope radius",
+                    "length", 0.0, 10.0, lo_open=True, guess="mm")
+    pre0 = np.array([float(r.preload) for r in base.rollers])
+    min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
+    weights = []
+    for i, d in enumerate(spec.objective.duty_cycle or []):
+        quantity(d.gamma, "gamma", f"{where}: objective.duty_cycle[{i}].gamma")
+        quantity(d.load, "load", f"{where}: objective.duty_cycle[{i}].load")
+        if not (math.isfinite(d.weight) and d.weight >= 0):
+            raise InputError(f"{where}: objective.duty_cycle[{i}].weight: expected a finite weight >= 0, got {d.weight}")
+        weights.append(d.weight)
+    if weights and not sum(weights) > 0:
+        raise InputError(f"{where}: objective.duty_cycle: every weight is 0; expected at least one positive weight")
+    for field_, value, least in (("max_iter", spec.max_iter, 1), ("multistart.starts", spec.multistart.starts, 1),
+                                 ("pareto.points", spec.pareto.points, 1)):
+        if value < least:
+            raise InputError(f"{where}: {field_}: expected an integer >= {least}, got {value}")
+
+
+def min_normal_force(raw, preloads: np.ndarray, where: str, names: dict) -> np.ndarray:
+    """N_min per roller [N] from constraints.min_normal_force: a positive force (or an expression over the
+    base variant's parameters), the same for every roller; None: DEFAULT_MIN_NORMAL_FRACTION of each
+    roller's preload at the base design."""
+    if raw is None:
+        return DEFAULT_MIN_NORMAL_FRACTION * preloads
+    if isinstance(raw, bool):
+        raise InputError(f"{where}: expected a force like '5 N' (leave it out for {DEFAULT_MIN_NORMAL_FRACTION:.0%} "
+                         f"of each roller's preload), got {raw!r}: the normal-force floor cannot be switched off")
+    value = to_si(raw, "force", where, names)
+    if not isinstance(value, float) or not value > 0:
+        raise InputError(f"{where}: expected a positive force like '5 N', got '{raw}'")
+    return np.full(preloads.size, value)
