@@ -5,7 +5,8 @@
 - Imports sit at the top of each module; only the heavy optional libraries (LAZY) are imported inside a
   function, and each of those in one module only (its boundary).
 - No private name (`_x`) is imported from another module.
-- Nothing in the package, docs/ or the README points at a file outside the repository.
+- Nothing in the package, docs/, the README, the shipped variants or the studies points at a file outside
+  the repository.
 """
 from __future__ import annotations
 
@@ -130,7 +131,8 @@ def test_no_private_names_imported_across_modules():
 
 def test_nothing_points_outside_the_repository():
     pattern = re.compile(r"\.\./shared|DESIGN\.md|\brefs/|/work/")
-    files = [*PKG.rglob("*.py"), *(ROOT / "docs").rglob("*.md"), ROOT / "README.md"]
+    files = [*PKG.rglob("*.py"), *(ROOT / "docs").rglob("*.md"), ROOT / "README.md",
+             *(ROOT / "variants").glob("*.yaml"), *(ROOT / "studies").glob("*.yaml")]
     bad = [f"{p.relative_to(ROOT)}:{i}" for p in files for i, line in enumerate(p.read_text().splitlines(), 1)
            if pattern.search(line)]
     assert not bad, f"references to files outside the repository: {bad}"
