@@ -7,10 +7,11 @@ from __future__ import annotations
 import re
 from typing import Annotated, Literal, Union
 
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, ValidationError
-from pydantic_core import PydanticCustomError
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+from pydantic_core import PydanticCustomError, PydanticUndefined
 
 from cvtdesign.errors import InputError, shorten, suggest
+from cvtdesign.io.units import KINDS
 
 
 def no_bool(v):
@@ -40,21 +41,51 @@ class Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+def unit_text(kind: str) -> str:
+    """How a value of a units.KINDS kind is written: 'length: a plain number is m, or a quantity like '40 mm''."""
+    si, example = KINDS[kind]
+    if kind == "dimensionless":
+        return "a plain number (no unit)"
+    return f"{kind} [{si}]: a plain number is {si}, or a quantity like {example}"
+
+
+def spec_field(meaning: str, default=PydanticUndefined, *, kind: str | None = None, plausible: str | None = None):
+    """A schema field whose description is its meaning followed by its unit (`kind`, a units.KINDS key).
+    The description is the one text of docs/variant-reference.md and of the comments `cvtdesign new` writes.
+    `kind` and `plausible` (the io.variant.PLAUSIBLE key of the range a value must lie in) are kept in the
+    field's json_schema_extra for the reference."""
+    description = meaning if kind is None else f"{meaning}; {unit_text(kind)}"
+    extra = {k: v for k, v in (("kind", kind), ("plausible", plausible)) if v}
+    return Field(default, description=description, json_schema_extra=extra or None)
+
+
+DIRECTION = ("a frame vector name (x, y, z, d1, d2, d3, c1, c2, c3, optionally with '-': '-d1'), a list of three "
+             "plain numbers (normalised) or {polar, azimuth}")
+
+
 class Spherical(Strict):
-    polar: Num
-    azimuth: Num
+    """A direction from the sphere centre by its two angles."""
+    polar: Num = spec_field("angle θ from +z (0: +z, 90 deg: the xy plane, 180 deg: −z)", kind="angle",
+                            plausible="direction_angle")
+    azimuth: Num = spec_field("angle from +x towards +y about z", kind="angle", plausible="direction_angle")
 
 
 class MaterialSpec(Strict):
-    youngs_modulus: Num
-    poisson_ratio: Num
-    friction: Num = 0.8
-    allowable_pressure: Num | None = None
+    """A material the sphere or a roller is made of (Hertz contact, friction, allowable pressure)."""
+    youngs_modulus: Num = spec_field("Young's modulus E (urethane 82A ≈ 10.7 MPa)", kind="pressure",
+                                     plausible="youngs_modulus")
+    poisson_ratio: Num = spec_field("Poisson's ratio ν, 0 ≤ ν < 0.5 (urethane ≈ 0.48)", kind="dimensionless")
+    friction: Num = spec_field("friction coefficient μ; a contact uses the smaller μ of its two materials",
+                               0.8, kind="dimensionless", plausible="friction")
+    allowable_pressure: Num | None = spec_field(
+        "allowable Hertz peak pressure, a constraint of `cvtdesign optimise` (omitted: not checked)", None,
+        kind="pressure", plausible="allowable_pressure")
 
 
 class SphereSpec(Strict):
-    radius: Num
-    material: str
+    """The sphere; its centre is the origin of the frame x, y, z."""
+    radius: Num = spec_field("sphere radius R", kind="length", plausible="sphere_radius")
+    material: str = spec_field("the sphere's material: a name under `materials`")
 
 
 class RollerSpec(Strict):
@@ -64,63 +95,108 @@ class RollerSpec(Strict):
     parameters, in m), which must lie on the sphere (|p| = sphere radius within 1e-6 relative). Plain
     numbers are always a direction, never a point; a list mixing plain numbers and lengths is refused.
     `axle` is the positive spin axis, perpendicular to the contact normal."""
-    role: Literal["drive", "follower", "steering"]
-    contact: Union[str, list[Num], Spherical]
-    axle: Union[str, list[Coord], Spherical]
-    shaft: Annotated[Literal[1, 2] | None, BeforeValidator(no_bool)] = None
-    ratio: Num = 1.0
-    radius: Num | None = None
-    material: str | None = None
-    crown_radius: Num | None = None
-    width: Num | None = None
-    preload: Num | None = None
-    mount_stiffness: Num | None = None
+    role: Literal["drive", "follower", "steering"] = spec_field(
+        "drive: turns with its shaft (each of shafts 1 and 2 needs one); follower: coupled to a shaft at "
+        "`ratio` times its speed; steering: an idler on a fork (steering.forks) that sets the sphere's axis")
+    contact: Union[str, list[Num], Spherical] = spec_field(
+        f"where the roller touches the sphere, at φ = 0: the outward contact normal n as {DIRECTION}; or the "
+        "contact point as a list of three lengths ('44.9 mm' or '= expr', m), which must lie on the sphere")
+    axle: Union[str, list[Coord], Spherical] = spec_field(
+        f"the roller's positive spin axis a at φ = 0, perpendicular to the contact normal, as {DIRECTION}; "
+        "it rolls along n × a, and its shaft's speed and torque count positive about it")
+    shaft: Annotated[Literal[1, 2] | None, BeforeValidator(no_bool)] = spec_field(
+        "the shaft (1: motor, 2: brake) a drive or follower roller is on; a steering roller has none", None)
+    ratio: Num = spec_field("a follower's speed / its shaft's speed (negative: turns the other way), "
+                            "1e-3 ≤ |ratio| ≤ 1e3; ignored for drive and steering rollers", 1.0,
+                            kind="dimensionless")
+    radius: Num | None = spec_field("rolling radius r (omitted: roller_defaults.radius)", None, kind="length",
+                                    plausible="roller_radius")
+    material: str | None = spec_field("the roller's material, a name under `materials` (omitted: "
+                                      "roller_defaults.material)", None)
+    crown_radius: Num | None = spec_field("crown radius of the tread across the roller (omitted: "
+                                          "roller_defaults.crown_radius, else the rolling radius)", None,
+                                          kind="length", plausible="crown_radius")
+    width: Num | None = spec_field("tread width along the axle, for the overlap check and the CAD export "
+                                   "(omitted: roller_defaults.width)", None, kind="length", plausible="width")
+    preload: Num | None = spec_field("normal force on the sphere with the sphere centred (omitted: "
+                                     "roller_defaults.preload)", None, kind="force", plausible="preload")
+    mount_stiffness: Num | None = spec_field("normal stiffness of the roller's mount and contact: N = preload + "
+                                             "k·n·δ for a sphere displacement δ (omitted: "
+                                             "roller_defaults.mount_stiffness)", None, kind="stiffness",
+                                             plausible="mount_stiffness")
 
 
 class RollerDefaults(Strict):
     """Values for every roller that does not give its own (a roller's own field overrides these)."""
-    radius: Num | None = None
-    material: str | None = None
-    crown_radius: Num | None = None
-    width: Num = "24 mm"
-    preload: Num = "100 N"
-    mount_stiffness: Num = "2e5 N/m"
+    radius: Num | None = spec_field("rolling radius of every roller that gives none (no default: each roller "
+                                    "then needs its own)", None, kind="length", plausible="roller_radius")
+    material: str | None = spec_field("material of every roller that gives none, a name under `materials`", None)
+    crown_radius: Num | None = spec_field("crown radius of every roller that gives none (omitted here and on "
+                                          "the roller: its rolling radius)", None, kind="length",
+                                          plausible="crown_radius")
+    width: Num = spec_field("tread width of every roller that gives none", "24 mm", kind="length",
+                            plausible="width")
+    preload: Num = spec_field("normal preload of every roller that gives none", "100 N", kind="force",
+                              plausible="preload")
+    mount_stiffness: Num = spec_field("mount stiffness of every roller that gives none", "2e5 N/m",
+                                      kind="stiffness", plausible="mount_stiffness")
 
 
 class ForkSpec(Strict):
-    rollers: list[str]
-    axis: Union[str, list[Coord], Spherical]
-    sign: Annotated[Literal[1, -1], BeforeValidator(no_bool)] = 1
+    """A steering fork: turns its rollers' contact normals and axles about `axis` by sign·φ."""
+    rollers: list[str] = spec_field("names of the steering rollers this fork carries (at least one; each "
+                                    "steering roller on exactly one fork)")
+    axis: Union[str, list[Coord], Spherical] = spec_field(
+        f"the fork's turning axis through the sphere centre, as {DIRECTION}")
+    sign: Annotated[Literal[1, -1], BeforeValidator(no_bool)] = spec_field(
+        "1: the fork turns by +φ about `axis` (right-handed), -1: by −φ (forks geared in opposite senses)", 1)
 
 
 class SteeringSpec(Strict):
-    forks: list[ForkSpec]
+    """The steering linkage: forks that all turn with one steering angle φ."""
+    forks: list[ForkSpec] = spec_field("the forks; each fork's fields: rollers, axis, sign")
 
 
 class ContactSpec(Strict):
-    creep_drive: Num | None = None
-    creep_steering: Num | None = None
-    creep_reference_force: Num | None = None   # normal force at which the creep constants hold (default: preload)
+    """Creep constants of the contacts (Kim et al., 'Causes of microslip in a continuously variable
+    transmission', fitted ε_D and ε_S); omitted ones come from Hertz + Kalker theory."""
+    creep_drive: Num | None = spec_field("creep constant ε_D of drive and follower rollers: slip ratio per "
+                                         "newton of tangential force (omitted: Hertz + Kalker C11)", None,
+                                         kind="compliance", plausible="creep")
+    creep_steering: Num | None = spec_field("creep constant ε_S of steering rollers: slip angle [rad] per newton "
+                                            "of lateral force (omitted: Hertz + Kalker C22)", None,
+                                            kind="compliance", plausible="creep")
+    creep_reference_force: Num | None = spec_field(
+        "normal force at which creep_drive and creep_steering hold (omitted: each roller's preload)", None,
+        kind="force", plausible="creep_reference_force")
 
 
 class RangeSpec(Strict):
-    start: Num
-    stop: Num
-    step: Num
+    """An axis of operating points: start, start + step, ..., stop."""
+    start: Num = spec_field("first value, in the axis's unit (γ: angle, load: torque)")
+    stop: Num = spec_field("last value (at least start), in the axis's unit")
+    step: Num = spec_field("spacing of the values (above 0), in the axis's unit")
 
 
 class EnvelopeSpec(Strict):
-    gamma: RangeSpec = RangeSpec(start="-80 deg", stop="80 deg", step="10 deg")
-    load: RangeSpec = RangeSpec(start="-1 N*m", stop="1 N*m", step="0.1 N*m")
-    motor_speed: Num = "10 rad/s"
+    """The operating envelope `compare` and `optimise` evaluate: every γ with every load, motor at motor_speed."""
+    gamma: RangeSpec = spec_field("commanded transmission angle γ (docs/conventions.md), each of start, stop, "
+                                  "step", RangeSpec(start="-80 deg", stop="80 deg", step="10 deg"), kind="angle",
+                                  plausible="gamma")
+    load: RangeSpec = spec_field("lateral load τ⊥ (for Kim's layout −τ1 sin γ + τ2 cos γ), each of start, "
+                                 "stop, step", RangeSpec(start="-1 N*m", stop="1 N*m", step="0.1 N*m"),
+                                 kind="torque", plausible="load")
+    motor_speed: Num = spec_field("speed ω1 of shaft 1 (the motor), forwards about its drive roller's axle",
+                                  "10 rad/s", kind="speed", plausible="motor_speed")
 
 
 class FrameSpec(Strict):
     """A mounting plate, drawn by `cvtdesign export` only: perpendicular to `side` (a vector from the sphere
     centre), its near face `distance` from the centre, sized to the assembly's outline."""
-    side: Union[str, list[Coord], Spherical]
-    distance: Num
-    thickness: Num = "10 mm"
+    side: Union[str, list[Coord], Spherical] = spec_field(f"the side of the sphere the plate is on, as {DIRECTION}")
+    distance: Num = spec_field("distance from the sphere centre to the plate's near face", kind="length",
+                               plausible="frame_distance")
+    thickness: Num = spec_field("plate thickness", "10 mm", kind="length", plausible="frame_thickness")
 
 
 class VariantSpec(Strict):
@@ -141,19 +217,34 @@ class VariantSpec(Strict):
     thickness 0 < t ≤ 1 m;
     effect parameters within their `effects.Param` bounds, and above 0 for `POSITIVE_EFFECT_PARAMS`. Every
     value must be finite; named `parameters` are any finite quantity (their use is checked where they land)."""
-    name: Name
-    description: str = ""
-    parameters: dict[str, Num] = {}
-    materials: dict[str, MaterialSpec]
-    sphere: SphereSpec
-    roller_defaults: RollerDefaults = RollerDefaults()
-    rollers: dict[str, RollerSpec]
-    steering: SteeringSpec
-    contact: ContactSpec = ContactSpec()
-    effects: list[str] = ["drive_longitudinal_creep", "steering_lateral_creep"]
-    effect_parameters: dict[str, dict[str, Num]] = {}
-    envelope: EnvelopeSpec = EnvelopeSpec()
-    frame: FrameSpec | None = None
+    name: Name = spec_field("the variant's name: letters, digits, '_', '.', '+', '-', not starting with '.', at "
+                            "most 100 characters (it becomes part of file names: <name>.step, <name>_layout.png)")
+    description: str = spec_field("one line saying what the variant is (free text)", "")
+    parameters: dict[str, Num] = spec_field(
+        "named values that other fields use in '= expr' and that optimisation studies may vary: name → a "
+        "quantity ('63.5 mm'), a plain number (SI) or '= expr' over the parameters above it; held in SI", {})
+    materials: dict[str, MaterialSpec] = spec_field(
+        "the materials by name; each: youngs_modulus, poisson_ratio, friction, allowable_pressure")
+    sphere: SphereSpec = spec_field("the sphere: radius, material")
+    roller_defaults: RollerDefaults = spec_field(
+        "values for every roller that omits them: radius, material, crown_radius, width, preload, "
+        "mount_stiffness", RollerDefaults())
+    rollers: dict[str, RollerSpec] = spec_field(
+        "the rollers by name; each: role, contact, axle, shaft, ratio, radius, material, crown_radius, width, "
+        "preload, mount_stiffness; shafts 1 and 2 each need a drive roller")
+    steering: SteeringSpec = spec_field("the steering linkage: its forks")
+    contact: ContactSpec = spec_field("creep constants of the contacts: creep_drive, creep_steering, "
+                                      "creep_reference_force", ContactSpec())
+    effects: list[str] = spec_field("the effects the model includes, names from the effect vocabulary "
+                                    "(docs/effects.md); [] is the ideal CVT",
+                                    ["drive_longitudinal_creep", "steering_lateral_creep"])
+    effect_parameters: dict[str, dict[str, Num]] = spec_field(
+        "effect parameters that differ from their defaults: effect → {parameter: value}, each in the "
+        "parameter's unit (docs/effects.md)", {})
+    envelope: EnvelopeSpec = spec_field("the operating points `compare` and `optimise` evaluate: gamma, load, "
+                                        "motor_speed", EnvelopeSpec())
+    frame: FrameSpec | None = spec_field("a mounting plate drawn by `cvtdesign export`: side, distance, "
+                                         "thickness (omitted: no plate)", None)
 
 
 def schema_error(err: ValidationError, where: str, root=None) -> InputError:
