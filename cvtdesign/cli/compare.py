@@ -5,13 +5,13 @@ import sys
 from pathlib import Path
 
 from rich.console import Console
-from rich.table import Table
 
-from cvtdesign.cli.printing import json_text, left_out_text
+from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
 from cvtdesign.core.metrics import envelope, metrics
 from cvtdesign.core.model import compile_model
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_file
+from cvtdesign.io.report import Note, Table, png_figure
 from cvtdesign.io.variant import load_variant, shipped_variant
 
 
@@ -54,20 +54,9 @@ def _compare(args, painter):
         rows.append(metrics(m, res))
         results.append((L, res))
 
-
-    table = Table(title="CVT comparison over the operating envelope (γ × τ⊥)")
-    table.add_column("figure")
-    for row in rows:
-        table.add_column(row["name"], justify="right")
-    for key, label, fmt in COLUMNS:
-        table.add_row(label, *["—" if r[key] is None else fmt.format(r[key]) for r in rows])
+    blocks = comparison_blocks(rows)
     console = Console(width=max(100, 30 + 22 * len(rows)))
-    console.print(table)
-    for r in rows:
-        console.print(f"{r['name']}: {r['ideal_law']}")
-        if r["ok"] < r["points"]:
-            console.print(f"[red]{r['name']}: {r['points'] - r['ok']} of {r['points']} operating points left out "
-                          f"of the figures: {left_out_text(r)}[/red]")
+    show(console, blocks)
 
     figure = make_folder(args.out, kind="--out") / "compare.png"
     painter.draw("compare_figure", [(L.name, res) for L, res in results], figure)
@@ -79,4 +68,24 @@ def _compare(args, painter):
         print(f"cvtdesign: error: plotting failed: {error}", file=sys.stderr)
         return 1
     console.print(f"plots: {figure}")
+    if args.report:
+        plot = png_figure(figure, "slip angle α, its steering and drive parts against commanded γ at several "
+                                  "loads, and the efficiency map, per variant")
+        write_file(args.report, report_text(args, "cvtdesign compare", [*blocks, plot]), kind="--report")
+        console.print(f"report: {args.report}")
     return 0
+
+
+def comparison_blocks(rows: list[dict]) -> list:
+    """The comparison table (one column per variant, the figures of COLUMNS as rows) and, per variant, its
+    ideal law and the operating points left out of the figures."""
+    table = Table("CVT comparison over the operating envelope (γ × τ⊥)", ["figure", *[r["name"] for r in rows]])
+    for key, label, fmt in COLUMNS:
+        table.add(label, *["—" if r[key] is None else fmt.format(r[key]) for r in rows])
+    blocks = [table]
+    for r in rows:
+        blocks.append(Note(f"{r['name']}: {r['ideal_law']}"))
+        if r["ok"] < r["points"]:
+            blocks.append(Note(f"{r['name']}: {r['points'] - r['ok']} of {r['points']} operating points left out "
+                               f"of the figures: {left_out_text(r)}", "bad"))
+    return blocks

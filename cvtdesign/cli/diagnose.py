@@ -1,19 +1,21 @@
 """`cvtdesign diagnose`: where the model and the data disagree, which effect causes it, how far it shrinks."""
 from __future__ import annotations
 
+import tempfile
 from pathlib import Path
 
 import numpy as np
 from rich.console import Console
-from rich.table import Table
 
 from cvtdesign.cli.arguments import effects_arg
-from cvtdesign.cli.printing import json_text, progress_bar
+from cvtdesign.cli.printing import degrees, engineering, json_text, number, progress_bar, report_text, show
+from cvtdesign.core.effects import EFFECTS
 from cvtdesign.diagnosis import diagnose
 from cvtdesign.diagnosis.diagnose import model_efficiency, point_grid, residuals
 from cvtdesign.diagnosis import measured
 from cvtdesign.io import plots
-from cvtdesign.io.output import make_folder, write_file
+from cvtdesign.io.output import make_folder, write_files
+from cvtdesign.io.report import Note, Table, png_figure
 from cvtdesign.io.variant import load_variant
 
 
@@ -23,86 +25,124 @@ def run(args):
     base = effects_arg(args.base, layout.effects, "--base")
     candidates = effects_arg(args.candidates, [], "--candidates")
     data = measured.load_measured(args.data, layout, args.drop_bad)
-    console = Console(width=120)
+    console = Console(width=140)
     with progress_bar(console, "diagnosis", str, transient=True) as progress:
         rep = diagnose.diagnose(layout, data, base, candidates or None, progress)
-    print_report(rep, console)
+    blocks = report_blocks(rep)
+    show(console, blocks)
+    figures = []
     if args.plots:
-        for f in plot_report(rep, make_folder(args.plots, kind="--plots")):
+        figures = plot_report(rep, make_folder(args.plots, kind="--plots"))
+        for f in figures:
             console.print(f"plot: {f}")
+    files, kinds = {}, {}
     if args.json:
-        write_file(args.json, json_text(diagnose.public(rep)), kind="--json")
+        files[Path(args.json)], kinds[Path(args.json)] = json_text(diagnose.public(rep)), "--json"
+    if args.report:
+        files[Path(args.report)], kinds[Path(args.report)] = report_text(args, "cvtdesign diagnose", blocks +
+                                                                         report_figures(rep, figures)), "--report"
+    write_files(files, kind=kinds)
+    if args.json:
         console.print(f"report written to {args.json}")
+    if args.report:
+        console.print(f"HTML report: {args.report}")
     return 0
 
 
-def print_report(rep: dict, console):
-    """A short human report: data and noise, the base fit, where the gap is, the ranking, the verdict."""
+def report_figures(rep: dict, written: list) -> list:
+    """The residual map and the fit plot as report Figures: those written to --plots, else drawn into a
+    temporary folder that is removed once they are read."""
+    captions = ("α residual (measured − model) over γ × τ⊥, base and diagnosed model; the gap's regions outlined",
+                "slip angle and efficiency against γ at a few loads: data, base model (dotted), diagnosed model")
+    if written:
+        return [png_figure(f, c) for f, c in zip(written, captions)]
+    with tempfile.TemporaryDirectory(prefix="cvtdesign-report-") as tmp:
+        return [png_figure(f, c) for f, c in zip(plot_report(rep, Path(tmp)), captions)]
+
+
+def param_kind(name: str) -> str:
+    """The kind (units.KINDS) of an effect parameter 'effect.param' (core.effects EFFECTS[...].params)."""
+    effect, param = name.split(".", 1)
+    return EFFECTS[effect].params[param].kind
+
+
+def report_blocks(rep: dict) -> list:
+    """What diagnose prints and reports: data and noise, the base fit, where the gap is, the ranking, the
+    verdict and how far the gap shrinks."""
     n = rep["noise"]
     dropped = sum(rep["dropped_rows"].values())
-    console.print(f"{rep['rows']} rows, {rep['operating_points']} operating points"
-                  + (f", {dropped} bad rows dropped ({rep['dropped_rows']})" if dropped else "")
-                  + f"; noise ({n['source']}): α {n['alpha']['rms']:.3f}°, τ∥ {n['tau_par']['rms']:.4f} N·m"
-                  + (f", axis {n['axis']['rms']:.3f}°" if "axis" in n else ""))
-    t = Table(title=f"base model fit: {' + '.join(rep['base']) or 'ideal CVT'}")
-    for c in ("parameter", "value", "±1σ", "identifiable"):
-        t.add_column(c)
+    blocks = [Note(f"{rep['rows']} rows, {rep['operating_points']} operating points"
+                   + (f", {dropped} bad rows dropped ({rep['dropped_rows']})" if dropped else "")
+                   + f"; noise ({n['source']}): α {degrees(n['alpha']['rms'])}, "
+                     f"τ∥ {engineering(n['tau_par']['rms'], 'torque')}"
+                   + (f", axis {degrees(n['axis']['rms'])}" if "axis" in n else ""))]
+    t = Table(f"base model fit: {' + '.join(rep['base']) or 'ideal CVT'}", ["parameter", "value", "±1σ", "identifiable"])
     for name, p in rep["base_fit"].items():
-        t.add_row(name, f"{p['value']:.5g}", f"{p['std']:.2g}", "yes" if p["identifiable"] else "[red]no[/red]")
-    if rep["base_fit"]:
-        console.print(t)
+        t.add(name, engineering(p["value"], param_kind(name)), engineering(p["std"], param_kind(name), 2),
+              "yes" if p["identifiable"] else "no", style="" if p["identifiable"] else "bad")
+    blocks += [t] if rep["base_fit"] else []
+    return blocks + gap_blocks(rep) + [ranking_table(rep)] + verdict_blocks(rep) + [Note(f"({rep['seconds']:.1f} s)")]
+
+
+def gap_blocks(rep: dict) -> list:
+    """The gap between the base model and the data: its size, its regions, and by motor speed."""
     g = rep["gap"]
-    console.print(f"gap: RMS α residual {g['rms_alpha_deg']:.3f}° (held out {g['heldout_rms_alpha_deg']:.3f}°), "
-                  f"efficiency {g['rms_efficiency']:.4f}; spatial structure z = {g['structure_z']:.1f} "
-                  f"({'structured' if g['structured'] else 'like noise'})")
+    blocks = [Note(f"gap: RMS α residual {degrees(g['rms_alpha_deg'])} (held out {degrees(g['heldout_rms_alpha_deg'])}), "
+                   f"efficiency {number(g['rms_efficiency'])}; spatial structure z = {g['structure_z']:.1f} "
+                   f"({'structured' if g['structured'] else 'like noise'})")]
     if g["regions"]:
-        rt = Table(title="where the α gap stands out (> 3σ per operating point)")
-        for c in ("region", "γ \\[deg]", "τ⊥ \\[N·m]", "points", "mean residual \\[deg]"):
-            rt.add_column(c, justify="right")
+        rt = Table("where the α gap stands out (> 3σ per operating point)",
+                   ["region", "γ", "τ⊥", "points", "mean residual"])
         for k, r in enumerate(g["regions"][:6]):
-            rt.add_row(f"R{k + 1}", f"{r['gamma_deg'][0]:.0f} .. {r['gamma_deg'][1]:.0f}",
-                       f"{r['load_Nm'][0]:+.2f} .. {r['load_Nm'][1]:+.2f}", str(r["points"]),
-                       f"{r['mean_residual_deg']:+.3f}")
-        console.print(rt)
+            rt.add(f"R{k + 1}", f"{degrees(r['gamma_deg'][0], 3)} .. {degrees(r['gamma_deg'][1], 3)}",
+                   f"{r['load_Nm'][0]:+.2f} .. {r['load_Nm'][1]:+.2f} N·m", str(r["points"]),
+                   degrees(r["mean_residual_deg"], 3))
+        blocks.append(rt)
     if rep["by_speed"]:
-        console.print("by motor speed: " + "; ".join(
-            f"ω1 = {b['omega_1']:.3g} rad/s: RMS α residual {b['rms_residual_deg'][0]:.3f}° → {b['rms_residual_deg'][1]:.3f}°"
-            for b in rep["by_speed"]))
-    k = Table(title="candidates, added one at a time to the base (held-out, cross-validated by operating point)")
-    for c in ("effect", "RMS α \\[deg] before → after", "shrink", "RMS η before → after", "p", "ΔBIC", "fails at",
-              "fitted", "accepted"):
-        k.add_column(c)
+        blocks.append(Note("by motor speed: " + "; ".join(
+            f"ω1 = {engineering(b['omega_1'], 'speed', 3)}: RMS α residual {degrees(b['rms_residual_deg'][0])} → "
+            f"{degrees(b['rms_residual_deg'][1])}" for b in rep["by_speed"])))
+    return blocks
+
+
+def ranking_table(rep: dict) -> Table:
+    """The candidates, each added alone to the base: held-out RMS α and efficiency before → after, the
+    shrink, the tests, and the fitted parameters in their units."""
+    k = Table("candidates, added one at a time to the base (held-out, cross-validated by operating point)",
+              ["effect", "RMS α before → after", "shrink", "RMS η before → after", "p", "ΔBIC", "fails at",
+               "fitted", "accepted"])
     for r in rep["ranking"]:
         new = {n: p for n, p in r["params"].items() if n.split(".")[0] == r["effect"]}
-        fitted = ", ".join(f"{n.split('.')[1]} = {p['value']:.3g}" + ("" if p["identifiable"] else " (n.i.)")
-                           for n, p in new.items())
-        k.add_row(r["effect"], f"{r['heldout_rms_before']:.3f} → {r['heldout_rms_after']:.3f}", f"{r['shrink']:.2f}",
-                  f"{r['heldout_rms_efficiency_before']:.4f} → {r['heldout_rms_efficiency_after']:.4f}",
-                  f"{r['p_value']:.1e}", f"{r['bic_change']:+.1f}", f"{r['failed_fraction']:.0%}", fitted,
-                  "[green]yes[/green]" if r["accepted"] else "")
-    console.print(k)
-    for c in rep["confounded"]:
-        console.print(f"[yellow]confounded: {c['effects'][0]} and {c['effects'][1]} change the predictions alike "
-                      f"(cosine {c['cosine']:.2f}); to separate them: {c['separate_by']}[/yellow]")
-    h = rep["how_far"]
-    console.print(f"[bold]verdict: {rep['verdict']}[/bold]" + (f" (accepted: {', '.join(rep['accepted'])})"
-                                                                if len(rep["accepted"]) > 1 else ""))
-    for p in rep["partial"]:
-        console.print(f"[yellow]{p['effect']} explains {max(p['shrink'], 0):.0%} of the gap; a structured gap "
-                      "remains[/yellow]")
-    form = rep["form"]
-    if form["lies_along"] and rep["verdict"] == "unexplained":
-        console.print(f"the remaining gap lies along {form['lies_along']} (p = {form['p'][form['lies_along']]:.1e}; next: "
-                      + ", ".join(f"{k} {v:.1e}" for k, v in sorted(form["p"].items(), key=lambda x: x[1])[1:4])
-                      + ")")
-    if rep["accepted"]:
-        reg = (f"; in the gap's regions {h['region_rms_alpha_deg'][0]:.3f}° → {h['region_rms_alpha_deg'][1]:.3f}° "
-               f"(shrink {h['shrink_region']:.2f})" if h["region_rms_alpha_deg"] else "")
-        console.print(f"how far: held-out RMS α {h['heldout_rms_alpha_deg'][0]:.3f}° → {h['heldout_rms_alpha_deg'][1]:.3f}° "
-                      f"(gap shrinks by {h['shrink_alpha']:.0%}), efficiency {h['heldout_rms_efficiency'][0]:.4f} → "
-                      f"{h['heldout_rms_efficiency'][1]:.4f} (shrink {h['shrink_efficiency']:.0%}){reg}")
+        fitted = ", ".join(f"{n.split('.')[1]} = {engineering(p['value'], param_kind(n), 3)}"
+                           + ("" if p["identifiable"] else " (n.i.)") for n, p in new.items())
+        k.add(r["effect"], f"{degrees(r['heldout_rms_before'])} → {degrees(r['heldout_rms_after'])}",
+              f"{r['shrink']:.2f}", f"{number(r['heldout_rms_efficiency_before'])} → "
+              f"{number(r['heldout_rms_efficiency_after'])}", f"{r['p_value']:.1e}", f"{r['bic_change']:+.1f}",
+              f"{r['failed_fraction']:.0%}", fitted, "yes" if r["accepted"] else "", style="good" if r["accepted"] else "")
+    return k
 
-    console.print(f"({rep['seconds']:.1f} s)")
+
+def verdict_blocks(rep: dict) -> list:
+    """The confounded pairs, the verdict, a partial explanation, the form of what remains, and how far."""
+    blocks = [Note(f"confounded: {c['effects'][0]} and {c['effects'][1]} change the predictions alike (cosine "
+                   f"{c['cosine']:.2f}); to separate them: {c['separate_by']}", "warn") for c in rep["confounded"]]
+    blocks.append(Note(f"verdict: {rep['verdict']}" + (f" (accepted: {', '.join(rep['accepted'])})"
+                                                        if len(rep["accepted"]) > 1 else ""), "bold"))
+    blocks += [Note(f"{p['effect']} explains {max(p['shrink'], 0):.0%} of the gap; a structured gap remains", "warn")
+               for p in rep["partial"]]
+    form, h = rep["form"], rep["how_far"]
+    if form["lies_along"] and rep["verdict"] == "unexplained":
+        blocks.append(Note(f"the remaining gap lies along {form['lies_along']} (p = {form['p'][form['lies_along']]:.1e}; "
+                           "next: " + ", ".join(f"{k} {v:.1e}" for k, v in
+                                                sorted(form["p"].items(), key=lambda x: x[1])[1:4]) + ")"))
+    if rep["accepted"]:
+        reg = (f"; in the gap's regions {degrees(h['region_rms_alpha_deg'][0])} → {degrees(h['region_rms_alpha_deg'][1])} "
+               f"(shrink {h['shrink_region']:.2f})" if h["region_rms_alpha_deg"] else "")
+        blocks.append(Note(f"how far: held-out RMS α {degrees(h['heldout_rms_alpha_deg'][0])} → "
+                           f"{degrees(h['heldout_rms_alpha_deg'][1])} (gap shrinks by {h['shrink_alpha']:.0%}), "
+                           f"efficiency {number(h['heldout_rms_efficiency'][0])} → "
+                           f"{number(h['heldout_rms_efficiency'][1])} (shrink {h['shrink_efficiency']:.0%}){reg}"))
+    return blocks
 
 
 def plot_report(rep: dict, out_dir) -> list:

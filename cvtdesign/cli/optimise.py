@@ -1,27 +1,43 @@
 """`cvtdesign optimise`: one study's optimum by multistart IPOPT, its constraints and its variant file."""
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from rich.console import Console
-from rich.table import Table
 
 from cvtdesign.cli.export import export_steps
-from cvtdesign.cli.printing import json_text, progress_bar
-from cvtdesign.design import optimise
+from cvtdesign.cli.printing import ENGINEERING, degrees, engineering, json_text, kind_of, number, progress_bar, \
+    report_text, show
+from cvtdesign.design import solve
+from cvtdesign.design.study_file import load_study
 from cvtdesign.errors import InputError
 from cvtdesign.io.output import make_folder, write_files
+from cvtdesign.io.report import Note, Table
+from cvtdesign.io.variant import load_spec, parameter_value
+
+# the kind of each constraint family's rows (design.report.constraint_report), and the factor from the
+# row's units to SI: the worst-|α| and ε rows are in degrees, Hertz p_max/p_allow, traction and the linkage
+# misfit are ratios, normal force in newtons, clearance and envelope radius in metres
+FAMILY_KIND = {"worst_alpha": ("angle", math.pi / 180), "epsilon": ("angle", math.pi / 180),
+               "hertz_pressure": ("dimensionless", 1.0), "traction": ("dimensionless", 1.0),
+               "normal_force": ("force", 1.0), "clearance": ("length", 1.0), "envelope_radius": ("length", 1.0),
+               "reach_gamma": ("dimensionless", 1.0)}
+# an objective kind → how its value (in degrees or watts) is shown
+OBJECTIVE = {"worst_alpha": ("worst |α|", degrees), "rms_alpha": ("RMS α", degrees),
+             "power_loss": ("mean power loss", lambda v: engineering(v, "power"))}
 
 
 def run(args):
 
     if args.starts is not None and args.starts < 1:
         raise InputError(f"--starts: expected a positive number of multistart points, got {args.starts}")
-    console = Console(width=110)
+    console = Console(width=120)
     with progress_bar(console, "multistart", lambda sol: f"last: {sol.status}, f = {sol.objective:.5g}",
-                   transient=True) as progress:
-        res = optimise.run(args.study, args.out, args.starts, progress, write=False)
-    # the optimum's variant file and the JSON report: written together, all or nothing
+                      transient=True) as progress:
+        res = solve.run(args.study, args.out, args.starts, progress, write=False)
+    blocks = result_blocks(res, design_kinds(args.study, res["design"]))
+    # the optimum's variant file, the JSON and the HTML report: written together, all or nothing
     files = res.pop("pending_files")
     kinds = {p: "variant file" for p in files}
     if files and args.out:
@@ -30,30 +46,72 @@ def run(args):
         keys = ("status", "objective", "design", "active_constraints", "variant_file")
         files[Path(args.json)] = json_text({k: res[k] for k in keys} | {"details": res})
         kinds[Path(args.json)] = "--json"
+    if args.report:
+        files[Path(args.report)] = report_text(args, f"cvtdesign optimise: study {res['study']}", blocks)
+        kinds[Path(args.report)] = "--report"
     write_files(files, kind=kinds)
+    show(console, blocks)
+    if args.report:
+        console.print(f"report: {args.report}")
+    if res["success"] and args.step:
+        export_steps(console, [res["variant_file"]], Path(res["variant_file"]).parent / "step")
+    return 0 if res["success"] else 1
+
+
+def design_kinds(study_path, design: dict) -> dict:
+    """{design variable: (kind, lower [SI], upper [SI])} from the study and its base variant: the variable's
+    kind as the variant writes the parameter (or, for an expression or a plain number, as its bounds are
+    written: a variable declared '30 mm' is a length)."""
+    spec, base = load_study(study_path)
+    params = load_spec(base).parameters
+    out = {}
+    for n in design:
+        v = spec.design[n]
+        out[n] = (kind_of(params.get(n), v.lower, v.upper), parameter_value(v.lower, f"{study_path}: design.{n}.lower", {}),
+                  parameter_value(v.upper, f"{study_path}: design.{n}.upper", {}))
+    return out
+
+
+def objective_text(kind: str, value) -> str:
+    """'worst |α| = 3.712°', 'mean power loss = 1.25 W'."""
+    name, show_value = OBJECTIVE[kind]
+    return f"{name} = {show_value(value)}"
+
+
+def result_blocks(res: dict, kinds: dict) -> list:
+    """What optimise prints and reports: the starts, the optimum's design and its constraints (units shown)."""
     statuses = ", ".join(f"{s} ×{res['statuses'].count(s)}" for s in dict.fromkeys(res["statuses"]))
-    console.print(f"study {res['study']}: {res['starts']} starts ({statuses}); "
-                  f"{len(res['optima'])} distinct optima found " +
-                  ", ".join(f"f = {o['objective']:.6g} ({o['found']}×)" for o in res["optima"]))
-    if res["success"]:
-        t = Table(title=f"optimum: {res['objective_kind']} = {res['objective']:.6g}")
-        for c in ("variable", "optimum", "base"):
-            t.add_column(c, justify="right")
-        for n, v in res["design"].items():
-            t.add_row(n, f"{v:.6g}", f"{res['base_design'][n]:.6g}")
-        console.print(t)
-        c = Table(title="constraints (most binding row of each; multiplier = objective change per unit of bound)")
-        for col in ("constraint", "where", "value", "bound", "slack", "multiplier", "active"):
-            c.add_column(col)
-        for r in res["constraints"]:
-            c.add_row(r["name"], r["where"], f"{r['value']:.5g}", f"{r['bound']:.5g}", f"{r['slack']:.3g}",
-                      f"{r['multiplier']:.3g}", "yes" if r["active"] else "")
-        console.print(c)
-        console.print(f"optimised variant: {res['variant_file']}  (try: cvtdesign compare {res['variant_file']})")
-        if args.step:
-            export_steps(console, [res["variant_file"]], Path(res["variant_file"]).parent / "step")
-    else:
+    kind = res.get("objective_kind", "worst_alpha")
+    found = ", ".join(f"{OBJECTIVE[kind][1](o['objective'])} ({o['found']}×)" for o in res["optima"])
+    blocks = [Note(f"study {res['study']}: {res['starts']} starts ({statuses}); {len(res['optima'])} distinct "
+                   f"optima found" + (f": {found}" if found else ""))]
+    if not res["success"]:
         chk = res.get("envelope_check")
         why = f"; worst point {chk['worst']}" if chk and chk.get("worst") else ""
-        console.print(f"[red]no successful solve: {res['status']}{why}; no variant file written[/red]")
-    return 0 if res["success"] else 1
+        return blocks + [Note(f"no successful solve: {res['status']}{why}; no variant file written", "bad")]
+    t = Table(f"optimum: {objective_text(kind, res['objective'])}", ["variable", "optimum", "base", "lower", "upper"])
+    for n, v in res["design"].items():
+        k, lo, hi = kinds[n]
+        t.add(n, *(engineering(x, k) for x in (v, res["base_design"][n], lo, hi)))
+    return blocks + [t, constraint_table(res, kinds),
+                     Note(f"optimised variant: {res['variant_file']}  (try: cvtdesign compare {res['variant_file']})")]
+
+
+def constraint_table(res: dict, kinds: dict) -> Table:
+    """The most binding row of each constraint family, in the row's unit; the multiplier is the objective's
+    change per unit of the bound (e.g. °/mm)."""
+    obj_unit = "°" if res["objective_kind"] in ("worst_alpha", "rms_alpha") else "W"
+    c = Table("constraints (most binding row of each; multiplier = objective change per unit of bound)",
+              ["constraint", "where", "value", "bound", "slack", "multiplier", "active"])
+    for r in res["constraints"]:
+        if r["name"].startswith("bound "):
+            kind, to_si = kinds[r["name"][len("bound "):]][0], 1.0
+        else:
+            kind, to_si = FAMILY_KIND.get(r["name"], ("dimensionless", 1.0))
+        unit, factor = ENGINEERING[kind]
+        per = to_si * factor         # from the row's units to the shown unit
+        mult = f"{number(r['multiplier'] / per, 3)} {obj_unit}" + (f"/{unit}" if unit else "")
+        c.add(r["name"], r["where"], *(engineering(r[key] * to_si, kind, 5) for key in ("value", "bound")),
+              engineering(r["slack"] * to_si, kind, 3), mult, "yes" if r["active"] else "",
+              style="bold" if r["active"] else "")
+    return c

@@ -62,6 +62,7 @@ def _add_compare(p):
     p.add_argument("variants", nargs="+", help="variant YAML files")
     p.add_argument("--out", default="out/compare", help="folder for the plots (default: out/compare)")
     p.add_argument("--json", help="also write the figures to this JSON file")
+    p.add_argument("--report", help="also write an HTML report (the tables and the plot) to this file")
 
 
 def _add_optimise(p):
@@ -69,6 +70,7 @@ def _add_optimise(p):
     p.add_argument("--out", help="folder for the optimised variant (default: results/<study name>)")
     p.add_argument("--starts", type=int, help="number of multistart points (default: the study's)")
     p.add_argument("--json", help="also write the result to this JSON file")
+    p.add_argument("--report", help="also write an HTML report (the design and constraint tables) to this file")
     p.add_argument("--step", action="store_true", help="also export the optimum as a STEP assembly (+ SVG, PNG)")
 
 
@@ -103,6 +105,7 @@ def _add_diagnose(p):
     p.add_argument("--drop-bad", action="store_true", help="drop (and count) bad rows instead of stopping")
     p.add_argument("--json", help="write the report to this JSON file")
     p.add_argument("--plots", help="folder for the residual-map and fit plots")
+    p.add_argument("--report", help="also write an HTML report (the tables, the residual map and the fit) to this file")
 
 
 def _add_selfcheck(p):
@@ -140,13 +143,15 @@ def _add_export(p):
 
 def check_outputs(args):
     """Refuse an output path that cannot be written before any computation (each write checks again):
-    --json and rig's --out are files, --plots and the other commands' --out are folders."""
+    --json, --report and the --out of rig and new are files, --plots and the other commands' --out are folders."""
     if getattr(args, "json", None):
         check_target(args.json, kind="--json")
+    if getattr(args, "report", None):
+        check_target(args.report, kind="--report")
     if getattr(args, "plots", None):
         check_folder(args.plots, kind="--plots")
     if getattr(args, "out", None):
-        if args.command == "rig":
+        if args.command in ("rig", "new"):
             check_target(args.out, kind="--out")
         else:
             check_folder(args.out, kind="--out")
@@ -156,6 +161,7 @@ def main(argv=None) -> int:
     """Run one command; returns its exit status (2 for bad input, with one line on stderr)."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)     # the command line, for --report
     if args.command is None:
         parser.print_help()
         return 0

@@ -1,11 +1,110 @@
-"""What the commands print and write: strict JSON, counts of left-out points, progress bars."""
+"""What the commands print and write: quantities in engineering units, tables and notes (printed with rich,
+reported in HTML), strict JSON, counts of left-out points, progress bars."""
 from __future__ import annotations
 
 import contextlib
 import json
+import math
+import shlex
+from importlib.metadata import version
 
 import numpy as np
+from rich import table as rich_tables
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.text import Text
+
+from cvtdesign.io.report import Note, Table, html_report
+from cvtdesign.io.units import KINDS, dimension_of, parse_quantity, registry
+
+# the unit every printed quantity of a kind (units.KINDS, and power) is shown in, and its factor from SI
+ENGINEERING = {
+    "length": ("mm", 1e3), "force": ("N", 1.0), "torque": ("N·m", 1.0), "angle": ("°", 180 / math.pi),
+    "pressure": ("MPa", 1e-6), "power": ("W", 1.0), "compliance": ("1/N", 1.0), "stiffness": ("N/mm", 1e-3),
+    "speed": ("rad/s", 1.0), "dimensionless": ("", 1.0),
+}
+ANGLE_UNITS = ("degree", "radian", "arcminute", "arcsecond")
+
+
+def number(value, digits: int = 4) -> str:
+    """`value` to `digits` significant digits, positional between 1e-4 and 1e7 (31.94, 0.0992, 143.5,
+    12350), else with an exponent (1.2e-07); '—' for None or NaN."""
+    if value is None or (isinstance(value, (float, np.floating)) and math.isnan(value)):
+        return "—"
+    value = float(value)
+    if value == 0 or not math.isfinite(value):
+        return "0" if value == 0 else f"{value}"
+    if 1e-4 <= abs(value) < 1e7:
+        return np.format_float_positional(value, precision=digits, unique=False, fractional=False, trim="-")
+    return f"{value:.{digits}g}".replace("e-0", "e-").replace("e+0", "e+")
+
+
+def engineering(value_si, kind: str, digits: int = 4) -> str:
+    """An SI value of a kind (units.KINDS or 'power') in its engineering unit, with the unit (ENGINEERING):
+    engineering(0.0319401, 'length') = '31.94 mm', engineering(0.0541, 'angle') = '3.1°' (angles in rad),
+    engineering(6e6, 'pressure') = '6 MPa'; '—' for None or NaN."""
+    unit, factor = ENGINEERING[kind]
+    text = number(None if value_si is None else float(value_si) * factor, digits)
+    if text == "—" or not unit:
+        return text
+    return f"{text}°" if unit == "°" else f"{text} {unit}"
+
+
+def degrees(value_deg, digits: int = 4) -> str:
+    """An angle already in degrees (worst_alpha_deg, an objective in degrees): '3.1°'."""
+    return engineering(None if value_deg is None else math.radians(value_deg), "angle", digits)
+
+
+def kind_of(*raws) -> str:
+    """The kind (a units.KINDS key) of a quantity from how a file writes it: the first of `raws` with a unit
+    decides ('30 mm' a length, '10 deg' an angle, '100 N' a force); plain numbers and expressions say
+    nothing, and with nothing said the kind is 'dimensionless'."""
+    for raw in raws:
+        dim = dimension_of(raw)
+        if dim is None:
+            continue
+        if dim:
+            for kind, (unit, _) in KINDS.items():
+                if unit and kind != "angle" and registry().parse_units(unit).dimensionality == dim:
+                    return kind
+            continue
+        q = parse_quantity(raw.strip()) if isinstance(raw, str) else None
+        if q is not None and q[1] is not None and any(a in str(q[1]) for a in ANGLE_UNITS):
+            return "angle"
+    return "dimensionless"
+
+
+def rich_table(t: Table):
+    """A report Table as a rich table (cells taken as plain text, not as rich markup)."""
+    out = rich_tables.Table(title=t.title)
+    for i, h in enumerate(t.headers):
+        out.add_column(Text(h), justify="left" if i == 0 else "right")
+    for row, style in zip(t.rows, t.styles or [""] * len(t.rows)):
+        out.add_row(*[Text(c) for c in row], style=RICH_STYLES[style])
+    return out
+
+
+RICH_STYLES = {"": None, "good": "green", "bad": "red", "warn": "yellow", "bold": "bold"}
+
+
+def show(console, blocks: list):
+    """Print the blocks of a report: Tables and Notes (Figures are for the HTML report only)."""
+    for b in blocks:
+        if isinstance(b, Table):
+            console.print(rich_table(b))
+        elif isinstance(b, Note):
+            console.print(b.text, style=RICH_STYLES[b.style], markup=False)
+
+
+def command_line(args) -> str:
+    """The command as typed ('cvtdesign compare variants/box.yaml --report r.html'), from args.argv (the
+    arguments main parsed)."""
+    return shlex.join(["cvtdesign", *getattr(args, "argv", [args.command])])
+
+
+def report_text(args, title: str, blocks: list) -> str:
+    """The HTML report (io.report.html_report) of a command's blocks, headed by its command line and the
+    installed version of cvtdesign."""
+    return html_report(title, command_line(args), version("cvtdesign"), blocks)
 
 
 def finite(obj):

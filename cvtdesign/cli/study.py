@@ -1,22 +1,26 @@
 """`cvtdesign study`: a study's cases in batch on Dask, with a summary of the optima and Pareto fronts."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 from rich.console import Console
-from rich.table import Table
 
 from cvtdesign.cli.export import export_steps
-from cvtdesign.cli.printing import progress_bar
+from cvtdesign.cli.optimise import OBJECTIVE
+from cvtdesign.cli.printing import degrees, engineering, kind_of, progress_bar, show
 from cvtdesign.design import study
-from cvtdesign.design.optimise import knee
+from cvtdesign.design.solve import knee
+from cvtdesign.design.study_file import load_study
 from cvtdesign.io import plots
+from cvtdesign.io.report import Note, Table
+from cvtdesign.io.variant import load_spec
 
 
 def run(args):
 
-    console = Console(width=120)
+    console = Console(width=140)
     with progress_bar(console, "cases", lambda row: f"last: {row['case_id']} {row['status']}") as progress:
         res = study.run_study(args.study, args.out, args.scheduler, args.workers, progress,
                               lambda text: console.print(text, style="yellow", markup=False, highlight=False,
@@ -27,35 +31,95 @@ def run(args):
                       f"{res['seconds']:.1f} s (cluster start-up {res['startup_seconds']:.1f} s)")
     else:
         console.print(f"{res['cases']} cases: all already in {res['out_dir']}; nothing to run")
-    t = Table(title="cases by status")
-    t.add_column("status")
-    t.add_column("cases", justify="right")
+    t = Table("cases by status", ["status", "cases"])
     for status, n in df.groupby("status")["case_id"].nunique().items():
-        t.add_row(status, str(n))
-    console.print(t)
+        t.add(status, str(n))
+    spec, kinds = study_kinds(args.study)
     starts_ = df[(df["kind"] == "start") & df["success"]]
-    if len(starts_):
-        best = starts_.sort_values("objective").groupby(["variant", "fixed"], sort=False).head(1)
-        b = Table(title="best optimum per variant and sweep point")
-        for c in ("variant", "fixed", "objective", "found by", "variant file"):
-            b.add_column(c)
-        for _, r in best.iterrows():
-            same = starts_[(starts_["variant"] == r["variant"]) & (starts_["fixed"] == r["fixed"]) &
-                           (np.abs(starts_["objective"] - r["objective"]) <= 1e-6 * max(1, abs(r["objective"])))]
-            b.add_row(r["variant"], r["fixed"], f"{r['objective']:.6g}", f"{len(same)} starts", str(r["variant_file"]))
-        console.print(b)
+    best = best_optima(starts_)
+    blocks = [t] + ([optima_table(best, starts_, spec.objective.kind, kinds)] if len(best) else [])
+    files = [f for f in df["variant_file"] if isinstance(f, str) and f]
+    if files:
+        blocks.append(Note(f"variant files in {Path(files[0]).parent}"))
     pareto = df[df["kind"] == "pareto"]
-    if len(pareto):
-        chains = []
-        for cid, grp in pareto.groupby("case_id", sort=False):
-            pts = [dict(r) | {"index": r["point"]} for _, r in grp.sort_values("point").iterrows()]
-            chains.append((cid, pts, knee(pts)))
-            console.print(f"Pareto {cid}: knee at point {chains[-1][2]}")
+    chains = []
+    for cid, grp in pareto.groupby("case_id", sort=False):
+        pts = [dict(r) | {"index": r["point"]} for _, r in grp.sort_values("point").iterrows()]
+        chains.append((cid, pts, knee(pts)))
+        blocks += pareto_blocks(cid, pts, chains[-1][2], kinds)
+    show(console, blocks)
+    if chains:
         figure = Path(res["out_dir"]) / "pareto.png"
         plots.pareto_figure(chains, figure)
         console.print(f"Pareto plot: {figure}")
     if args.step:
-        chosen = list(best["variant_file"]) if len(starts_) else []
-        chosen += list(pareto[pareto["success"]]["variant_file"]) if len(pareto) else []
+        chosen = list(best["variant_file"]) + (list(pareto[pareto["success"]]["variant_file"]) if len(pareto) else [])
         export_steps(console, [f for f in chosen if isinstance(f, str) and f], Path(res["out_dir"]) / "step")
     return 0 if df["success"].any() else 1
+
+
+def study_kinds(study_path) -> tuple:
+    """(the study spec, {variable: kind}) for its design variables and swept parameters, as the base variant
+    writes the parameter (or, for an expression or a plain number, as the study writes its bounds or values)."""
+    spec, base = load_study(study_path)
+    params = load_spec(base).parameters
+    kinds = {n: kind_of(params.get(n), v.lower, v.upper) for n, v in spec.design.items()}
+    kinds |= {n: kind_of(params.get(n), *values) for n, values in spec.batch.sweep.items()}
+    return spec, kinds
+
+
+def best_optima(starts_):
+    """The best successful start per variant and sweep point (the store's rows)."""
+    if not len(starts_):
+        return starts_
+    return starts_.sort_values("objective").groupby(["variant", "fixed"], sort=False).head(1)
+
+
+def design_cells(row, kinds: dict) -> list[str]:
+    """The design variables of a store row (its design.<name> columns) in their units."""
+    return [engineering(row.get(f"design.{n}"), k) for n, k in kinds.items() if f"design.{n}" in row]
+
+
+def file_name(path) -> str:
+    """The name of a variant file of the store (its folder is named once, in a note), '—' for none."""
+    return Path(path).name if isinstance(path, str) and path else "—"
+
+
+def sweep_text(fixed: str, kinds: dict) -> str:
+    """A case's sweep point (the store's JSON of SI values) in units: 'r_steer = 30 mm' ('—': none)."""
+    point = json.loads(fixed) if isinstance(fixed, str) and fixed else {}
+    return ", ".join(f"{n} = {engineering(v, kinds.get(n, 'dimensionless'))}" for n, v in point.items()) or "—"
+
+
+def optima_table(best, starts_, objective: str, kinds: dict) -> Table:
+    """Each variant and sweep point's best optimum: its design in units, the objective, worst α and power
+    loss (known for the objective that is one of them; '—' otherwise) and how many starts found it."""
+    names = [n for n in kinds if f"design.{n}" in best.columns]
+    name, shown = OBJECTIVE[objective]
+    b = Table("best optimum per variant and sweep point", ["variant", "sweep point", *names, name, "worst α",
+                                                             "power loss", "found by", "variant file"])
+    for _, r in best.iterrows():
+        same = starts_[(starts_["variant"] == r["variant"]) & (starts_["fixed"] == r["fixed"]) &
+                       (np.abs(starts_["objective"] - r["objective"]) <= 1e-6 * max(1, abs(r["objective"])))]
+        alpha = r["objective"] if objective == "worst_alpha" else r["worst_alpha_deg"]
+        loss = r["objective"] if objective == "power_loss" else r["power_loss_W"]
+        b.add(r["variant"], sweep_text(r["fixed"], kinds), *design_cells(r, {n: kinds[n] for n in names}),
+              shown(r["objective"]), degrees(alpha), engineering(loss, "power"), f"{len(same)} starts",
+              file_name(r["variant_file"]))
+    return b
+
+
+def pareto_blocks(case_id: str, pts: list[dict], k: int, kinds: dict) -> list:
+    """A Pareto front: every point with its worst α, power loss and design, and the knee named as a design."""
+    names = [n for n in kinds if f"design.{n}" in pts[0]] if pts else []
+    t = Table(f"Pareto front {case_id}", ["point", "worst α", "power loss", *names, "status", "variant file"])
+    for p in pts:
+        t.add(str(p["point"]), degrees(p["worst_alpha_deg"]), engineering(p["power_loss_W"], "power"),
+              *design_cells(p, {n: kinds[n] for n in names}), p["status"], file_name(p["variant_file"]),
+              style="good" if p["point"] == k and p["success"] else "")
+    kp = next((p for p in pts if p["point"] == k and p["success"]), None)
+    if kp is None:
+        return [t, Note(f"Pareto {case_id}: no successful point, no knee", "bad")]
+    design = ", ".join(f"{n} = {engineering(kp[f'design.{n}'], kinds[n])}" for n in names)
+    return [t, Note(f"Pareto {case_id}: knee: point {k} — {design}, worst α {degrees(kp['worst_alpha_deg'])}, "
+                    f"loss {engineering(kp['power_loss_W'], 'power')}", "good")]
