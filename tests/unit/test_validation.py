@@ -269,7 +269,8 @@ def test_shipped_variants_load_unchanged(path):
 
 
 def test_shipped_studies_build(tmp_path):
-    from cvtdesign.design.optimise import build_problem, load_study
+    from cvtdesign.design.problem import build_problem
+    from cvtdesign.design.study_file import load_study
 
     for f in STUDIES:
         spec, base = load_study(f)

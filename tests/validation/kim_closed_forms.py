@@ -1,13 +1,14 @@
 """Closed forms from the two papers, as plain numpy functions, for the validation tests.
 
-Kim et al., "Causes of microslip in a continuously variable transmission", ASME J. Mech. Des.
-(refs/001): the existing CVT's kinematics (eqs 5, 8), the steering-roller slip (eqs 19-24), the
+Kim et al., "Causes of microslip in a continuously variable transmission", ASME J. Mech. Des.:
+the existing CVT's kinematics (eqs 5, 8), the steering-roller slip (eqs 19-24), the
 drive-roller slip (eqs 25-31) and their sum (eq 32).
-Brokowski et al., "Toward improved CVTs", IMECE2002-DSC-33680 (refs/000): Gillespie's creep/spin
+Brokowski et al., "Toward improved CVTs: theoretical and experimental results", IMECE2002-DSC-33680:
+Gillespie's creep/spin
 speed ratio (eqs 14-15), its sideslip angle (eq 17), k (eq 19) and the creep/spin efficiency (eq 22).
 
-Units: angles [rad], torques [N m], radii [m], creep constants [1/N], forces [N]. Frames and signs as in
-DESIGN.md sec. 1 (Kim's frames; τ⊥ = −τ1 sin γ + τ2 cos γ; α = atan2(ω2, ω1) − γ_cmd).
+Units: angles [rad], torques [N m], radii [m], creep constants [1/N], forces [N]. Frames and signs are
+Kim's (sec. 2.1; τ⊥ = −τ1 sin γ + τ2 cos γ, eq 17; α = atan2(ω2, ω1) − γ_cmd, eq 15).
 
 Where a printed equation is inconsistent with the vectors it is derived from, the function implements
 the corrected form and its docstring says what was changed and why; the tests in test_papers.py
@@ -56,7 +57,7 @@ def kim_phi_from_gamma(gamma):
 
 def ideal_ratio(gamma, r1=1.0, r2=1.0):
     """Kim eq 8, the ideal transmission law: ω2/ω1 = tan γ; with drive-roller radii r1, r2 [m]
-    (DESIGN.md sec. 1) ω2/ω1 = (r1/r2) tan γ."""
+    (rolling without slip, r1 ω1 = R Ω·d1, r2 ω2 = R Ω·d2) ω2/ω1 = (r1/r2) tan γ."""
     return (r1 / r2) * np.tan(np.asarray(gamma, float))
 
 
@@ -113,7 +114,7 @@ def steering_slip_angle(tau_perp, gamma, eps_s, r_drive, omega_sign=1.0):
     """Kim eqs 19-24: steering-roller slip angle α_SR [rad] at commanded γ [rad] and load τ⊥ [N m].
 
     Printed eq 24: α_SR = γ − γ_a. Correction (c): eq 15 defines α = γ_m − γ, eq 31 α_DR = γ_m − γ_a and
-    eq 32 α = α_SR + α_DR, which together need α_SR = γ_a − γ (actual minus commanded axis, the DESIGN.md
+    eq 32 α = α_SR + α_DR, which together need α_SR = γ_a − γ (actual minus commanded axis, the
     sign of the "steering part"). Correction (d): γ_a from eq 23 and γ are axis angles, defined modulo
     π, and φ from eq 5 inverted wraps by π below γ = −45°, so the difference is taken modulo π.
 
@@ -175,7 +176,7 @@ def gillespie_ratio(gamma, k, tau_perp):
 
     i.e. (sin γ + kτ⊥ cos²γ)/(cos γ − kτ⊥ sin²γ) for 0 < γ < π/2 and (sin γ + kτ⊥ cos²γ)/(cos γ + kτ⊥ sin²γ)
     for −π/2 < γ < 0. Shaft 2 is Brokowski's motor (T_m/b = ω_m/ω_b = tan γ), shaft 1 the brake, and
-    Brokowski's t⊥ = t_m/cos γ = −t_b/sin γ (eqs 10-11) is DESIGN's τ⊥; ω1 > 0.
+    Brokowski's t⊥ = t_m/cos γ = −t_b/sin γ (eqs 10-11) is Kim's τ⊥ (eq 17); ω1 > 0.
 
     Derivation (the model's drive_spin_creep): line contact of half-width b, slip velocity
     (b/(μN))·|Ω·n|·F_t at each drive roller, steering rollers rigid (τ∥ = 0, so F_t1 = −τ⊥ sin γ/r,

@@ -1,12 +1,15 @@
-"""A hand-written reference model of Kim's existing CVT (refs/001 sec. 2), independent of cvtdesign.core.model.
+"""A hand-written reference model of Kim's existing CVT, independent of cvtdesign (nothing imported from it).
+
+Kim et al., "Causes of microslip in a continuously variable transmission", sec. 2: the layout and its vectors.
 
 In the manner of PyBaMM's hand-written "basic" models that are cross-checked against the composed ones:
 the equations of the existing CVT's four contacts are written out by hand here, with Kim's vectors, in
 numpy, and solved point by point with scipy.optimize.root. Only the effects of variants/existing.yaml are
-included: drive_longitudinal_creep (Kim ε_D) and steering_lateral_creep (Kim ε_S).
+included: drive_longitudinal_creep (Kim ε_D) and steering_lateral_creep (Kim ε_S). The drive rollers may
+have different radii r_1, r_2 (variants/unequal.yaml), which Kim's layout allows.
 
-Contacts (outward normal n, axle a, rolling direction t = n × a), DESIGN.md sec. 1:
-    D1 (shaft 1, radius r_D): n = d2, a = −d1          D2 (shaft 2, radius r_D): n = d1, a = −d2
+Contacts (outward normal n, axle a, rolling direction t = n × a):
+    D1 (shaft 1, radius r_1): n = d2, a = −d1          D2 (shaft 2, radius r_2): n = d1, a = −d2
     S1 (idler, radius r_S):   n = c1, a = cos φ c2 + sin φ c3
     S2 (idler, radius r_S):   n = c2, a = cos φ c1 + sin φ c3
 with φ from Kim eq 5 inverted, tan φ = √2 tan(γ_cmd − π/4).
@@ -17,13 +20,13 @@ Equations (14):
     creep law, per contact and direction:   s·t + c_t F_t = 0,   s·a + c_a F_a = 0,
         s = R Ω × n − r ω t (slip velocity of the sphere over the roller), V = |R Ω·a| (rolling speed),
         c_t = ε_D V on drive rollers, c_a = ε_S V on steering rollers, and a rigid floor eps_rigid·V_ref
-        [m/(N s)] (V_ref = |ω1| r_D) added to every direction, as in model.py (it keeps the statically
-        indeterminate split of the drive rollers' axial forces regular; a numerical regularisation, not
-        physics, so the cross-check passes the model's value, cvtdesign.core.model.EPS_RIGID);
+        [m/(N s)] (V_ref = |ω1| r_1) added to every direction (it keeps the statically indeterminate split
+        of the drive rollers' axial forces regular: a numerical regularisation, not physics; the package
+        documents the same 1e-9 1/N floor, written here by hand, not imported);
     sphere moment balance:                 Σ R n × F = 0 (3);
     idler torque balance:                  F_t = 0 at S1 and S2 (2);
-    load:                                  −τ1 sin γ_cmd + τ2 cos γ_cmd = τ⊥, τ_s = r_D F_t of shaft s's roller (1).
-Outputs follow DESIGN.md sec. 1: α = atan2(ω2, ω1) − γ_cmd, γ_axis = atan2(Ω·d2, Ω·d1),
+    load:                                  −τ1 sin γ_cmd + τ2 cos γ_cmd = τ⊥, τ_s = r_s F_t of shaft s's roller (1).
+Outputs (Kim eqs 8, 15, 17 with the radius ratio): α = atan2(ω2 r_2/r_1, ω1) − γ_cmd, γ_axis = atan2(Ω·d2, Ω·d1),
 α_steering = γ_axis − γ_cmd, α_drive = α − α_steering.
 """
 from __future__ import annotations
@@ -32,7 +35,7 @@ import numpy as np
 from scipy import optimize
 
 from kim_closed_forms import C1, C2, C3, D1, D2, S2  # Kim's vectors, written by hand there too
-EPS_RIGID = 1e-9      # [1/N] default compliance floor of the rigid directions
+EPS_RIGID = 1e-9      # [1/N] compliance floor of the rigid directions (a regularisation, see above)
 
 
 def _wrap(x):
@@ -42,11 +45,14 @@ def _wrap(x):
 class ExistingCVT:
     """Kim's existing CVT with Kim's creep constants; all quantities SI.
 
-    R: sphere radius [m]; r_drive, r_steer: roller radii [m]; eps_d, eps_s: Kim's ε_D, ε_S [1/N];
-    eps_rigid: compliance floor of the rigid directions [1/N]."""
+    R: sphere radius [m]; r_drive: shaft 1's drive-roller radius [m]; r_drive_2: shaft 2's (default
+    r_drive); r_steer: steering-roller radius [m]; eps_d, eps_s: Kim's ε_D, ε_S [1/N]; eps_rigid: compliance
+    floor of the rigid directions [1/N]."""
 
-    def __init__(self, R=0.0635, r_drive=0.040, r_steer=0.038, eps_d=0.0038, eps_s=0.0049, eps_rigid=EPS_RIGID):
+    def __init__(self, R=0.0635, r_drive=0.040, r_steer=0.038, eps_d=0.0038, eps_s=0.0049, eps_rigid=EPS_RIGID,
+                 r_drive_2=None):
         self.R, self.r_drive, self.r_steer, self.eps_d, self.eps_s = R, r_drive, r_steer, eps_d, eps_s
+        self.r_drive_2 = r_drive if r_drive_2 is None else r_drive_2
         self.eps_rigid = eps_rigid
 
     def contacts(self, phi):
@@ -56,7 +62,7 @@ class ExistingCVT:
         a_s2 = np.cos(phi) * C1 + np.sin(phi) * C3
         n = np.array([D2, D1, C1, C2])
         a = np.array([-D1, -D2, a_s1, a_s2])
-        r = np.array([self.r_drive, self.r_drive, self.r_steer, self.r_steer])
+        r = np.array([self.r_drive, self.r_drive_2, self.r_steer, self.r_steer])
         drive = np.array([True, True, False, False])
         return n, a, np.cross(n, a), r, drive
 
@@ -79,7 +85,7 @@ class ExistingCVT:
         creep_a = (np.sum(s * a, axis=1) + c_a * Fa) / v_ref
         F = Ft[:, None] * t + Fa[:, None] * a
         moment = R * np.sum(np.cross(n, F), axis=0)                   # Σ R n × F
-        tau1, tau2 = self.r_drive * Ft[0], self.r_drive * Ft[1]
+        tau1, tau2 = self.r_drive * Ft[0], self.r_drive_2 * Ft[1]
         load = -tau1 * np.sin(gamma) + tau2 * np.cos(gamma) - tau_perp
         return np.concatenate([creep_t, creep_a, moment / (R * f_s), Ft[2:] / f_s, [load]])
 
@@ -111,8 +117,8 @@ class ExistingCVT:
         omega2 = omega1 * x[3]
         Ft, Fa = 10.0 * x[6:10], 10.0 * x[10:14]
         gamma_axis = np.arctan2(Om @ D2, Om @ D1)
-        alpha = _wrap(np.arctan2(omega2, omega1) - gamma)
+        alpha = _wrap(np.arctan2(omega2 * self.r_drive_2 / self.r_drive, omega1) - gamma)
         alpha_s = _wrap(gamma_axis - gamma)
         return dict(alpha=alpha, alpha_steering=alpha_s, alpha_drive=_wrap(alpha - alpha_s), gamma_axis=gamma_axis,
-                    phi=phi, omega_2=omega2, tau_1=self.r_drive * Ft[0], tau_2=self.r_drive * Ft[1],
+                    phi=phi, omega_2=omega2, tau_1=self.r_drive * Ft[0], tau_2=self.r_drive_2 * Ft[1],
                     F_t=Ft, F_a=Fa, residual=res)

@@ -1,39 +1,32 @@
 """The generalised model (cvtdesign.core.model) against the two papers' equations and a hand-written reference.
 
-Kim et al. (refs/001): ideal law (eq 8) and steering linkage (eq 5) at zero load; steering-roller slip
-(eqs 19-24), drive-roller slip (eqs 25-31) and their sum (eq 32) at small load; the box CVT's halved drive
-slip (sec. 5.1); speed independence (sec. 4.3). Brokowski et al. (refs/000): Gillespie's creep/spin speed
-ratio (eqs 14-15), sideslip angle (eq 17) and efficiency (eq 22) with k from eq 19. And a PyBaMM-style
-cross-check of the whole existing CVT against reference_existing.py.
+Kim et al., "Causes of microslip in a continuously variable transmission": ideal law (eq 8) and steering
+linkage (eq 5) at zero load; steering-roller slip (eqs 19-24), drive-roller slip (eqs 25-31) and their sum
+(eq 32) at small load; the box CVT's halved drive slip (sec. 5.1); speed independence (sec. 4.3).
+Brokowski et al., "Toward improved CVTs: theoretical and experimental results": Gillespie's creep/spin speed
+ratio (eqs 14-15), sideslip angle (eq 17) and efficiency (eq 22) with k from eq 19 (b from Hertz's theory
+written here with scipy, not the package's contact module). And a PyBaMM-style cross-check of Kim's layout
+(existing.yaml and unequal.yaml) against reference_existing.py.
 
 The closed forms are in kim_closed_forms.py, with the corrections to the printed equations documented
-there. Measured numbers are printed (run pytest with -s to see them).
+there. Each tolerance is the accuracy measured when it was set times a stated margin; measured numbers are
+printed (run pytest with -s to see them).
 """
 from __future__ import annotations
 
-import functools
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
+from scipy import optimize, special
 
-HERE = Path(__file__).resolve().parent
-if str(HERE) not in sys.path:          # the closed forms and the reference model live next to this file
-    sys.path.insert(0, str(HERE))
+import kim_closed_forms as kim  # tests/validation is on sys.path (tests/conftest.py)
+from conftest import shipped_layout, shipped_model
+from reference_existing import ExistingCVT
 
-import kim_closed_forms as kim  # noqa: E402
-from reference_existing import ExistingCVT  # noqa: E402
-
-from cvtdesign.core import contact  # noqa: E402
-from cvtdesign.core.effects import EFFECTS  # noqa: E402
-from cvtdesign.core.model import EPS_RIGID, compile_model  # noqa: E402
-from cvtdesign.io.variant import load_variant  # noqa: E402
+from cvtdesign.core.effects import EFFECTS
 
 # --- helpers -------------------------------------------------------------------------------------------
 
-VARIANT_DIR = HERE.parents[1] / "variants"
-VARIANTS = sorted(p.stem for p in VARIANT_DIR.glob("*.yaml"))
+VARIANTS = ("box", "existing", "unequal")
 GAMMA_DEG = np.arange(-80.0, 81.0, 10.0)             # Kim sec. 4.2 test protocol
 GAMMAS = np.radians(GAMMA_DEG)
 LOADS = np.round(np.arange(-1.0, 1.0001, 0.1), 10)    # [N m], Kim sec. 4.2
@@ -48,20 +41,26 @@ ZERO_LOAD_SAFE = tuple(e for e in EFFECTS if e not in ACT_AT_ZERO_LOAD)
 EXISTING_ONLY_STEERING = ("steering_lateral_creep",)
 EXISTING_ONLY_DRIVE = ("drive_longitudinal_creep",)
 
+# Kim's closed forms hold to first order in the load; at τ⊥ = ±0.05 N·m the model meets eqs 19-24 to
+# 6.1e-6 and eqs 25-31 to 1.3e-6 relative (measured, both speed signs): tolerances 10× those. Eq 32 (the
+# sum of the two parts) misses the interaction of the parts: measured 4.75e-3, tolerance 6e-3 (that
+# interaction is physics, not round-off, so the margin is small: a 25 % change of it fails).
+TOL_EQ19_24 = 6e-5
+TOL_EQ25_31 = 1.5e-5
+TOL_EQ32 = 6e-3
+
 
 def report(msg):
     print(f"[measured] {msg}")
 
 
-@functools.lru_cache(maxsize=None)
 def layout(name):
-    return load_variant(VARIANT_DIR / f"{name}.yaml")
+    return shipped_layout(name)
 
 
-@functools.lru_cache(maxsize=None)
 def model(name, effects=None):
-    """Compiled model of a variant; effects: tuple of names, None = the variant's defaults."""
-    return compile_model(layout(name), effects=effects)
+    """Compiled model of a shipped variant (once per session); effects: tuple of names, None = its own."""
+    return shipped_model(name, effects)
 
 
 def solve(name, gammas, loads, effects=None, **kw):
@@ -91,7 +90,7 @@ def rel_err(actual, expected, zero_atol=None):
 @pytest.mark.parametrize("effects", [None, ZERO_LOAD_SAFE], ids=["default_effects", "zero_load_safe_effects"])
 @pytest.mark.parametrize("name", VARIANTS)
 def test_ideal_law_kim_eq8_at_zero_load(name, effects):
-    """ω2/ω1 = (r1/r2) tan γ (Kim eq 8; DESIGN sec. 1 for unequal radii) to 1e-9 at τ⊥ = 0."""
+    """ω2/ω1 = (r1/r2) tan γ (Kim eq 8, with the drive radii for unequal ones) to 1e-9 at τ⊥ = 0."""
     r1, r2 = drive_radii(layout(name))
     r = solve(name, GAMMAS, 0.0, effects)
     ratio = r["omega_2"] / r["omega_1"]
@@ -135,13 +134,13 @@ def _existing_constants():
 @pytest.mark.parametrize("tau", SMALL_LOADS)
 def test_steering_roller_slip_kim_eqs19_24(tau):
     """α_steering of the model with only steering_lateral_creep = Kim's α_SR (eqs 19-24, with corrections
-    (a)-(d) of kim_closed_forms.steering_slip_angle) within 2 %, all γ in −80..80°."""
+    (a)-(d) of kim_closed_forms.steering_slip_angle) to TOL_EQ19_24, all γ in −80..80°."""
     eps_s, _, r_d = _existing_constants()
     r = solve("existing", GAMMAS, tau, EXISTING_ONLY_STEERING)
     a_sr = kim.steering_slip_angle(tau, GAMMAS, eps_s, r_d)
     err = rel_err(r["alpha_steering"], a_sr)
     report(f"tau={tau}: alpha_SR (eqs 19-24) max rel err {err:.2e}, max |alpha_SR| {np.max(np.abs(a_sr)):.3e} rad")
-    assert err < 0.02
+    assert err < TOL_EQ19_24
     # no drive slip when the drive rollers are rigid (up to the 1e-9 compliance floor)
     assert np.max(np.abs(r["alpha_drive"])) < 1e-8
 
@@ -149,14 +148,15 @@ def test_steering_roller_slip_kim_eqs19_24(tau):
 @pytest.mark.parametrize("tau", SMALL_LOADS)
 def test_kim_eq19_radius_is_the_drive_radius(tau):
     """Finding (a): with eq 19's r read as the steering-roller radius (38 mm, as the text says) instead of
-    the drive-roller radius (40 mm) the model's α_SR is 38/40 − 1 = −5 % off the closed form, outside 2 %."""
+    the drive-roller radius (40 mm) the model's α_SR is 38/40 − 1 = −5 % off the closed form, far outside
+    TOL_EQ19_24 (measured: the ratio is r_S/r_D to 1e-4)."""
     eps_s, _, r_d = _existing_constants()
     r_s = next(r.radius for r in layout("existing").rollers if r.role == "steering")
     r = solve("existing", GAMMAS, tau, EXISTING_ONLY_STEERING)
     ratio = r["alpha_steering"] / kim.steering_slip_angle(tau, GAMMAS, eps_s, r_s)
     report(f"tau={tau}: model / eq 19 with r_S: {ratio.min():.4f}..{ratio.max():.4f} (r_S/r_D = {r_s / r_d:.4f})")
-    np.testing.assert_allclose(ratio, r_s / r_d, rtol=1e-3)
-    assert np.all(np.abs(ratio - 1) > 0.02)
+    np.testing.assert_allclose(ratio, r_s / r_d, rtol=1e-4)
+    assert np.all(np.abs(ratio - 1) > 100 * TOL_EQ19_24)
 
 
 @pytest.mark.parametrize("tau", SMALL_LOADS)
@@ -169,31 +169,31 @@ def test_kim_eq24_printed_sign_is_reversed(tau):
     printed = kim.wrap_half_pi(GAMMAS - gamma_a)
     r = solve("existing", GAMMAS, tau, EXISTING_ONLY_STEERING)
     assert np.all(np.sign(printed) == -np.sign(r["alpha_steering"]))
-    assert rel_err(r["alpha_steering"], -printed) < 0.02
+    assert rel_err(r["alpha_steering"], -printed) < TOL_EQ19_24
 
 
 @pytest.mark.parametrize("tau", SMALL_LOADS)
 def test_drive_roller_slip_kim_eqs25_31(tau):
-    """α_drive of the model with only drive_longitudinal_creep = Kim's α_DR (eqs 25-31, γ_a = γ) within 2 %;
+    """α_drive of the model with only drive_longitudinal_creep = Kim's α_DR (eqs 25-31, γ_a = γ) to TOL_EQ25_31;
     at γ = 0, where the closed form is 0, |α_drive| < 1e-8 rad (the model's rigid-direction floor)."""
     _, eps_d, r_d = _existing_constants()
     r = solve("existing", GAMMAS, tau, EXISTING_ONLY_DRIVE)
     a_dr = kim.drive_slip_angle(tau, GAMMAS, eps_d, r_d)
     err = rel_err(r["alpha_drive"], a_dr, zero_atol=1e-8)
     report(f"tau={tau}: alpha_DR (eqs 25-31) max rel err {err:.2e}, max |alpha_DR| {np.max(np.abs(a_dr)):.3e} rad")
-    assert err < 0.02
+    assert err < TOL_EQ25_31
     assert np.max(np.abs(r["alpha_steering"])) < 1e-8
 
 
 @pytest.mark.parametrize("tau", SMALL_LOADS)
 def test_slip_angle_sum_kim_eq32(tau):
-    """Both effects on (existing.yaml's defaults): α ≈ α_SR + α_DR (Kim eq 32) within 2 %."""
+    """Both effects on (existing.yaml's defaults): α ≈ α_SR + α_DR (Kim eq 32) to TOL_EQ32."""
     eps_s, eps_d, r_d = _existing_constants()
     r = solve("existing", GAMMAS, tau)
     expected = kim.kim_slip_angle(tau, GAMMAS, eps_s, eps_d, r_d)
     err = rel_err(r["alpha"], expected)
     report(f"tau={tau}: alpha (eq 32) max rel err {err:.2e}")
-    assert err < 0.02
+    assert err < TOL_EQ32
 
 
 def test_slip_angle_independent_of_speed_kim_sec43():
@@ -209,7 +209,8 @@ def test_slip_angle_independent_of_speed_kim_sec43():
 def test_kim_closed_forms_negative_speed(tau):
     """Kim's sgn(ω∥) and sgn(ω_S) factors (eqs 21 as corrected, 27-28): with shaft 1 turning backwards
     (ω1 = −10 rad/s) the model's slip angles, taken modulo 180° (axis angles), match α_SR (eqs 19-24),
-    α_DR (eqs 25-31) and α (eq 32) within 2 %. (Modulo 180°: see test_slip_angles_for_negative_speed.)"""
+    α_DR (eqs 25-31) and α (eq 32) to the same tolerances as for ω1 > 0 (modulo 180°: see
+    test_slip_angles_for_negative_speed)."""
     eps_s, eps_d, r_d = _existing_constants()
     rs = solve("existing", GAMMAS, tau, EXISTING_ONLY_STEERING, speeds=-10.0)
     rd = solve("existing", GAMMAS, tau, EXISTING_ONLY_DRIVE, speeds=-10.0)
@@ -219,7 +220,7 @@ def test_kim_closed_forms_negative_speed(tau):
                     zero_atol=1e-8)
     err_b = rel_err(kim.wrap_half_pi(rb["alpha"]), kim.kim_slip_angle(tau, GAMMAS, eps_s, eps_d, r_d, -1.0))
     report(f"tau={tau}, omega_1<0: max rel err alpha_SR {err_s:.2e}, alpha_DR {err_d:.2e}, alpha {err_b:.2e}")
-    assert max(err_s, err_d, err_b) < 0.02
+    assert err_s < TOL_EQ19_24 and err_d < TOL_EQ25_31 and err_b < TOL_EQ32
 
 
 def test_slip_angles_for_negative_speed():
@@ -241,10 +242,11 @@ def _max_abs(name, key, tau):
 @pytest.mark.parametrize("tau", [0.05, -0.05, 1.0, -1.0])
 def test_box_halves_drive_slip_kim_sec51(tau):
     """Kim sec. 5.1: four drive rollers share each tractive force, "essentially halving" the drive-roller
-    slip: max |α_drive| over the envelope, box / existing, in 0.45..0.55 (Kim's ε for both)."""
+    slip: max |α_drive| over the envelope, box / existing, is 1/2 (Kim's ε for both). Measured 0.4993 at
+    ±0.05 N·m and 0.5003 at ±1 N·m (the normal forces shift a little with load): within 0.005 of 1/2."""
     ratio = _max_abs("box", "alpha_drive", tau) / _max_abs("existing", "alpha_drive", tau)
     report(f"tau={tau}: max|alpha_drive| box/existing = {ratio:.4f}")
-    assert 0.45 <= ratio <= 0.55
+    assert abs(ratio - 0.5) < 0.005
 
 
 @pytest.mark.parametrize("tau", [0.05, -0.05, 1.0, -1.0])
@@ -256,41 +258,53 @@ def test_box_lessens_steering_slip_kim_sec51(tau):
     assert ratio < 0.5
 
 
-# --- 4. hand-written reference model of the existing CVT ---------------------------------------------
+# --- 4. hand-written reference model of Kim's layout ---------------------------------------------------
 
-@pytest.fixture(scope="module")
-def reference_envelope():
-    """The reference model (reference_existing.py, with DESIGN.md sec. 1's dimensions and Kim's ε, and the
-    model's rigid-direction floor) and the compiled model over Kim's full envelope."""
-    lay = layout("existing")
-    ref = ExistingCVT(eps_rigid=EPS_RIGID)
-    radii = {r.name: r.radius for r in lay.rollers}
+# Compiled model vs reference (two Newton solvers, CasADi's to a 1e-12 residual and scipy's hybr to xtol
+# 1e-14, on the same equations): measured max |difference| 6.7e-16 rad in α and 4.4e-16 N·m in the
+# torques over the whole envelope of existing.yaml; tolerance 1e-13 absolute (≈ 150×, room for the solvers'
+# own stopping tolerances).
+REFERENCE_ATOL = 1e-13
+
+
+@pytest.fixture(scope="module", params=["existing", "unequal"])
+def reference_envelope(request):
+    """The reference model (reference_existing.py: Kim's vectors, the variant's radii and Kim's ε written in
+    by hand here, not read from the variant) and the compiled model over Kim's full envelope."""
+    name = request.param
+    ref = ExistingCVT(r_drive=0.040, r_drive_2=0.040) if name == "existing" else \
+        ExistingCVT(r_drive=0.030, r_drive_2=0.045)      # unequal.yaml: r_drive 30 mm, brake_ratio 1.5
+    lay = layout(name)
+    radii = {r.name: float(r.radius) for r in lay.rollers}
+    # the variant is the machine the reference describes
     assert (lay.sphere_radius, lay.creep_drive, lay.creep_steering) == pytest.approx((ref.R, ref.eps_d, ref.eps_s))
     assert (radii["D1"], radii["D2"], radii["S1"], radii["S2"]) == pytest.approx(
-        (ref.r_drive, ref.r_drive, ref.r_steer, ref.r_steer))
+        (ref.r_drive, ref.r_drive_2, ref.r_steer, ref.r_steer), rel=1e-12)
     g, t = np.meshgrid(GAMMAS, LOADS, indexing="ij")
-    keys = ("alpha", "alpha_steering", "alpha_drive", "tau_1", "tau_2", "residual")
+    keys = ("alpha", "alpha_steering", "alpha_drive", "tau_1", "tau_2", "omega_2", "residual")
     out = {k: np.empty(g.shape) for k in keys}
     for idx in np.ndindex(g.shape):
         sol = ref.solve(g[idx], t[idx], omega1=lay.motor_speed)
         for k in keys:
             out[k][idx] = sol[k]
-    return out, solve("existing", g, t)
+    return name, out, solve(name, g, t)
 
 
 def test_reference_model_converged(reference_envelope):
-    ref, _ = reference_envelope
+    _, ref, _ = reference_envelope
     assert np.max(ref["residual"]) < 1e-10
 
 
-@pytest.mark.parametrize("key", ["alpha", "alpha_steering", "alpha_drive", "tau_1", "tau_2"])
+@pytest.mark.parametrize("key", ["alpha", "alpha_steering", "alpha_drive", "tau_1", "tau_2", "omega_2"])
 def test_reference_model_cross_check(reference_envelope, key):
-    """Compiled model = hand-written reference (Kim's vectors, scipy root) over −80..80° × −1..1 N m,
-    to 1e-6 relative plus 1e-9 absolute (rad, or N m for the torques)."""
-    ref, mod = reference_envelope
-    diff = np.abs(mod[key] - ref[key])
-    report(f"{key}: max |model - reference| = {diff.max():.2e} (max |value| {np.max(np.abs(ref[key])):.3g})")
-    assert np.all(diff <= 1e-9 + 1e-6 * np.abs(ref[key]))
+    """Compiled model = hand-written reference (Kim's vectors, scipy root) over −80..80° × −1..1 N·m, to
+    REFERENCE_ATOL (rad, N·m, or for ω2 the speed ratio ω2/ω1)."""
+    name, ref, mod = reference_envelope
+    scale = layout(name).motor_speed if key == "omega_2" else 1.0
+    diff = np.abs(mod[key] - ref[key]) / scale
+    report(f"{name} {key}: max |model - reference| = {diff.max():.2e} (max |value| {np.max(np.abs(ref[key])):.3g})")
+    assert np.max(np.abs(ref[key])) > 0.05           # not a comparison of zeros
+    assert diff.max() <= REFERENCE_ATOL
 
 
 # --- 5. Gillespie's creep/spin model (Brokowski eqs 14-19, 22) -----------------------------------------
@@ -298,17 +312,48 @@ def test_reference_model_cross_check(reference_envelope, key):
 GILLESPIE_LOADS = (-1.0, -0.5, 0.5, 1.0)
 GILLESPIE_GAMMAS = np.radians(np.concatenate([-GAMMA_DEG[GAMMA_DEG > 0][::-1], GAMMA_DEG[GAMMA_DEG > 0]]))
 SPIN_ONLY = ("drive_spin_creep",)
+# The model with only drive_spin_creep meets Gillespie's ratio to 2.9e-7 relative and eq 17 to 4.1e-8 rad
+# (measured, |τ⊥| ≤ 1 N·m): what is left is the 1e-9 1/N compliance floor of the model's rigid directions,
+# which grows with the load. Tolerances 1e-6 and 1e-7 (≈ 3×: the floor's share is physics of the model,
+# not noise; a 1 % error in k alone would be 1e-4).
+TOL_GILLESPIE_RATIO = 1e-6
+TOL_EQ17 = 1e-7
+
+
+def hertz_half_width(A, B, N, E_star):
+    """Lateral Hertz semi-axis b [m] across the rolling direction (x), from Johnson's "Contact Mechanics"
+    sec. 4.2 with scipy: for B > A the major axis is along x, e² = 1 − (b/a)² solves
+    B/A = [(a/b)² E(e) − K(e)]/[K(e) − E(e)] and a³ = 3 N (K − E)/(2π A E* e²); the lateral semi-
+    axis b = a/q, q = a/b. Independent of cvtdesign.core.contact."""
+    def ratio(q):                                          # B/A implied by a/b = q ≥ 1
+        m = 1 - q ** -2
+        return (q * q * special.ellipe(m) - special.ellipk(m)) / (special.ellipk(m) - special.ellipe(m))
+    q = optimize.brentq(lambda x: ratio(x) - B / A, 1 + 1e-9, 1e3, xtol=1e-15, rtol=1e-15)
+    m = 1 - q ** -2
+    K, E = special.ellipk(m), special.ellipe(m)
+    a = (3 * N * (K - E) / (2 * np.pi * A * E_star * m)) ** (1 / 3)
+    return a / q
 
 
 def gillespie_k_existing():
-    """k = b/(R r μ N) (Brokowski eq 19) for the existing CVT's drive rollers at the preload: b the lateral
-    Hertz semi-axis, μ the lower of the two materials' friction coefficients."""
+    """k = b/(R r μ N) (Brokowski eq 19) for the existing CVT's drive rollers at the preload, every number
+    typed from existing.yaml: sphere R = 63.5 mm (2 GPa, ν 0.35), drive roller r = 40 mm with a 15 mm crown
+    (10.7 MPa, ν 0.48), μ = 0.8, N = 100 N; b the lateral Hertz semi-axis (hertz_half_width)."""
+    R, r, crown, N, mu = 0.0635, 0.040, 0.015, 100.0, 0.8
+    e_star = 1 / ((1 - 0.48 ** 2) / 10.7e6 + (1 - 0.35 ** 2) / 2e9)
+    b = hertz_half_width(0.5 * (1 / R + 1 / r), 0.5 * (1 / R + 1 / crown), N, e_star)
+    return kim.gillespie_k(b, R, r, mu, N)
+
+
+def test_gillespie_k_inputs_are_the_variants():
+    """The numbers typed into gillespie_k_existing are existing.yaml's (so the closed form describes the
+    machine the model solves)."""
     lay = layout("existing")
     d1 = next(r for r in lay.rollers if r.role == "drive" and r.shaft == 1)
-    sm, R = lay.sphere_material, lay.sphere_radius
-    e_star, _, _ = contact.contact_material(d1.material.E, d1.material.nu, sm.E, sm.nu)
-    _, b, _, _ = contact.hertz_ellipse(*contact.curvature_sums(R, d1.radius, d1.crown_radius), d1.preload, e_star)
-    return kim.gillespie_k(float(b), R, d1.radius, min(d1.material.mu, sm.mu), d1.preload)
+    sm = lay.sphere_material
+    assert (lay.sphere_radius, d1.radius, d1.crown_radius, d1.preload) == pytest.approx((0.0635, 0.040, 0.015, 100.0))
+    assert (d1.material.E, d1.material.nu, sm.E, sm.nu, min(d1.material.mu, sm.mu)) == pytest.approx(
+        (10.7e6, 0.48, 2e9, 0.35, 0.8))
 
 
 @pytest.mark.parametrize("tau", GILLESPIE_LOADS)
@@ -326,8 +371,8 @@ def test_gillespie_spin_creep_is_dissipative(tau):
 @pytest.mark.parametrize("tau", GILLESPIE_LOADS)
 def test_gillespie_speed_ratio_brokowski_eqs14_15(tau):
     """ω2/ω1 of the model (only drive_spin_creep) = (sin γ + kτ⊥ cos γ|cos γ|)/(cos γ − kτ⊥ sin γ|sin γ|) to
-    1e-6 relative, γ ∈ ±{10..80}°: that is the printed eq 15 for γ < 0, and the printed eq 14 with τ⊥ → −τ⊥
-    for γ > 0; the printed eq 14 puts the slip (ratio − tan γ) on the wrong side of the ideal ratio."""
+    TOL_GILLESPIE_RATIO, γ ∈ ±{10..80}°: that is the printed eq 15 for γ < 0, and the printed eq 14 with
+    τ⊥ → −τ⊥ for γ > 0; the printed eq 14 puts the slip (ratio − tan γ) on the wrong side of the ideal ratio."""
     k = gillespie_k_existing()
     g = GILLESPIE_GAMMAS
     r = solve("existing", g, tau, SPIN_ONLY)
@@ -339,31 +384,38 @@ def test_gillespie_speed_ratio_brokowski_eqs14_15(tau):
     err14 = np.abs(ratio[pos] / printed14 - 1)
     report(f"tau={tau}: k = {k:.5g} 1/(N m); ratio vs dissipative form {err:.2e}, vs printed eq 15 (γ<0) "
            f"{err15:.2e}, vs printed eq 14 (γ>0) {err14.min():.3f}..{err14.max():.3f}")
-    assert err < 1e-6
-    assert err15 < 1e-6
+    assert err < TOL_GILLESPIE_RATIO
+    assert err15 < TOL_GILLESPIE_RATIO
     np.testing.assert_allclose(printed14, kim.gillespie_ratio(g[pos], k, -tau), rtol=1e-12)
     assert np.all(np.sign(printed14 - np.tan(g[pos])) == -np.sign(ratio[pos] - np.tan(g[pos])))
 
 
 @pytest.mark.parametrize("tau", GILLESPIE_LOADS)
 def test_gillespie_sideslip_brokowski_eq17(tau):
-    """tan α from the printed Brokowski eq 17 (0 < γ < 90°) = the model's α, to 1e-7 rad (the 1e-6 relative
-    speed-ratio tolerance of the test above is ≤ 5e-7 rad in α)."""
+    """tan α from the printed Brokowski eq 17 (0 < γ < 90°) = the model's α, to TOL_EQ17 rad."""
     g = GILLESPIE_GAMMAS[GILLESPIE_GAMMAS > 0]
     r = solve("existing", g, tau, SPIN_ONLY)
     alpha17 = np.arctan(kim.gillespie_tan_alpha(g, gillespie_k_existing(), tau))
     diff = np.max(np.abs(r["alpha"] - alpha17))
     report(f"tau={tau}: |alpha - atan(eq 17)| max {diff:.2e} rad, max |alpha| {np.max(np.abs(alpha17)):.3e} rad")
-    assert diff < 1e-7
+    assert diff < TOL_EQ17
 
 
 @pytest.mark.parametrize("tau", GILLESPIE_LOADS)
 def test_creep_spin_efficiency_brokowski_eq22(tau):
     """Where power enters at shaft 2 (Brokowski's motor), the model's efficiency −τ1ω1/(τ2ω2) with only
-    drive_spin_creep = tan γ / tan(γ + α) (Brokowski eq 22) to 1e-9."""
+    drive_spin_creep = tan γ / tan(γ + α) (Brokowski eq 22) with α from eq 17 (k from eq 19), not the
+    model's own α: this checks the model's torques and speeds against the paper's loss, to 1e-6 relative
+    (measured 2.4e-7, ≈ 4× below: the ratio's floor error propagated)."""
     r = solve("existing", GILLESPIE_GAMMAS, tau, SPIN_ONLY)
     p_in2 = r["tau_2"] * r["omega_2"] > 0
     assert p_in2.sum() == len(GILLESPIE_GAMMAS) // 2
     eta = -r["tau_1"] * r["omega_1"] / (r["tau_2"] * r["omega_2"])
-    np.testing.assert_allclose(eta[p_in2], kim.creep_spin_efficiency(GILLESPIE_GAMMAS, r["alpha"])[p_in2], rtol=1e-9)
-    assert np.all(eta[p_in2] < 1)
+    g = GILLESPIE_GAMMAS
+    alpha17 = np.arctan(kim.gillespie_tan_alpha(g, gillespie_k_existing(), tau))   # eq 17 (for γ > 0)
+    alpha17 = np.where(g > 0, alpha17, np.arctan(kim.gillespie_ratio(g, gillespie_k_existing(), tau)) - g)
+    eta22 = kim.creep_spin_efficiency(g, alpha17)
+    err = np.max(np.abs(eta[p_in2] / eta22[p_in2] - 1))
+    report(f"tau={tau}: efficiency vs eq 22 max rel err {err:.2e}, min η {eta[p_in2].min():.4f}")
+    assert err < 1e-6
+    assert np.all(eta[p_in2] < 1) and eta[p_in2].min() < 1 - 1e-3     # a loss that the check can see
