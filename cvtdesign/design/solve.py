@@ -312,5 +312,6 @@ def knee(front: list[dict]) -> int:
         return ok[0]["index"] if ok else 0
     a = np.array([[p["worst_alpha_deg"], p["power_loss_W"]] for p in ok])
     a = (a - a.min(0)) / np.where(np.ptp(a, 0) > 0, np.ptp(a, 0), 1)
-    d = np.abs(np.cross(a[-1] - a[0], a - a[0])) / max(np.linalg.norm(a[-1] - a[0]), 1e-12)
+    (ux, uy), v = a[-1] - a[0], a - a[0]
+    d = np.abs(ux * v[:, 1] - uy * v[:, 0]) / max(np.hypot(ux, uy), 1e-12)     # |u × v| / |u|
     return ok[int(np.argmax(d))]["index"]
