@@ -2,7 +2,7 @@
 
 1. Cold start: `cvtdesign export variants/box.yaml` (STEP + SVG + PNG) in a new process, against
    `python -c "import cadquery"`, what merely loading cadquery costs on this machine now. Target: < 10 s.
-2. Warm (cadquery loaded): `cad.export_variant` for box.yaml and existing.yaml against the bare assembly of
+2. Warm (cadquery loaded): `export_variant` for box.yaml and existing.yaml against the bare assembly of
    the same layout (the sphere and plain cylinders of the rollers' radius and width at their poses, no
    crowns, bores, axles, forks, couplings, screen or drawings, written to STEP), and the `--check` time.
 
@@ -16,7 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.cad import assembly as cad
+from cvtdesign.cad.export import export_variant
+from cvtdesign.cad.kernel import kernel
+from cvtdesign.cad.plan import Plan
+from cvtdesign.core.geometry import steering_angle
+from cvtdesign.cad.step import step_header, write_step
 from cvtdesign.core.geometry import pose
 from cvtdesign.io.variant import load_variant
 from timing import best_of
@@ -27,9 +31,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def bare_assembly(path, out):
     """The baseline: sphere and plain roller cylinders where the model puts them, as a STEP assembly."""
-    cq = cad._cq()
+    cq = kernel().cq
     layout = load_variant(path)
-    phi = cad.steering_angle(layout, np.radians(45.0))
+    phi = steering_angle(layout, np.radians(45.0))
     R = 1000 * layout.sphere_radius
     assy = cq.Assembly(name=layout.name)
     assy.add(cq.Solid.makeSphere(R, angleDegrees1=-90, angleDegrees2=90), name="sphere")
@@ -38,7 +42,7 @@ def bare_assembly(path, out):
         w = 1000 * r.width
         base = (R + 1000 * r.radius) * n - w / 2 * a
         assy.add(cq.Solid.makeCylinder(1000 * r.radius, w, cq.Vector(*base), cq.Vector(*a)), name=r.name)
-    cad.write_step(assy, Path(out) / f"{layout.name}_bare.step")
+    write_step(assy, Path(out) / f"{layout.name}_bare.step", step_header(Plan(layout, np.radians(45.0), phi), f"{layout.name}_bare.step"))
 
 
 def cold_start(tmp):
@@ -52,13 +56,13 @@ def cold_start(tmp):
 
 
 def warm(tmp):
-    cad._cq()
+    kernel()
     print("warm (cadquery loaded), best of 3")
     for name in ("box", "existing"):
         path = ROOT / "variants" / f"{name}.yaml"
         t_bare, _ = best_of(lambda: bare_assembly(path, tmp), 3)
-        t_exp, res = best_of(lambda: cad.export_variant(path, tmp), 3)
-        t_chk, res_c = best_of(lambda: cad.export_variant(path, tmp, check=True), 1)
+        t_exp, res = best_of(lambda: export_variant(path, tmp), 3)
+        t_chk, res_c = best_of(lambda: export_variant(path, tmp, check=True), 1)
         ok = all(r["ok"] for r in res_c["checks"])
         print(f"  {name:9s} export {t_exp:5.2f} s ({len(res['parts'])} parts)   bare sphere + cylinders "
               f"{t_bare:5.2f} s   ratio {t_exp / t_bare:5.1f} ×   check {res_c['check_seconds']:5.2f} s "

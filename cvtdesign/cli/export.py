@@ -6,7 +6,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from cvtdesign.cad.assembly import export_variant
+from cvtdesign.cad.export import export_variant
 from cvtdesign.cli.printing import progress_bar
 
 

@@ -21,6 +21,7 @@ import casadi as ca
 import numpy as np
 
 from cvtdesign.core.kinematics import shaft_frame, vec
+from cvtdesign.errors import InputError
 
 S2 = np.sqrt(2.0)
 FRAME = {
@@ -158,3 +159,19 @@ def ideal_gamma(layout, phi: float) -> float:
     motion = np.linalg.svd(A)[2][-1]
     om = motion[:3] * np.sign(motion[3])
     return float(shaft_frame(layout).axis_angle(om))
+
+
+def steering_angle(layout, gamma: float) -> float:
+    """Steering angle φ [rad] at which every steered roller rolls without lateral slip about the commanded
+    axis at γ [rad]: the linkage's inverse kinematics as the model seeds and solves it (`steering_angle_guess`
+    refines a scan to ~1e-10 rad; the model's Newton solve starts there). γ must be finite and within the
+    variant's envelope.gamma range (the command line's --gamma)."""
+    lo, hi = float(np.min(layout.gamma_grid)), float(np.max(layout.gamma_grid))
+    if not (np.isfinite(gamma) and lo - 1e-12 <= gamma <= hi + 1e-12):
+        raise InputError(f"{layout.file}: --gamma: γ = {np.degrees(gamma):g}° is outside the variant's envelope.gamma "
+                         f"range {np.degrees(lo):g}..{np.degrees(hi):g}°; expected a --gamma in that range")
+    phi, misfit = steering_angle_guess(*steering_data(layout), np.array([gamma]))
+    if misfit[0] > 1e-6:
+        raise InputError(f"{layout.file}: steering.forks: the linkage cannot reach γ = {np.degrees(gamma):g}° "
+                         f"(misfit {misfit[0]:.2g}); expected a --gamma the steering rollers can realise")
+    return float(phi[0])

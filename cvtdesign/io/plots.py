@@ -1,10 +1,13 @@
 """Matplotlib figures (Agg backend, written as PNG by output.write_file: atomically, umask's mode)."""
 from __future__ import annotations
 
+import multiprocessing
 from pathlib import Path
 
 import numpy as np
 
+from cvtdesign.core.geometry import FRAME, pose
+from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.io.output import OutputError, write_file
 
 
@@ -27,46 +30,288 @@ def save(fig, path: Path, dpi=80):
         _plt().close(fig)
 
 
-def compare_figure(results: list[tuple[str, dict]], path: Path, loads=(-1.0, -0.5, 0.5, 1.0)):
-    """One row per variant: α, its steering part and its drive part against commanded γ at several loads
-    (Kim Figs 20-21), and the efficiency map over γ and τ⊥ with the points where the physics stops holding
-    marked (lost contact, gross slip, not converged)."""
+COMPARE_ROWS = (("alpha", "slip angle α [°]", np.degrees),
+                ("alpha_steering", "steering part γ_axis − γ_cmd [°]", np.degrees),
+                ("alpha_drive", "drive part α − (γ_axis − γ_cmd) [°]", np.degrees),
+                ("efficiency", "efficiency P_out/P_in [-]", lambda x: x))
+LOAD_STYLES = ("-", "--", ":", "-.")
+LOAD_MARKERS = ("o", "s", "^", "v")
+FLAGS = ((1, "+", "grey", "not converged"), (2, "x", "k", "lost contact"), (3, "x", "r", "gross slip"))
+
+
+def _load_columns(results, loads):
+    """The loads drawn [N m], each the first variant's grid load nearest a requested one: [(title, [(load,
+    line style, marker)])], the loads below zero in the first column, the others in the second; line style
+    and marker by |load| rank."""
+    grid = results[0][1]["load"][0]
+    loads = sorted({round(float(grid[np.argmin(np.abs(grid - L))]), 9) for L in loads})
+    ranked = sorted({abs(L) for L in loads}, reverse=True)
+    style = {a: (LOAD_STYLES[k % 4], LOAD_MARKERS[k % 4]) for k, a in enumerate(ranked)}
+    cols = [("τ⊥ < 0", [L for L in loads if L < 0]), ("τ⊥ ≥ 0", [L for L in loads if L >= 0])]
+    return [(title, [(L, *style[abs(L)]) for L in sorted(ls, key=abs, reverse=True)]) for title, ls in cols if ls]
+
+
+def _curve(res, key, conv, L):
+    """(γ [deg], the quantity at the grid load nearest L [N m], the points' status there)."""
+    j = int(np.argmin(np.abs(res["load"][0] - L)))
+    return np.degrees(res["gamma_cmd"][:, j]), conv(res[key][:, j]), res["status"][:, j]
+
+
+def _row_limits(results, key, conv, loads, reference):
+    """Shared y-limits of a row: every variant's values at the drawn loads and the ideal CVT's reference,
+    with 6 % margins."""
+    vals = [reference] + [v for _, res in results for L in loads for v in _curve(res, key, conv, L)[1]]
+    vals = np.asarray(vals, float)
+    lo, hi = float(np.nanmin(vals)), float(np.nanmax(vals))
+    pad = 0.06 * (hi - lo or 1.0)
+    return lo - pad, hi + pad
+
+
+def _line_row(axes, results, row, columns, colours):
+    """One quantity against commanded γ: per column a set of loads, every variant overlaid (colour per
+    variant, line style and marker per load), the ideal CVT as reference, left-out points marked at the
+    bottom of the panel. Returns the row's shared y-limits."""
+    key, label, conv = row
+    reference = 1.0 if key == "efficiency" else 0.0
+    loads = [L for _, col in columns for L, _, _ in col]
+    lo, hi = _row_limits(results, key, conv, loads, reference)
+    for ax, (title, col) in zip(axes, columns):
+        ax.axhline(reference, color="k", lw=1.5, zorder=1)
+        ax.text(0.01, reference, " ideal CVT", transform=ax.get_yaxis_transform(), fontsize=7, va="bottom")
+        for (name, res), colour in zip(results, colours):
+            for L, ls, marker in col:
+                g, y, status = _curve(res, key, conv, L)
+                ax.plot(g, y, ls=ls, marker=marker, ms=3, color=colour, lw=1.2)
+                bad = status != 0
+                ax.plot(g[bad], np.full(bad.sum(), lo + 0.03 * (hi - lo)), "x", color=colour, ms=6, mew=1.5)
+        ax.set_ylim(lo, hi)
+        ax.set_title(f"{label.split(' [')[0]}, {title}", fontsize=9)
+        ax.set_xlabel("commanded γ [°]")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    return lo, hi
+
+
+def _efficiency_map(ax, name, res, norm, plt):
+    """Efficiency over γ × τ⊥ for one variant on the shared colour scale `norm`; where no power enters (τ⊥ = 0,
+    efficiency undefined) the cell is hatched grey; points that left the physics marked (how many: returned
+    with the colour mesh)."""
+    g, t, eff = np.degrees(res["gamma_cmd"]), res["load"], res["efficiency"]
+    ax.set_facecolor("white")
+    idle = (res["status"] == 0) & ~np.isfinite(eff)
+    dg = np.min(np.diff(g[:, 0])) / 2 if g.shape[0] > 1 else 1.0
+    dt = np.min(np.diff(t[0])) / 2 if t.shape[1] > 1 else 0.05
+    for gi, ti in zip(g[idle], t[idle]):
+        ax.add_patch(plt.Rectangle((gi - dg, ti - dt), 2 * dg, 2 * dt, fc="lightgrey", ec="grey", hatch="///",
+                                   lw=0, zorder=0))
+    pc = ax.pcolormesh(g, t, np.ma.masked_invalid(eff), cmap="viridis", norm=norm, shading="nearest", zorder=1)
+    marked = 0
+    for code, marker, colour, label in FLAGS:
+        bad = res["status"] == code
+        if bad.any():
+            marked += len(ax.plot(g[bad], t[bad], marker, color=colour, ms=5, ls="none", zorder=2)[0].get_xdata())
+    ax.set_title(f"{name}: efficiency over γ × τ⊥", fontsize=9)
+    ax.set_xlabel("commanded γ [°]")
+    ax.set_ylabel("τ⊥ [N·m]")
+    return pc, marked
+
+
+def _compare_legend(fig, results, columns, colours, plt):
+    handles = [plt.Line2D([], [], color=c, lw=2, label=name) for (name, _), c in zip(results, colours)]
+    handles.append(plt.Line2D([], [], color="k", lw=1.5, label="ideal CVT (α = 0, efficiency 1)"))
+    for L, ls, marker in sorted({x for _, col in columns for x in col}, key=lambda x: x[0]):
+        handles.append(plt.Line2D([], [], color="dimgrey", ls=ls, marker=marker, ms=4, label=f"τ⊥ = {L:+g} N·m"))
+    handles.append(plt.Line2D([], [], color="dimgrey", marker="x", ls="none", label="left out (status ≠ ok), at "
+                              "the panel's foot"))
+    handles.append(plt.Rectangle((0, 0), 1, 1, fc="lightgrey", ec="grey", hatch="///",
+                                 label="no power transmitted (τ⊥ = 0: efficiency undefined)"))
+    handles += [plt.Line2D([], [], marker=m, color=c, ls="none", label=lab) for _, m, c, lab in FLAGS]
+    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.975), ncol=5, fontsize=8, frameon=False)
+
+
+def compare_figure(results: list[tuple[str, dict]], path: Path, loads=(-1.0, -0.5, 0.5, 1.0)) -> dict:
+    """The variants side by side (Kim Figs 20-21): one row per quantity (α, its steering part γ_axis − γ_cmd,
+    its drive part, efficiency) against commanded γ, the variants overlaid (colour per variant, line style
+    and marker per load τ⊥, negative and positive loads in two columns), every panel of a row on one y-scale,
+    the ideal CVT (α = 0, efficiency 1) drawn as reference; then each variant's efficiency map over γ × τ⊥ on
+    one shared colour scale, with the cells that transmit no power (τ⊥ = 0) hatched and the points where the
+    physics stops holding marked (not converged, lost contact, gross slip). Returns the axes limits:
+    {'ylim': {quantity: [(lo, hi) per panel]}, 'clim': (lo, hi) of the maps, 'marked': [number of flagged
+    points marked on each variant's map]}."""
     plt = _plt()
     n = len(results)
-    fig, axes = plt.subplots(n, 4, figsize=(17, 3.4 * n), squeeze=False)
-    cmap = plt.get_cmap("coolwarm")
-    for row, (name, res) in zip(axes, results):
-        g = np.degrees(res["gamma_cmd"][:, 0])
-        lg = res["load"][0]
-        for ax, key, title in zip(row, ("alpha", "alpha_steering", "alpha_drive"),
-                                  ("slip angle α", "steering part γ_axis − γ_cmd", "drive part")):
-            for L in loads:
-                j = int(np.argmin(np.abs(lg - L)))
-                ax.plot(g, np.degrees(res[key][:, j]), "o-", ms=3,
-                        color=cmap((lg[j] - lg.min()) / max(np.ptp(lg), 1e-12)), label=f"τ⊥ = {lg[j]:+.2g} N·m")
-            ax.axhline(0, color="k", lw=0.5)
-            ax.set_title(f"{name}: {title}", fontsize=10)
-            ax.set_xlabel("commanded γ [deg]")
-            ax.set_ylabel("[deg]")
-            ax.grid(alpha=0.3)
-        row[0].legend(fontsize=7)
-        cs = row[3].contourf(np.degrees(res["gamma_cmd"]), res["load"], np.clip(res["efficiency"], 0, 1),
-                             levels=np.linspace(0, 1, 11), cmap="viridis")
-        fig.colorbar(cs, ax=row[3], label="efficiency")
-        for code, marker, colour, label in ((1, "+", "grey", "not converged"), (2, "x", "k", "lost contact"),
-                                            (3, "x", "r", "gross slip")):
-            bad = res["status"] == code
-            if bad.any():
-                row[3].plot(np.degrees(res["gamma_cmd"][bad]), res["load"][bad], marker, color=colour, ms=4,
-                            ls="none", label=label)
-        if (res["status"] != 0).any():
-            row[3].legend(fontsize=7, loc="upper right")
-        row[3].set_title(f"{name}: efficiency (out/in)", fontsize=10)
-        row[3].set_xlabel("commanded γ [deg]")
-        row[3].set_ylabel("τ⊥ [N·m]")
-    h = 3.4 * n
-    fig.subplots_adjust(left=0.05, right=0.97, bottom=0.55 / h, top=1 - 0.3 / h, wspace=0.3, hspace=0.45)
+    colours = [plt.get_cmap("tab10")(k % 10) for k in range(n)]
+    columns = _load_columns(results, loads)
+    fig = plt.figure(figsize=(max(12, 4.2 * n), 17))
+    grid = fig.add_gridspec(5, 1, height_ratios=(1, 1, 1, 1, 1.25), top=0.9, bottom=0.04, left=0.07, right=0.95,
+                            hspace=0.42)
+    limits = {"ylim": {}}
+    for k, row in enumerate(COMPARE_ROWS):
+        sub = grid[k].subgridspec(1, len(columns), wspace=0.18)
+        axes = [fig.add_subplot(sub[0, c]) for c in range(len(columns))]
+        _line_row(axes, results, row, columns, colours)
+        limits["ylim"][row[0]] = [ax.get_ylim() for ax in axes]
+    effs = np.concatenate([res["efficiency"].ravel() for _, res in results])
+    lo = float(np.nanmin(effs)) if np.isfinite(effs).any() else 0.0
+    norm = plt.Normalize(vmin=min(np.floor(lo * 20) / 20, 0.95), vmax=1.0)
+    sub = grid[4].subgridspec(1, n, wspace=0.35)
+    maps = [fig.add_subplot(sub[0, c]) for c in range(n)]
+    limits["marked"] = []
+    for ax, (name, res) in zip(maps, results):
+        pc, marked = _efficiency_map(ax, name, res, norm, plt)
+        limits["marked"].append(marked)
+    fig.colorbar(pc, ax=maps, label="efficiency P_out/P_in [-] (one scale for all)")
+    limits["clim"] = (norm.vmin, norm.vmax)
+    _compare_legend(fig, results, columns, colours, plt)
+    fig.suptitle("variants over their envelope: slip angle α, its steering and drive parts and efficiency "
+                 "against commanded γ (Kim Figs 20-21)", fontsize=12, y=0.995)
     save(fig, path)
+    return limits
+
+
+ROLE_COLOURS = {"drive": "tab:blue", "follower": "tab:cyan", "steering": "tab:orange"}
+SHAFT_COLOURS = ("tab:red", "tab:green")
+# orthographic views: (title, horizontal axis, vertical axis, axis pointing at the viewer, its sense)
+VIEWS = (("top view (from +z)", 0, 1, 2, 1.0), ("front view (from −y)", 0, 2, 1, -1.0),
+         ("side view (from +x)", 1, 2, 0, 1.0))
+
+
+def layout_scene(layout, phi: float, gamma: float) -> dict:
+    """What the layout drawing shows, lengths in mm: the sphere radius R, each roller at steering angle φ
+    [rad] (rim circle, centre, contact normal, axle, role, fork axis), Kim's frame vectors, the shafts' axes
+    and the commanded sphere axis u(γ) at γ [rad] (kinematics.shaft_frame)."""
+    frame = shaft_frame(layout)
+    R = 1000 * float(layout.sphere_radius)
+    rollers = []
+    for r in layout.rollers:
+        n, a = pose(r, phi)
+        rad = 1000 * float(r.radius)
+        centre = (R + rad) * n
+        th = np.linspace(0, 2 * np.pi, 73)[:, None]
+        rim = centre + rad * (np.cos(th) * n + np.sin(th) * np.cross(n, a))
+        fork = None if r.fork_axis is None else np.asarray(r.fork_axis, float).ravel()
+        rollers.append({"name": r.name, "role": r.role, "shaft": r.shaft, "radius": rad, "centre": centre,
+                        "rim": rim, "normal": n, "axle": a, "fork": fork})
+    e1 = np.asarray(frame.u1, float)
+    e2 = frame.c * e1 + frame.s * np.asarray(frame.u2, float)
+    forks = {}
+    for r in rollers:
+        if r["fork"] is not None:
+            key = tuple(np.round(r["fork"] * np.sign(r["fork"][np.argmax(np.abs(r["fork"]))]), 9))
+            forks.setdefault(key, []).append(r["name"])
+    return {"R": R, "rollers": rollers, "frames": {k: FRAME[k] for k in ("d1", "d2", "c1", "c2", "c3")},
+            "shafts": (e1, e2), "command": np.asarray(frame.axis(gamma), float).ravel(),
+            "forks": [(np.array(k), names) for k, names in forks.items()], "law": frame.law_text()}
+
+
+def _arrow(ax, p0, p1, colour, text=None, lw=1.2):
+    """A 2-D arrow from p0 to p1, its text just beyond the tip."""
+    ax.annotate("", xy=p1, xytext=p0, arrowprops={"arrowstyle": "->", "color": colour, "lw": lw})
+    if text:
+        at = np.asarray(p0) + 1.18 * (np.asarray(p1) - np.asarray(p0))
+        ax.text(*at, text, color=colour, fontsize=7, ha="center", va="center",
+                bbox={"fc": "white", "ec": "none", "alpha": 0.6, "pad": 0.5})
+
+
+def _view(ax, scene, view, plt):
+    """One orthographic view of the scene: horizontal/vertical axes i, j; rollers whose centre lies behind
+    the sphere's mid-plane drawn dashed and faint."""
+    title, i, j, k, sense = view
+    R = scene["R"]
+    ax.add_patch(plt.Circle((0, 0), R, fc="lightgrey", ec="k", alpha=0.35, lw=1, zorder=1))
+    for v, names in scene["forks"]:
+        ax.plot([-1.5 * R * v[i], 1.5 * R * v[i]], [-1.5 * R * v[j], 1.5 * R * v[j]], ":", color="purple",
+                lw=1.2, zorder=2)
+        if np.hypot(v[i], v[j]) > 0.2:
+            ax.text(1.5 * R * v[i], 1.5 * R * v[j], f"fork ({', '.join(names)})", color="purple", fontsize=7)
+    for name, v in scene["frames"].items():
+        if np.hypot(v[i], v[j]) > 0.2:
+            _arrow(ax, (0, 0), (0.7 * R * v[i], 0.7 * R * v[j]), "dimgrey", name, lw=0.8)
+    for s, (e, colour) in enumerate(zip(scene["shafts"], SHAFT_COLOURS)):
+        ax.plot([-1.9 * R * e[i], 1.9 * R * e[i]], [-1.9 * R * e[j], 1.9 * R * e[j]], "-.", color=colour, lw=1)
+        if np.hypot(e[i], e[j]) > 0.2:
+            ax.text(1.9 * R * e[i], 1.9 * R * e[j], f"shaft {s + 1}", color=colour, fontsize=7)
+    u = scene["command"]
+    if np.hypot(u[i], u[j]) > 0.1:
+        _arrow(ax, (0, 0), (1.0 * R * u[i], 1.0 * R * u[j]), "k", "u(γ)", lw=2)
+    for r in sorted(scene["rollers"], key=lambda r: sense * r["centre"][k]):
+        front = sense * r["centre"][k] >= -1e-9
+        c, colour = r["centre"], ROLE_COLOURS[r["role"]]
+        ax.fill(r["rim"][:, i], r["rim"][:, j], color=colour, alpha=0.35 if front else 0.1, zorder=3 if front else 0)
+        ax.plot(r["rim"][:, i], r["rim"][:, j], "-" if front else "--", color=colour, lw=1.4 if front else 0.8,
+                zorder=3 if front else 0)
+        tip = c + 0.8 * r["radius"] * r["axle"]
+        if np.hypot(*(tip - c)[[i, j]]) > 0.15 * r["radius"]:
+            _arrow(ax, (c[i], c[j]), (tip[i], tip[j]), "navy" if front else "lightsteelblue")
+        label = c + 1.1 * r["radius"] * r["normal"]
+        role = r["role"] + (f" {r['shaft']}" if r["shaft"] else "")
+        ax.text(label[i], label[j], f"{r['name']}\n{role}", fontsize=7, ha="center", va="center",
+                alpha=1 if front else 0.5, zorder=4)
+    ax.set_title(title, fontsize=10)
+    ax.set_xlabel(f"{'xyz'[i]} [mm]")
+    ax.set_ylabel(f"{'xyz'[j]} [mm]")
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.2)
+
+
+def _view_3d(ax, scene):
+    """The scene in perspective: sphere wireframe, roller rims, axles, frame vectors, shaft axes, u(γ)."""
+    R = scene["R"]
+    a, b = np.meshgrid(np.linspace(0, 2 * np.pi, 25), np.linspace(0, np.pi, 13))
+    ax.plot_wireframe(R * np.cos(a) * np.sin(b), R * np.sin(a) * np.sin(b), R * np.cos(b), color="grey", lw=0.3)
+    for r in scene["rollers"]:
+        c = r["centre"]
+        ax.plot(*r["rim"].T, color=ROLE_COLOURS[r["role"]], lw=1.6)
+        ax.quiver(*c, *(0.8 * r["radius"] * r["axle"]), color="navy", lw=1.2)
+        ax.text(*(c + 1.1 * r["radius"] * r["normal"]), r["name"], fontsize=8)
+    for name, v in scene["frames"].items():
+        ax.quiver(0, 0, 0, *(0.7 * R * v), color="dimgrey", lw=0.8)
+        ax.text(*(0.75 * R * v), name, color="dimgrey", fontsize=7)
+    for s, (e, colour) in enumerate(zip(scene["shafts"], SHAFT_COLOURS)):
+        ax.plot(*np.outer([-1.9 * R, 1.9 * R], e).T, "-.", color=colour, lw=1)
+        ax.text(*(1.9 * R * e), f"shaft {s + 1}", color=colour, fontsize=7)
+    for v, names in scene["forks"]:
+        ax.plot(*np.outer([-1.5 * R, 1.5 * R], v).T, ":", color="purple", lw=1.2)
+    ax.quiver(0, 0, 0, *(R * scene["command"]), color="k", lw=2)
+    reach = R + 2 * max(r["radius"] for r in scene["rollers"])
+    for set_lim, name in ((ax.set_xlim, "x"), (ax.set_ylim, "y"), (ax.set_zlim, "z")):
+        set_lim(-reach, reach)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    ax.set_zlabel("z [mm]")
+    ax.set_title("3-D view", fontsize=10)
+
+
+def layout_figure(layout, phi: float, gamma: float, path: Path):
+    """The layout before anything is solved: a 3-D view and three orthogonal views (mm) of the sphere, every
+    roller at its contact (rim circle, axle arrow, name and role; steered rollers turned to the steering
+    angle φ [rad] that realises the commanded γ [rad]), the fork axes, Kim's frame vectors d1 d2 c1 c2 c3,
+    both shafts' axes and the commanded sphere axis u(γ). Written to `path` (PNG)."""
+    plt = _plt()
+    scene = layout_scene(layout, phi, gamma)
+    fig = plt.figure(figsize=(13, 13))
+    _view_3d(fig.add_subplot(2, 2, 1, projection="3d"), scene)
+    for k, view in enumerate(VIEWS):
+        _view(fig.add_subplot(2, 2, k + 2), scene, view, plt)
+    reach = scene["R"] + 2 * max(r["radius"] for r in scene["rollers"])
+    for ax in fig.axes[1:]:
+        ax.set_xlim(-reach, reach)
+        ax.set_ylim(-reach, reach)
+    handles = [plt.Line2D([], [], color=c, lw=4, alpha=0.6, label=f"{role} roller") for role, c in ROLE_COLOURS.items()
+               if any(r["role"] == role for r in scene["rollers"])]
+    handles += [plt.Line2D([], [], color="navy", label="roller axle (positive spin)"),
+                plt.Line2D([], [], color="k", lw=2, label="commanded sphere axis u(γ)"),
+                plt.Line2D([], [], color=SHAFT_COLOURS[0], ls="-.", label="shaft 1 axis"),
+                plt.Line2D([], [], color=SHAFT_COLOURS[1], ls="-.", label="shaft 2 axis"),
+                plt.Line2D([], [], color="purple", ls=":", label="fork axis"),
+                plt.Line2D([], [], color="dimgrey", label="frame vectors d1 d2 c1 c2 c3"),
+                plt.Line2D([], [], color="grey", ls="--", label="behind the sphere (dashed, faint)")]
+    fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8, frameon=False)
+    fig.suptitle(f"{layout.name}: layout at commanded γ = {np.degrees(gamma):g}° (steering angle "
+                 f"φ = {np.degrees(phi):.2f}°); ideal law {scene['law']}", fontsize=11)
+    fig.subplots_adjust(left=0.06, right=0.97, bottom=0.08, top=0.94, wspace=0.2, hspace=0.18)
+    save(fig, path, dpi=90)
 
 
 def worker(conn):
@@ -93,8 +338,6 @@ class Background:
     (a file that could not be written is raised as the OutputError it was)."""
 
     def __init__(self):
-        import multiprocessing
-
         ctx = multiprocessing.get_context("fork")
         self.conn, child = ctx.Pipe()
         self.proc = ctx.Process(target=worker, args=(child,), daemon=True)
@@ -214,14 +457,15 @@ def resteer_figure(ratios, load, table: dict, path: Path):
     ax.legend(fontsize=8)
     fig.tight_layout()
     save(fig, path, dpi=110)
-def cad_picture(tri, ids, shade, colours, caption: str, path):
-    """Shaded picture of a CAD assembly (cad.rasterise of its view mesh) with a caption, as PNG."""
-    from cvtdesign.cad.assembly import rasterise
 
+
+def cad_picture(image, caption: str, path):
+    """A CAD assembly's shaded picture (an RGB array (rows, columns, 3), 8-bit or 0..1 floats, as
+    cad.picture.rasterise draws it) with a caption above it, as PNG."""
     plt = _plt()
     fig = plt.figure(figsize=(8, 8.4))
     ax = fig.add_axes((0, 0, 1, 8 / 8.4))
-    ax.imshow(rasterise(tri, ids, shade, colours), interpolation="none")
+    ax.imshow(image, interpolation="none")
     ax.axis("off")
     fig.text(0.5, 0.975, caption, ha="center", va="center", fontsize=10)
     save(fig, Path(path), dpi=100)

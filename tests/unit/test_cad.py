@@ -11,7 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cvtdesign.cad import assembly as cad
+from importlib.metadata import version
+
+from cvtdesign.cad import checks, plan, step
+from cvtdesign.cad.export import export_variant
+from cvtdesign.cad.kernel import kernel
 from cvtdesign.cli import main
 from cvtdesign.core.geometry import pose
 from cvtdesign.core.model import compile_model
@@ -20,17 +24,19 @@ from cvtdesign.io.variant import load_variant
 ROOT = Path(__file__).resolve().parents[2]
 BOX, EXISTING = ROOT / "variants/box.yaml", ROOT / "variants/existing.yaml"
 
-# written out by hand from the variant files: sphere, rollers, axles, forks, couplings
-BOX_PARTS = (["sphere", "A", "A_", "B", "B_", "N1", "N2", "S1", "S2"]
+# written out by hand from the variant files: sphere, rollers (role + name), axles, forks, couplings
+BOX_PARTS = (["sphere", "drive_A", "follower_A_", "drive_B", "follower_B_", "steering_N1", "steering_N2",
+              "steering_S1", "steering_S2"]
              + [f"axle_{n}" for n in ("A", "A_", "B", "B_", "N1", "N2", "S1", "S2")]
-             + ["fork_N1+N2", "fork_S1+S2", "coupling_A_", "coupling_B_"])
-EXISTING_PARTS = ["sphere", "D1", "D2", "S1", "S2", "axle_D1", "axle_D2", "axle_S1", "axle_S2", "fork_S1", "fork_S2"]
+             + ["fork_1", "fork_2", "coupling_A_", "coupling_B_"])
+EXISTING_PARTS = ["sphere", "drive_D1", "drive_D2", "steering_S1", "steering_S2", "axle_D1", "axle_D2", "axle_S1",
+                  "axle_S2", "fork_1", "fork_2"]
 
 
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory):
     out = tmp_path_factory.mktemp("cad")
-    return out, {name: cad.export_variant(path, out, check=True) for name, path in (("box", BOX), ("existing", EXISTING))}
+    return out, {name: export_variant(path, out, check=True) for name, path in (("box", BOX), ("existing", EXISTING))}
 
 
 def test_step_svg_png_written_and_nothing_else(exported):
@@ -52,21 +58,56 @@ def test_step_svg_png_written_and_nothing_else(exported):
 def test_reimported_names_count_colours(exported, name, parts):
     _, res = exported
     assert res[name]["parts"] == parts
-    back = cad.read_step(Path(res[name]["step"]))
+    back = step.read_step(Path(res[name]["step"]))
     assert list(back) == parts
     for part, (shape, colour) in back.items():
         assert len(shape.Solids()) == 1 and shape.Solids()[0].isValid(), part
         assert colour is not None
-    assert np.allclose(back["A" if name == "box" else "D1"][1], cad.COLOURS["drive"], atol=1e-3)
-    assert np.allclose(back["S1"][1], cad.COLOURS["steering"], atol=1e-3)
+    assert np.allclose(back["drive_A" if name == "box" else "drive_D1"][1], plan.COLOURS["drive"], atol=1e-3)
+    assert np.allclose(back["steering_S1"][1], plan.COLOURS["steering"], atol=1e-3)
+
+
+def test_box_parts_named_by_role(exported):
+    """Every roller in box.yaml's STEP file is its role and its name in the variant; no bare YAML id."""
+    _, res = exported
+    names = list(step.read_step(Path(res["box"]["step"])))
+    layout = load_variant(BOX)
+    assert {"drive_A", "drive_B", "follower_A_", "follower_B_", "steering_N1", "fork_1", "sphere"} <= set(names)
+    assert not {r.name for r in layout.rollers} & set(names)
+    assert [n for n in names if n.split("_")[0] in ("drive", "follower", "steering")] == \
+        [f"{r.role}_{r.name}" for r in layout.rollers]
+    assert all(plan.named_by_role(n, layout) for n in names)
+    assert not any(plan.named_by_role(n, layout) for n in ("A", "N1", "steering_A", "drive_N1", "coupling_A",
+                                                           "fork_0", "fork_3", "axle_X"))
+
+
+@pytest.mark.parametrize("name, gamma, phi", [("box", 45.0, 45.0), ("existing", 45.0, None)])
+def test_step_header_read_back(exported, name, gamma, phi):
+    """FILE_DESCRIPTION and FILE_NAME carry the variant, its file, γ, φ and cvtdesign's version (box: φ = γ,
+    its forks turn about the pole axis)."""
+    _, res = exported
+    path = Path(res[name]["step"])
+    text = path.read_text()
+    head = text[:text.index("ENDSEC;")]
+    assert f"FILE_NAME('{name}.step'," in head and f"'variant: {name}'" in head
+    h = step.read_header(path)
+    made_by = f"cvtdesign {version('cvtdesign')}"
+    assert h["name"] == f"{name}.step" and h["originating_system"] == made_by
+    said = dict(line.split(": ", 1) for line in h["description"])
+    assert said["variant"] == name and said["variant file"] == str(BOX if name == "box" else EXISTING)
+    assert said["written by"] == made_by
+    assert float(said["commanded gamma [deg]"]) == gamma
+    assert abs(float(said["steering angle phi [deg]"]) - res[name]["phi_deg"]) < 1e-9
+    if phi is not None:
+        assert abs(float(said["steering angle phi [deg]"]) - phi) < 1e-6
 
 
 @pytest.mark.parametrize("name", ["box", "existing"])
 def test_all_checks_pass(exported, name):
     _, res = exported
     rows = {r["check"]: r for r in res[name]["checks"]}
-    assert set(rows) == {"names and count", "one valid solid per part", "colours", "rollers touch the sphere at R·n",
-                         "no interference", "attached parts touch", "bounding box"}
+    assert set(rows) == {"names and count", "part names by role", "one valid solid per part", "colours", "header",
+                         "rollers touch the sphere at R·n", "no interference", "attached parts touch", "bounding box"}
     assert all(r["ok"] for r in rows.values()), [r for r in rows.values() if not r["ok"]]
 
 
@@ -79,6 +120,25 @@ def _bore_axis(shape):
     return np.array(ax.Location().Coord()), np.array(ax.Direction().Coord())
 
 
+def test_step_header_round_trip_wrapped_and_quoted(tmp_path):
+    """A variant file whose path has a quote and is long enough that the writer breaks it across lines comes
+    back from the header exactly as written."""
+    folder = tmp_path / "the rig's variants, in a folder with a long name so that the header wraps"
+    folder.mkdir()
+    path = folder / "existing.yaml"
+    path.write_text(EXISTING.read_text())
+    header = step.step_header(plan.plan(load_variant(path), 30.0), "one_ball.step")
+    cq = kernel().cq
+    assy = cq.Assembly(name="one_ball")
+    assy.add(cq.Solid.makeSphere(10.0), name="sphere")
+    step.write_step(assy, tmp_path / "one_ball.step", header)
+    text = (tmp_path / "one_ball.step").read_text()
+    assert f"variant file: {path}" not in text and "rig''s" in text     # broken across lines, quote doubled
+    back = step.read_header(tmp_path / "one_ball.step")
+    assert {key: back[key] for key in header} == header
+    assert back["description"][1] == f"variant file: {path}"
+
+
 def test_cli_end_to_end_wheels_where_the_model_puts_them(tmp_path, capsys):
     """Kim's CVT at γ = 30°: the linkage turns the forks by φ ≈ −20.75°; every wheel in the STEP file has its
     axis along the model's axle at that φ, through (R + r)·n, and all checks pass."""
@@ -88,11 +148,13 @@ def test_cli_end_to_end_wheels_where_the_model_puts_them(tmp_path, capsys):
     layout = load_variant(EXISTING)
     phi = float(compile_model(layout).evaluate(np.radians([30.0]), [0.0])["phi"][0])
     assert abs(np.degrees(phi) + 20.75) < 0.01
-    back = cad.read_step(tmp_path / "existing.step")
+    back = step.read_step(tmp_path / "existing.step")
+    said = dict(line.split(": ", 1) for line in step.read_header(tmp_path / "existing.step")["description"])
+    assert said["commanded gamma [deg]"] == "30" and abs(float(said["steering angle phi [deg]"]) - np.degrees(phi)) < 1e-6
     R = 1000 * layout.sphere_radius
     for r in layout.rollers:
         n, a = pose(r, phi)
-        point, direction = _bore_axis(back[r.name][0])
+        point, direction = _bore_axis(back[f"{r.role}_{r.name}"][0])
         centre = (R + 1000 * r.radius) * n
         assert abs(abs(direction @ a) - 1) < 1e-9, r.name
         assert np.linalg.norm(np.cross(point - centre, direction)) < 1e-6, r.name
@@ -102,7 +164,7 @@ def test_steering_angle_is_the_models():
     for path, gammas in ((EXISTING, [-30, 0, 30, 45, 70]), (BOX, [-60, 45])):
         layout = load_variant(path)
         model_phi = compile_model(layout).evaluate(np.radians(gammas), np.zeros(len(gammas)))["phi"]
-        ours = [cad.steering_angle(layout, g) for g in np.radians(gammas)]
+        ours = [plan.steering_angle(layout, g) for g in np.radians(gammas)]
         assert np.max(np.abs(np.array(ours) - model_phi)) < 1e-9
 
 
@@ -119,33 +181,42 @@ def _moved_roller(p, name, shift):
 
 def test_checks_catch_a_roller_pushed_into_the_sphere(tmp_path):
     """The checks are not vacuous: D1 pushed 1 mm into the sphere overlaps it, hits its own axle (the bore's
-    clearance is 0.5 mm) and moves the bounding box; a missing part is reported by name."""
-    p = cad.plan(load_variant(EXISTING))
-    faulty = _moved_roller(p, "D1", -1.0)
-    shapes, _ = cad.build(faulty)
-    cad.write_step(cad.assembly(faulty, shapes), tmp_path / "faulty.step")
-    rows = {r["check"]: r for r in cad.check_step(tmp_path / "faulty.step", p)}
-    assert not rows["rollers touch the sphere at R·n"]["ok"] and "D1" in rows["rollers touch the sphere at R·n"]["detail"]
-    assert not rows["no interference"]["ok"] and "(D1/axle_D1)" in rows["no interference"]["detail"]
+    clearance is 0.5 mm) and moves the bounding box; a missing part is reported by name, a bare roller name
+    as not named by role, a header of another file and γ as wrong."""
+    p = plan.plan(load_variant(EXISTING))
+    faulty = _moved_roller(p, "drive_D1", -1.0)
+    solids, _ = step.build(faulty)
+    step.write_step(step.assembly(faulty, solids), tmp_path / "faulty.step", step.step_header(p, "faulty.step"))
+    rows = {r["check"]: r for r in checks.check_step(tmp_path / "faulty.step", p)}
+    assert not rows["rollers touch the sphere at R·n"]["ok"] and "drive_D1" in rows["rollers touch the sphere at R·n"]["detail"]
+    assert not rows["no interference"]["ok"] and "(drive_D1/axle_D1)" in rows["no interference"]["detail"]
     assert not rows["bounding box"]["ok"]
-    assert rows["names and count"]["ok"] and rows["one valid solid per part"]["ok"]
+    assert all(rows[c]["ok"] for c in ("names and count", "part names by role", "one valid solid per part", "header"))
 
-    short = dataclasses.replace(p, parts=p.parts[:-1])
-    cad.write_step(cad.assembly(short, shapes), tmp_path / "short.step")
-    rows = {r["check"]: r for r in cad.check_step(tmp_path / "short.step", p)}
-    assert not rows["names and count"]["ok"] and "missing ['fork_S2']" in rows["names and count"]["detail"]
+    short = dataclasses.replace(p, parts=[dataclasses.replace(q, name="D1") if q.name == "drive_D1" else q
+                                          for q in p.parts[:-1]])
+    solids["D1"] = solids["drive_D1"]
+    other = step.step_header(plan.plan(load_variant(EXISTING), 30.0), "other.step")
+    step.write_step(step.assembly(short, solids), tmp_path / "short.step", other)
+    rows = {r["check"]: r for r in checks.check_step(tmp_path / "short.step", p)}
+    assert not rows["names and count"]["ok"] and "missing ['drive_D1', 'fork_2']" in rows["names and count"]["detail"]
+    assert not rows["part names by role"]["ok"] and rows["part names by role"]["detail"] == "not named by role: ['D1']"
+    assert not rows["header"]["ok"]
+    assert "commanded gamma [deg] '30', expected 45" in rows["header"]["detail"]
+    assert "file name 'other.step', expected 'short.step'" in rows["header"]["detail"]
 
 
 def test_hull_gap_is_a_lower_bound_of_the_distance():
     """The fast screen may only pass pairs that are really apart: its gap never exceeds OpenCascade's distance."""
-    cq = cad._cq()
-    p = cad.plan(load_variant(BOX))
+    cq = kernel().cq
+    p = plan.plan(load_variant(BOX))
     prims = {part.name: part.prims for part in p.parts}
-    for a, b in [("A", "axle_B"), ("N1", "fork_S1+S2"), ("coupling_A_", "N2"), ("B_", "coupling_B_"), ("N1", "N2")]:
+    for a, b in [("drive_A", "axle_B"), ("steering_N1", "fork_2"), ("coupling_A_", "steering_N2"),
+                 ("follower_B_", "coupling_B_"), ("steering_N1", "steering_N2")]:
         for pa in prims[a]:
             for pb in prims[b]:
                 exact = pa.solid(cq).distance(pb.solid(cq))
-                assert cad.hull_gap(pa, pb) <= exact + 1e-6, (a, b)
+                assert step.hull_gap(pa, pb) <= exact + 1e-6, (a, b)
 
 
 def _variant(tmp_path, base, *pairs, extra=""):
@@ -164,8 +235,8 @@ BAD = {
     # one fork for both pole pairs with the pairs close to the poles: its rods from the lower pair run up
     # along the fork axis through the sphere
     "fork through the sphere": (BOX, [ONE_FORK, ("d: 60 mm", "d: 50 mm")], "",
-                                r"steering\.forks\[0\]: part fork_N1\+N2\+S1\+S2 runs into sphere at γ = 45°"),
-    "fork through a roller": (BOX, [ONE_FORK], "", r"steering\.forks\[0\]: part fork_N1\+N2\+S1\+S2 runs into N1 \(rollers\.N1\)"),
+                                r"steering\.forks\[0\]: part fork_1 runs into sphere at γ = 45°"),
+    "fork through a roller": (BOX, [ONE_FORK], "", r"steering\.forks\[0\]: part fork_1 runs into steering_N1 \(rollers\.N1\)"),
     "roller inside another": (EXISTING, [("S2: {role: steering, contact: c2, axle: c1,", "S2: {role: steering, contact: c1, axle: c2,"),
                                          ("{rollers: [S2], axis: c2, sign: -1}", "{rollers: [S2], axis: c1, sign: 1}")], "",
                               r"rollers\.S1, rollers\.S2: the two rollers overlap"),
@@ -192,28 +263,29 @@ def test_impossible_geometry_refused_before_writing(case, tmp_path, capsys):
 def test_mounting_plate_from_the_variant(tmp_path):
     path = tmp_path / "framed.yaml"
     path.write_text(BOX.read_text() + "frame: {side: -z, distance: 200 mm, thickness: 12 mm}\n")
-    p = cad.plan(load_variant(path))
+    p = plan.plan(load_variant(path))
     plate = p.parts[-1]
     assert plate.name == "frame" and p.names()[:-1] == BOX_PARTS
     assert abs(plate.support(np.array([0.0, 0.0, 1.0])) + 200.0) < 1e-9     # near face 200 mm below the centre
     assert abs(plate.support(np.array([0.0, 0.0, -1.0])) - 212.0) < 1e-9    # 12 mm thick
     rest = np.array([q.bbox() for q in p.parts[:-1]])                       # it covers the rest's outline
-    assert np.allclose(plate.bbox()[0][:2], rest[:, 0, :2].min(axis=0) - cad.FRAME_MARGIN)
-    assert np.allclose(plate.bbox()[1][:2], rest[:, 1, :2].max(axis=0) + cad.FRAME_MARGIN)
+    assert np.allclose(plate.bbox()[0][:2], rest[:, 0, :2].min(axis=0) - plan.FRAME_MARGIN)
+    assert np.allclose(plate.bbox()[1][:2], rest[:, 1, :2].max(axis=0) + plan.FRAME_MARGIN)
 
 
 def test_failed_drawing_leaves_no_file(tmp_path, monkeypatch):
     def broken(*args, **kwargs):
         raise RuntimeError("disk full")
 
-    monkeypatch.setattr(cad, "write_svg", broken)
+    monkeypatch.setattr("cvtdesign.cad.export.write_svg", broken)
     with pytest.raises(RuntimeError, match="disk full"):
-        cad.export_variant(EXISTING, tmp_path / "cad")
+        export_variant(EXISTING, tmp_path / "cad")
     assert list((tmp_path / "cad").iterdir()) == []
 
 
 def test_model_path_does_not_import_cadquery():
-    code = ("import sys, cvtdesign.cli, cvtdesign.core.model, cvtdesign.design.optimise, cvtdesign.design.study, cvtdesign.cad.assembly; "
+    code = ("import sys, cvtdesign.cli, cvtdesign.core.model, cvtdesign.design.solve, cvtdesign.design.study, "
+            "cvtdesign.cad.export, cvtdesign.cad.checks, cvtdesign.cad.picture, cvtdesign.cad.kernel; "
             "print(sorted(m for m in ('cadquery', 'OCP') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

@@ -1,0 +1,54 @@
+"""`cvtdesign show`: a variant's layout before anything is solved: its ideal law, its rollers and a drawing."""
+from __future__ import annotations
+
+import numpy as np
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from cvtdesign.core.geometry import FRAME, pose, steering_angle
+from cvtdesign.core.kinematics import shaft_frame
+from cvtdesign.io import plots
+from cvtdesign.io.output import make_folder
+from cvtdesign.io.variant import load_variant
+
+
+def direction_text(v) -> str:
+    """A unit 3-vector as the frame names it equals and its components, e.g. '-c1 (0, 0.7071, -0.7071)'."""
+    v = np.asarray(v, float).ravel()
+    names = [("" if s > 0 else "-") + k for k, f in FRAME.items() for s in (1, -1) if np.allclose(v, s * f, atol=1e-9)]
+    numbers = "(" + ", ".join(f"{x + 0.0:.4g}" for x in np.where(np.abs(v) < 1e-12, 0.0, v)) + ")"
+    return f"{' = '.join(names)} {numbers}" if names else numbers
+
+
+def roller_table(layout) -> Table:
+    """The rollers as declared (at steering angle φ = 0): name, role, shaft, contact direction, axle,
+    radius [mm], preload [N] and the fork each steered roller turns on."""
+    table = Table(title=f"{layout.name}: rollers (sphere radius {1000 * float(layout.sphere_radius):.4g} mm; "
+                        "directions from the sphere centre, at φ = 0)")
+    for col, justify in (("roller", "left"), ("role", "left"), ("shaft", "right"), ("contact direction", "left"),
+                         ("axle (positive spin)", "left"), ("radius [mm]", "right"), ("preload [N]", "right"),
+                         ("fork", "left")):
+        table.add_column(escape(col), justify=justify)
+    for r in layout.rollers:
+        n, a = pose(r, 0.0)
+        fork = "—" if r.fork_axis is None else f"about {direction_text(r.fork_axis)}, sign {r.fork_sign:+d}"
+        table.add_row(r.name, r.role, "—" if r.shaft is None else str(r.shaft), direction_text(n), direction_text(a),
+                      f"{1000 * float(r.radius):.4g}", f"{float(r.preload):.4g}", fork)
+    return table
+
+
+def run(args):
+    layout = load_variant(args.variant)
+    frame = shaft_frame(layout)
+    gamma = np.radians(args.gamma)
+    phi = steering_angle(layout, gamma)
+    console = Console(width=160)
+    console.print(f"ideal law: {frame.law_text()}")
+    console.print(f"at commanded γ = {args.gamma:g}°: steering angle φ = {np.degrees(phi):.3f}°, ideal "
+                  f"ω2/ω1 = {float(frame.ideal_ratio(gamma)):.4g}")
+    console.print(roller_table(layout))
+    figure = make_folder(args.out, kind="--out") / f"{layout.name}_layout.png"
+    plots.layout_figure(layout, phi, gamma, figure)
+    console.print(f"drawing: {figure}")
+    return 0
