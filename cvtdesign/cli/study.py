@@ -92,20 +92,20 @@ def sweep_text(fixed: str, kinds: dict) -> str:
 
 
 def optima_table(best, starts_, objective: str, kinds: dict) -> Table:
-    """Each variant and sweep point's best optimum: its design in units, the objective, worst α and power
-    loss (known for the objective that is one of them; '—' otherwise) and how many starts found it."""
+    """Each variant and sweep point's best optimum: its design in units, worst |α| over the envelope (from the
+    optimum's envelope check), the objective when it is another figure, power loss when it is the objective,
+    and how many starts found it."""
     names = [n for n in kinds if f"design.{n}" in best.columns]
     name, shown = OBJECTIVE[objective]
-    b = Table("best optimum per variant and sweep point", ["variant", "sweep point", *names, name, "worst α",
+    extra = [name] if objective == "rms_alpha" else []
+    b = Table("best optimum per variant and sweep point", ["variant", "sweep point", *names, "worst |α|", *extra,
                                                              "power loss", "found by", "variant file"])
     for _, r in best.iterrows():
         same = starts_[(starts_["variant"] == r["variant"]) & (starts_["fixed"] == r["fixed"]) &
                        (np.abs(starts_["objective"] - r["objective"]) <= 1e-6 * max(1, abs(r["objective"])))]
-        alpha = r["objective"] if objective == "worst_alpha" else r["worst_alpha_deg"]
-        loss = r["objective"] if objective == "power_loss" else r["power_loss_W"]
         b.add(r["variant"], sweep_text(r["fixed"], kinds), *design_cells(r, {n: kinds[n] for n in names}),
-              shown(r["objective"]), degrees(alpha), engineering(loss, "power"), f"{len(same)} starts",
-              file_name(r["variant_file"]))
+              degrees(r["worst_alpha_deg"]), *[shown(r["objective"]) for _ in extra],
+              engineering(r["power_loss_W"], "power"), f"{len(same)} starts", file_name(r["variant_file"]))
     return b
 
 

@@ -47,6 +47,7 @@ class EnvelopeCheck:
     min_normal_force: float    # [N] smallest N over the points that pass (NaN: none passes)
     max_utilisation: float     # largest |F|/(μN) over the points that pass
     worst: str = ""            # a failing point of the most serious kind, why, and at which contact
+    max_abs_alpha_deg: float = float("nan")   # [deg] worst |α| over the points that pass
 
     @property
     def failed(self) -> int:
@@ -64,7 +65,7 @@ class EnvelopeCheck:
         return {"points": self.points, "failed": self.failed, "not_converged": self.not_converged,
                 "lost_contact": self.lost_contact, "gross_slip": self.gross_slip,
                 "min_normal_force_N": self.min_normal_force, "max_utilisation": self.max_utilisation,
-                "worst": self.worst}
+                "max_abs_alpha_deg": self.max_abs_alpha_deg, "worst": self.worst}
 
 
 def check_envelope(model, gammas, loads, speeds=None) -> EnvelopeCheck:
@@ -87,4 +88,5 @@ def check_envelope(model, gammas, loads, speeds=None) -> EnvelopeCheck:
             break
     return EnvelopeCheck(n, int((st == 1).sum()), int((st == 2).sum()), int((st == 3).sum()),
                          float(np.min(N[:, ok])) if ok.any() else float("nan"),
-                         float(np.max(U[:, ok])) if ok.any() else float("nan"), worst)
+                         float(np.max(U[:, ok])) if ok.any() else float("nan"), worst,
+                         float(np.degrees(np.max(np.abs(np.ravel(res["alpha"])[ok])))) if ok.any() else float("nan"))

@@ -158,7 +158,9 @@ def run_case(study_file: str, case: dict, out_dir: str) -> list[dict]:
         sol = solve_from(problem, starts(problem)[case["start"]], case["start"])
         vfile = str(write_variant(problem, sol, vdir, f"{spec.name}_{case['id']}")) if sol.success else None
         rows.append(common | {"point": 0, "status": sol.status, "success": sol.success, "objective": sol.objective,
-                              "worst_alpha_deg": np.nan, "power_loss_W": np.nan, "iterations": sol.iterations,
+                              "worst_alpha_deg": sol.check.max_abs_alpha_deg if sol.check else np.nan,
+                              "power_loss_W": sol.objective if spec.objective.kind == "power_loss" else np.nan,
+                              "iterations": sol.iterations,
                               "variant_file": vfile} | {f"design.{k}": v for k, v in sol.design.items()})
     else:
         for p in pareto_front(study_file, spec, base, case["fixed"]):

@@ -229,9 +229,11 @@ def test_study_summary_names_designs_in_units():
     assert table.rows[1] == ["1", "3.058°", "3.242 W", "48.8 mm", "132.2 N", "Solve_Succeeded", "s_pareto1.yaml"]
     assert knee_note.text == "Pareto box_pareto: knee: point 1 — d = 48.8 mm, preload = 132.2 N, worst α 3.058°, loss 3.242 W"
     starts = pd.DataFrame([{"variant": "box.yaml", "fixed": json.dumps({"r_steer": 0.03}), "objective": o,
-                            "worst_alpha_deg": np.nan, "power_loss_W": np.nan, "design.d": d, "variant_file": f"/r/v{i}.yaml"}
+                            "worst_alpha_deg": o, "power_loss_W": np.nan, "design.d": d, "variant_file": f"/r/v{i}.yaml"}
                            for i, (o, d) in enumerate([(1.807, 0.04211), (1.807, 0.04211), (2.5, 0.09)])])
     best = best_optima(starts)
     t = optima_table(best, starts, "worst_alpha", kinds)
-    assert t.headers == ["variant", "sweep point", "d", "worst |α|", "worst α", "power loss", "found by", "variant file"]
-    assert t.rows == [["box.yaml", "r_steer = 30 mm", "42.11 mm", "1.807°", "1.807°", "—", "2 starts", "v0.yaml"]]
+    assert t.headers == ["variant", "sweep point", "d", "worst |α|", "power loss", "found by", "variant file"]
+    assert t.rows == [["box.yaml", "r_steer = 30 mm", "42.11 mm", "1.807°", "—", "2 starts", "v0.yaml"]]
+    rms = optima_table(best.assign(worst_alpha_deg=2.2), starts, "rms_alpha", kinds)    # the objective is another figure
+    assert rms.headers[3:5] == ["worst |α|", "RMS α"] and rms.rows[0][3:5] == ["2.2°", "1.807°"]
