@@ -77,7 +77,7 @@ def rich_table(t: Table):
     """A report Table as a rich table (cells taken as plain text, not as rich markup)."""
     out = rich_tables.Table(title=t.title)
     for i, h in enumerate(t.headers):
-        out.add_column(Text(h), justify="left" if i == 0 else "right")
+        out.add_column(Text(h), justify="left" if i == 0 else "right", no_wrap=i == 0)   # names in full
     for row, style in zip(t.rows, t.styles or [""] * len(t.rows)):
         out.add_row(*[Text(c) for c in row], style=RICH_STYLES[style])
     return out
