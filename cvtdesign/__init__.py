@@ -1,1 +1,4 @@
-"""cvtdesign: design, optimise and compare spherical CVTs."""
+"""cvtdesign: design, optimise, compare and diagnose spherical CVTs (docs/architecture.md).
+
+Layers, each importing only from those below it: cli → design, cad, diagnosis → io → core → errors.
+"""
