@@ -59,3 +59,30 @@ def test_three_variants_side_by_side(tmp_path, capsys):
                                                        rel=1e-9), r["name"]
     table = capsys.readouterr().out
     assert "max |α| [°]" in table and "unequal" in table
+
+
+def test_single_file_outside_the_repository_still_compares_with_existing(tmp_path, monkeypatch, make_variant):
+    """Run from another folder with a copy of box.yaml there: Kim's existing CVT comes from the package, not
+    from a `variants/` folder beside the working directory, so its column is never silently dropped."""
+    box = make_variant("box")
+    monkeypatch.chdir(tmp_path)
+    assert main(["compare", str(box), "--out", "plots", "--json", "f.json"]) == 0
+    rows = json.loads((tmp_path / "f.json").read_text())["variants"]
+    assert [r["name"] for r in rows] == ["ideal (box)", "existing", "box"]
+    assert rows[1]["max_abs_alpha_deg"] == pytest.approx(10.761, abs=5e-4)
+
+
+def test_roller_defaults_supply_any_roller_field(make_variant, tmp_path):
+    """A roller field given once in roller_defaults means the same as on every roller that omits it: the
+    drive rollers' radius and material moved there give figures identical to the file that repeats them."""
+    def hoist(data):
+        rollers = data["rollers"]
+        data["roller_defaults"] |= {"radius": rollers["D1"]["radius"], "material": rollers["D1"]["material"]}
+        for r in ("D1", "D2"):
+            del rollers[r]["radius"], rollers[r]["material"]
+    hoisted = make_variant("existing", hoist, file="hoisted")
+    assert main(["compare", str(ROOT / "variants/existing.yaml"), str(hoisted), "--out", str(tmp_path / "p"),
+                 "--json", str(tmp_path / "f.json")]) == 0
+    a, b = json.loads((tmp_path / "f.json").read_text())["variants"]
+    assert {k: v for k, v in a.items() if k not in ("name", "file")} == \
+        {k: v for k, v in b.items() if k not in ("name", "file")}
