@@ -19,10 +19,8 @@ from cvtdesign.io.variant import load_spec, parameter_value
 # the kind of each constraint family's rows (design.report.constraint_report), and the factor from the
 # row's units to SI: the worst-|α| and ε rows are in degrees, Hertz p_max/p_allow, traction and the linkage
 # misfit are ratios, normal force in newtons, clearance and envelope radius in metres
-FAMILY_KIND = {"worst_alpha": ("angle", math.pi / 180), "epsilon": ("angle", math.pi / 180),
-               "hertz_pressure": ("dimensionless", 1.0), "traction": ("dimensionless", 1.0),
-               "normal_force": ("force", 1.0), "clearance": ("length", 1.0), "envelope_radius": ("length", 1.0),
-               "reach_gamma": ("dimensionless", 1.0)}
+# a constraint row's unit (design.report.ROW_UNITS) → the kind it is shown as and its factor to SI
+UNIT_KIND = {"deg": ("angle", math.pi / 180), "N": ("force", 1.0), "m": ("length", 1.0), "": ("dimensionless", 1.0)}
 # an objective kind → how its value (in degrees or watts) is shown
 OBJECTIVE = {"worst_alpha": ("worst |α|", degrees), "rms_alpha": ("RMS α", degrees),
              "power_loss": ("mean power loss", lambda v: engineering(v, "power"))}
@@ -104,10 +102,10 @@ def constraint_table(res: dict, kinds: dict) -> Table:
     c = Table("constraints (most binding row of each; multiplier = objective change per unit of bound)",
               ["constraint", "where", "value", "bound", "slack", "multiplier", "active"])
     for r in res["constraints"]:
-        if r["name"].startswith("bound "):
+        if r["unit"] == "SI":        # a design variable's bound, in the variable's own kind
             kind, to_si = kinds[r["name"][len("bound "):]][0], 1.0
         else:
-            kind, to_si = FAMILY_KIND.get(r["name"], ("dimensionless", 1.0))
+            kind, to_si = UNIT_KIND[r["unit"]]
         unit, factor = ENGINEERING[kind]
         per = to_si * factor         # from the row's units to the shown unit
         mult = f"{number(r['multiplier'] / per, 3)} {obj_unit}" + (f"/{unit}" if unit else "")

@@ -22,10 +22,15 @@ from cvtdesign.io.units import registry
 ACTIVE_TOL = 1e-7   # a constraint within this (relative) slack of its bound counts as active
 
 
+# the unit of each constraint family's value, bound and slack in the report (ROW_UNITS; '' dimensionless:
+# hertz_pressure is p_max/p_allow, traction (|F| − (1 − m)μN)/(μP), reach_gamma the linkage misfit)
+ROW_UNITS = {"worst_alpha": "deg", "epsilon": "deg", "normal_force": "N", "clearance": "m", "envelope_radius": "m"}
+
+
 def constraint_report(problem: Problem, sol: Solution) -> list[dict]:
     """Per constraint family, the most binding row: value, bound, slack, multiplier and whether active.
-    Values, bounds, slacks and multipliers are in the row's report units (normal_force: newtons, the
-    multiplier per newton; the others as in g)."""
+    Values, bounds and slacks are in the row's `unit` (ROW_UNITS: normal_force in newtons, worst_alpha in
+    degrees, lengths in metres; a design variable's bound in SI), the multiplier per that unit."""
     rows = []
     scale = np.ones(problem.g_lb.size) if problem.g_report is None else problem.g_report
     for fam in dict.fromkeys(problem.g_family):
@@ -39,14 +44,14 @@ def constraint_report(problem: Problem, sol: Solution) -> list[dict]:
         lam = float(np.max(np.abs(sol.lam_g[idx]) / scale[idx]))
         rows.append({"name": fam, "where": problem.g_labels[j], "value": float(sol.g[j] * scale[j]),
                      "bound": float(bound * scale[j]), "slack": s * float(scale[j]), "multiplier": lam,
-                     "active": active})
+                     "active": active, "unit": ROW_UNITS.get(fam, "")})
     for i, n in enumerate(problem.names):
         at_lo, at_hi = sol.z[i] < 1e-6, sol.z[i] > 1 - 1e-6
         if at_lo or at_hi:
             rows.append({"name": f"bound {n}", "where": "lower" if at_lo else "upper",
                          "value": sol.design[n], "bound": float(problem.lower[i] if at_lo else problem.upper[i]),
                          "slack": 0.0, "multiplier": float(abs(sol.lam_x[i]) / (problem.upper[i] - problem.lower[i])),
-                         "active": True})
+                         "active": True, "unit": "SI"})
     return rows
 
 
