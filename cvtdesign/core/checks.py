@@ -9,7 +9,7 @@ import itertools
 import casadi as ca
 import numpy as np
 
-from cvtdesign.core.geometry import FRAME, pose, rigid_constraints, steering_angle_guess, steering_data
+from cvtdesign.core.geometry import FRAME, LINKAGE_TOL, ROLLING_TOL, pose, rigid_constraints, steering_angle_guess, steering_data
 from cvtdesign.errors import InputError
 from cvtdesign.core.layout import Layout
 
@@ -23,19 +23,21 @@ def check_kinematics(layout: Layout):
     gammas = np.linspace(layout.gamma_grid.min(), layout.gamma_grid.max(), 9)
     phis, misfit = steering_angle_guess(*steering_data(layout), gammas)
     for g, phi, m in zip(gammas, phis, misfit):
-        if m > 1e-6:
+        if m > LINKAGE_TOL:
             raise InputError(f"{layout.file}: steering.forks: the steering rollers cannot all roll about the "
-                             f"commanded axis at γ = {np.degrees(g):.0f}° (misfit {m:.2g}); the linkage does not "
-                             "reach the envelope.gamma range")
+                             f"commanded axis at γ = {np.degrees(g):.0f}° (misfit {m:.2g}, tolerance {LINKAGE_TOL:g}); "
+                             "the linkage does not reach the envelope.gamma range (or directions are rounded: write them "
+                             "as frame names, '= expressions' or in full precision)")
         A = rigid_constraints(layout, phi)
         sv = np.linalg.svd(A, compute_uv=False)
-        null = int(np.sum(sv < 1e-9 * sv[0])) + max(0, A.shape[1] - A.shape[0])
+        null = int(np.sum(sv < ROLLING_TOL * sv[0])) + max(0, A.shape[1] - A.shape[0])
         if null >= 2:
             raise InputError(f"{layout.file}: steering: the steering rollers cannot fix the sphere's axis at γ = "
                              f"{np.degrees(g):.0f}° ({null} free motions); add or move steering rollers")
         if null == 0:
             raise InputError(f"{layout.file}: rollers: no rolling motion fits every roller at γ = {np.degrees(g):.0f}° "
-                             "(rollers fight); check follower ratios, axles and fork axes")
+                             "(rollers fight); check follower ratios, axles and fork axes, and that no direction is "
+                             "rounded (write them as frame names, '= expressions' or in full precision)")
 
 
 def roller_surface_points(r, phi, R):

@@ -23,6 +23,15 @@ import numpy as np
 from cvtdesign.core.kinematics import shaft_frame, vec
 from cvtdesign.errors import InputError
 
+# Tolerances of the rolling and steering geometry. The rigid rolling constraints must leave exactly one motion
+# (singular values below ROLLING_TOL × the largest count as zero) and the linkage must turn every steered axle
+# into the commanded axis (misfit below LINKAGE_TOL). They are tight because the model's drive rollers are
+# laterally rigid (EPS_RIGID): a drive roller turned by 1e-5° (2e-7 rad) against the others already makes
+# contacts fight with forces of the order of the preload. So directions must be exact: frame names,
+# '= expressions' or full precision (a box follower's axle typed to six decimals is refused).
+ROLLING_TOL = 1e-9
+LINKAGE_TOL = 1e-6
+
 S2 = np.sqrt(2.0)
 FRAME = {
     "x": np.array([1.0, 0.0, 0.0]),
@@ -171,7 +180,7 @@ def steering_angle(layout, gamma: float) -> float:
         raise InputError(f"{layout.file}: --gamma: γ = {np.degrees(gamma):g}° is outside the variant's envelope.gamma "
                          f"range {np.degrees(lo):g}..{np.degrees(hi):g}°; expected a --gamma in that range")
     phi, misfit = steering_angle_guess(*steering_data(layout), np.array([gamma]))
-    if misfit[0] > 1e-6:
+    if misfit[0] > LINKAGE_TOL:
         raise InputError(f"{layout.file}: steering.forks: the linkage cannot reach γ = {np.degrees(gamma):g}° "
                          f"(misfit {misfit[0]:.2g}); expected a --gamma the steering rollers can realise")
     return float(phi[0])

@@ -6,7 +6,7 @@ Figures (all over the variant's envelope, Kim's protocol by default: γ −80°.
  * ratio_error_pct_at_max_load: largest |Brokowski eq 23 error| (requested − achieved)/requested of the
    speed ratio ω2/ω1 at the highest |τ⊥|, over the γ whose ideal |ratio| lies in Brokowski's resteering
    range 0.4..2.5 (near γ = 0 and ±90° the ratio itself goes to 0 or ∞ and a relative error means little);
- * min_efficiency: power out / power in (DESIGN sec. 1) over the points that transmit power, |γ| ≥ 5° and
+ * min_efficiency: power out / power in, whichever shaft the power enters, over the points that transmit power, |γ| ≥ 5° and
    |τ⊥| ≥ 25 % of the largest load (at γ = 0 no power leaves the CVT, at zero load none enters);
  * max_traction_utilisation: max |F|/(μN) over all contacts; max_hertz_pressure_MPa: max Hertz peak pressure.
 

@@ -28,7 +28,7 @@ MIN_POINTS = 2 * FOLDS   # operating points a fit needs: every fold holds out �
 
 @dataclass
 class Measured:
-    """A validated dataset. `rows` has the DESIGN columns plus alpha_deg, tau_perp, tau_par, efficiency, point
+    """A validated dataset. `rows` has the measured-data columns (docs/measured-data.md) plus alpha_deg, tau_perp, tau_par, efficiency, point
     (operating-point index: replicates share it), gamma_bin, load_bin and speed_bin (the γ, τ⊥ and ω1 levels)."""
     file: str
     rows: pd.DataFrame

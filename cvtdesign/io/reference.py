@@ -189,13 +189,20 @@ WRITING = """\
   must be finite; `true`/`false` are not numbers. Every problem is one line naming the file and the field,
   and exit status 2.
 * **Directions** (a roller's `contact` and `axle`, a fork's `axis`, a plate's `side`) are a frame name,
-  `x y z d1 d2 d3 c1 c2 c3`, optionally with `-` (`-d1`); a list of three plain numbers (normalised:
-  `[1, 1, 0]`); or `{polar, azimuth}` (below). A roller's `contact` may instead be the contact point: a
+  `x y z d1 d2 d3 c1 c2 c3`, optionally with `-` (`-d1`); a list of three numbers or `= expressions`
+  (normalised: `[1, 1, 0]`, `[0.5, "= sqrt(3)/2", 0]`); or `{polar, azimuth}` (below). A roller's `contact` may instead be the contact point: a
   list of three lengths (`["0 mm", "0 mm", "63.5 mm"]`), which must lie on the sphere. The frame names, the
   signs of speeds and torques, γ and α are defined in docs/conventions.md.
 * **Names** (the variant's `name`, material and roller names) are referred to elsewhere in the file:
   `sphere.material`, `rollers.<roller>.material`, `steering.forks[].rollers`. An unknown field or name is
   refused with the nearest known one (`did you mean 'radius'?`).
+* **Exact directions**: write directions exactly, as frame names, `= expressions` or in full precision
+  (a box follower's axle typed to six decimals, `[-0.707107, -0.707106, 0]`, is refused; a steering roller's
+  direction is more forgiving, since the linkage angle takes up a small error). The rolling geometry as a whole must be consistent to
+  about 1e-9, and the steering linkage to 1e-6 (`core.geometry.ROLLING_TOL`, `LINKAGE_TOL`), because the
+  model's drive rollers are laterally rigid: a drive roller turned by 1e-5° against the others would make the
+  contacts fight with forces of the order of the preload. Directions copied from CAD to 4 or 5 digits are
+  refused with that reason ("rollers fight ... and that no direction is rounded").
 * **Checks after reading**: each axle ⊥ its contact normal (within 1e-6); shafts 1 and 2 each have a drive
   roller; every steering roller is on exactly one fork and no other roller is; the rollers' preloads
   balance on the sphere; no two rollers overlap at any steering angle; the mounts hold the sphere in every

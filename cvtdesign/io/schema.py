@@ -33,8 +33,6 @@ def _file_name(v):
 
 Name = Annotated[str, AfterValidator(_file_name)]
 Num = Annotated[Union[float, int, str], BeforeValidator(no_bool)]   # a plain number (SI), a quantity or '= expr'
-Coord = Annotated[float, BeforeValidator(no_bool)]                   # a component of a direction
-VectorSpec = Union[str, list[Coord], "Spherical"]
 
 
 class Strict(BaseModel):
@@ -60,7 +58,7 @@ def spec_field(meaning: str, default=PydanticUndefined, *, kind: str | None = No
 
 
 DIRECTION = ("a frame vector name (x, y, z, d1, d2, d3, c1, c2, c3, optionally with '-': '-d1'), a list of three "
-             "plain numbers (normalised) or {polar, azimuth}")
+             "numbers or '= expressions' (normalised: [1, '= sqrt(3)', 0]) or {polar, azimuth}")
 
 
 class Spherical(Strict):
@@ -101,7 +99,7 @@ class RollerSpec(Strict):
     contact: Union[str, list[Num], Spherical] = spec_field(
         f"where the roller touches the sphere, at φ = 0: the outward contact normal n as {DIRECTION}; or the "
         "contact point as a list of three lengths ('44.9 mm' or '= expr', m), which must lie on the sphere")
-    axle: Union[str, list[Coord], Spherical] = spec_field(
+    axle: Union[str, list[Num], Spherical] = spec_field(
         f"the roller's positive spin axis a at φ = 0, perpendicular to the contact normal, as {DIRECTION}; "
         "it rolls along n × a, and its shaft's speed and torque count positive about it")
     shaft: Annotated[Literal[1, 2] | None, BeforeValidator(no_bool)] = spec_field(
@@ -146,7 +144,7 @@ class ForkSpec(Strict):
     """A steering fork: turns its rollers' contact normals and axles about `axis` by sign·φ."""
     rollers: list[str] = spec_field("names of the steering rollers this fork carries (at least one; each "
                                     "steering roller on exactly one fork)")
-    axis: Union[str, list[Coord], Spherical] = spec_field(
+    axis: Union[str, list[Num], Spherical] = spec_field(
         f"the fork's turning axis through the sphere centre, as {DIRECTION}")
     sign: Annotated[Literal[1, -1], BeforeValidator(no_bool)] = spec_field(
         "1: the fork turns by +φ about `axis` (right-handed), -1: by −φ (forks geared in opposite senses)", 1)
@@ -193,7 +191,7 @@ class EnvelopeSpec(Strict):
 class FrameSpec(Strict):
     """A mounting plate, drawn by `cvtdesign export` only: perpendicular to `side` (a vector from the sphere
     centre), its near face `distance` from the centre, sized to the assembly's outline."""
-    side: Union[str, list[Coord], Spherical] = spec_field(f"the side of the sphere the plate is on, as {DIRECTION}")
+    side: Union[str, list[Num], Spherical] = spec_field(f"the side of the sphere the plate is on, as {DIRECTION}")
     distance: Num = spec_field("distance from the sphere centre to the plate's near face", kind="length",
                                plausible="frame_distance")
     thickness: Num = spec_field("plate thickness", "10 mm", kind="length", plausible="frame_thickness")

@@ -38,6 +38,8 @@ def shipped_variant(name: str) -> Path:
 
 
 def vector(spec, where, names, point=False):
+    """A unit direction from a frame name, {polar, azimuth} or a list of three numbers or '= expressions'
+    (dimensionless, over the file's parameters; CasADi expressions when the optimiser makes them symbolic)."""
     if isinstance(spec, str):
         v = named_vector(spec.strip())
         if v is None:
@@ -48,8 +50,14 @@ def vector(spec, where, names, point=False):
     if isinstance(spec, Spherical):
         return spherical(quantity(spec.polar, "direction_angle", f"{where}.polar", names),
                          quantity(spec.azimuth, "direction_angle", f"{where}.azimuth", names))
-    v = np.asarray(spec, dtype=float)
-    if v.shape != (3,) or not np.all(np.isfinite(v)) or not np.any(v):
+    if len(spec) != 3:
+        raise InputError(f"{where}: expected a non-zero vector of 3 finite numbers, got {shorten(spec)}")
+    parts = [to_si(c, "dimensionless", f"{where}[{i}]", names) if isinstance(c, str) else c for i, c in enumerate(spec)]
+    if not all(isinstance(c, (int, float)) for c in parts):         # symbolic design parameters
+        v = ca.vertcat(*parts)
+        return v / ca.norm_2(v)
+    v = np.asarray(parts, dtype=float)
+    if not np.all(np.isfinite(v)) or not np.any(v):
         raise InputError(f"{where}: expected a non-zero vector of 3 finite numbers, got {shorten(spec)}")
     norm = np.linalg.norm(v)
     if not (np.isfinite(norm) and norm > 0):     # [1e308, 1e308, 0] or [1e-320, 0, 0]: scale first
@@ -59,7 +67,7 @@ def vector(spec, where, names, point=False):
 
 
 def _contact(spec, where, names, R):
-    """The unit contact normal of a roller's `contact` (see RollerSpec): a direction as `_vector` reads it,
+    """The unit contact normal of a roller's `contact` (see RollerSpec): a direction as `vector` reads it,
     or a point of three lengths, which must lie on the sphere of radius R (checked when both are numbers;
     an optimiser's symbolic parameters skip the check)."""
     if not isinstance(spec, list):

@@ -244,3 +244,22 @@ def test_shaft_without_drive_roller(tmp_path, shaft):
     d["rollers"][roller]["role"] = "follower"                                      # coupled, but nothing drives it
     _, msg = refusal(tmp_path, d)
     assert msg.endswith(f": rollers: no drive roller on shaft {shaft} (role: drive, shaft: {shaft})")
+
+
+def test_direction_lists_take_expressions(tmp_path):
+    """A direction may be three numbers or '= expressions' (dimensionless, over the parameters): D1's axle -d1
+    written as ['= -1/sqrt(2)', '= -1/sqrt(2)', 0] is the same axle to the last bit."""
+    d = variant()
+    d["rollers"]["D1"]["axle"] = ["= -1/sqrt(2)", "= -1/sqrt(2)", 0]
+    layout = load_variant(write(tmp_path, d))
+    np.testing.assert_allclose(layout.rollers[0].axle, -FRAME["d1"], atol=1e-15)
+
+
+def test_rounded_directions_are_refused_with_the_reason(tmp_path):
+    """The box's follower A_ with its axle -d1 typed to six decimals, [-0.707107, -0.707106, 0], is within 1e-6
+    of perpendicular to its normal but turned by 4e-5° against drive roller A on the same shaft: the laterally
+    rigid rollers then fight, and the message says that rounding may be why."""
+    d = variant("box")
+    d["rollers"]["A_"]["axle"] = [-0.707107, -0.707106, 0]
+    _, msg = refusal(tmp_path, d)
+    assert "(rollers fight)" in msg and "no direction is rounded" in msg, msg
