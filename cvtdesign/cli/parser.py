@@ -25,6 +25,7 @@ COMMANDS = {     # name -> one-line help; cvtdesign.cli.<name> runs it
     "optimise": "optimise a variant's parameters under slip/efficiency objectives (IPOPT)",
     "study": "run a study's cases (sweeps, multistarts, Pareto fronts) in batch on Dask",
     "export": "write the variant's assembly as STEP (+ SVG, PNG) for mechanical review",
+    "contact": "each roller's contact patch (Hertz, Kalker's coefficients) and its creep–force curves",
     "rig": "virtual test rig: measured-like data (the measured-data CSV format) from the full model",
     "diagnose": "where the model and the data disagree, which effect causes it, how far it shrinks",
     "resteer": "steering commands for requested speed ratios under a known load (Brokowski sec. 5)",
@@ -38,7 +39,7 @@ def build_parser():
     p.add_argument("--version", action="version", version=f"%(prog)s {version('cvtdesign')}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     adders = {"new": _add_new, "show": _add_show, "compare": _add_compare, "optimise": _add_optimise,
-              "study": _add_study, "export": _add_export, "rig": _add_rig, "diagnose": _add_diagnose,
+              "study": _add_study, "export": _add_export, "contact": _add_contact, "rig": _add_rig, "diagnose": _add_diagnose,
               "resteer": _add_resteer, "selfcheck": _add_selfcheck}
     for name, text in COMMANDS.items():
         adders[name](sub.add_parser(name, help=text, description=text))
@@ -139,6 +140,12 @@ def _add_export(p):
     p.add_argument("--gamma", type=float, default=45.0, help="commanded γ [deg] the forks are turned for (default 45)")
     p.add_argument("--check", action="store_true", help="re-read the STEP file and check names, validity, contacts, "
                    "interference and bounding box (exit status 1 if a check fails)")
+
+
+def _add_contact(p):
+    p.add_argument("variant", help="variant YAML file")
+    p.add_argument("--json", help="write every roller's contact and its creep–force curves to this JSON file")
+    p.add_argument("--plots", help="folder for the creep–force curves and the patch ellipses")
 
 
 def check_outputs(args):

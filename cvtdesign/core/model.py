@@ -33,11 +33,21 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from cvtdesign.core import contact
 from cvtdesign.core.effects import EFFECTS, ContactState, parameter_vector, smooth_abs
-from cvtdesign.core.geometry import ideal_gamma, roller_pose, steering_angle_guess, steering_data, vec
-from cvtdesign.core.kinematics import ShaftFrame, shaft_frame, shaft_gain, wrap_axis_angle
+from cvtdesign.core.geometry import (
+    ideal_gamma,
+    roller_pose,
+    steering_angle_guess,
+    steering_data,
+)
+from cvtdesign.core.kinematics import (
+    ShaftFrame,
+    shaft_frame,
+    shaft_gain,
+    wrap_axis_angle,
+)
 from cvtdesign.core.layout import Layout
+from cvtdesign.core.patch import patch
 
 EPS_RIGID = 1e-9      # [1/N] creep-compliance floor of the directions that are rigid in the model
 F_SCALE = 10.0        # [N] force scaling of the unknowns
@@ -178,23 +188,18 @@ class _Hooks:
 
 def _contact_constants(layout: Layout) -> list[dict]:
     """Per contact, at its preload: the Hertz ellipse (a, b, peak p0), the creep constant ε0 [1/N] (Kim's
-    fitted constants when the variant gives them, else Hertz + Kalker C11/C22), the normal force n_ref at
-    which ε0 holds, and μ."""
-    R, sm = layout.sphere_radius, layout.sphere_material
+    fitted constants when the variant gives them, else Hertz + Kalker C11/C22: core.patch), the normal force
+    n_ref at which ε0 holds, and μ."""
     const = []
     for r in layout.rollers:
-        A, B = contact.curvature_sums(R, r.radius, r.crown_radius)
-        Es, G, nu = contact.contact_material(r.material.E, r.material.nu, sm.E, sm.nu)
-        a, b, p0, _ = contact.hertz_ellipse(A, B, r.preload, Es)
-        C11, C22, _ = contact.kalker_coefficients(a / b, nu)
-        e_long, e_lat = contact.creep_compliances(G, a, b, C11, C22)
+        p = patch(layout, r)
         drive = r.role != "steering"
         kim = layout.creep_drive if drive else layout.creep_steering
-        eps0 = kim if kim is not None else (e_long if drive else e_lat)
+        eps0 = kim if kim is not None else (p["eps_long"] if drive else p["eps_lat"])
         # Kim's constants were fitted at a reference force (100 N); Hertz + Kalker ones hold at the preload
         n_ref = layout.creep_reference_force if kim is not None and layout.creep_reference_force is not None \
             else r.preload
-        const.append(dict(a=a, b=b, p0=p0, eps0=eps0, mu=ca.fmin(r.material.mu, sm.mu), n_ref=n_ref))
+        const.append(dict(a=p["a"], b=p["b"], p0=p["p0"], eps0=eps0, mu=p["mu"], n_ref=n_ref))
     return const
 
 

@@ -469,3 +469,49 @@ def cad_picture(image, caption: str, path):
     ax.axis("off")
     fig.text(0.5, 0.975, caption, ha="center", va="center", fontsize=10)
     save(fig, Path(path), dpi=100)
+
+
+CONTACT_CURVES = (("curve_longitudinal", "longitudinal creepage ξ [-]", "Fx/(μN) [-]"),
+                  ("curve_lateral", "lateral creepage η [-]", "Fy/(μN) [-]"),
+                  ("curve_spin", "spin creepage φ [1/m]", "Fy/(μN) [-]"))
+
+
+def contact_figures(name: str, records: dict, folder: Path) -> list[Path]:
+    """`cvtdesign contact`'s figures: the creep–force curves of every roller (one panel per creepage, the
+    linear theory's slope dotted) and the contact patches drawn to scale [mm]. Returns the files written."""
+    plt = _plt()
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    for (key, xlabel, ylabel), ax in zip(CONTACT_CURVES, axes):
+        for n, r in records.items():
+            s, f = np.array(r[key]).T
+            line, = ax.plot(s, f, label=f"{n} ({r['role']})")
+            ax.plot(s[:8], s[:8] * (f[1] / s[1]), ":", color=line.get_color(), lw=0.8)
+        ax.axhline(1.0, color="k", lw=0.8)
+        ax.text(0.02, 1.01, "μN (full slip)", transform=ax.get_yaxis_transform(), fontsize=8, va="bottom")
+        ax.set(xlabel=xlabel, ylabel=ylabel, ylim=(0, 1.1))
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    fig.suptitle(f"{name}: creep–force curves at the preload (Kalker's linear theory, saturated by Polach's "
+                 "method; dotted: linear theory)")
+    fig.tight_layout()
+    curves_png = folder / "contact_curves.png"
+    save(fig, curves_png, dpi=90)
+    return [curves_png, _patch_figure(name, records, folder / "contact_patches.png", plt)]
+
+
+def _patch_figure(name: str, records: dict, path: Path, plt) -> Path:
+    """Each roller's Hertz ellipse to scale [mm]: a along the rolling direction, b across it."""
+    n = len(records)
+    fig, axes = plt.subplots(1, n, figsize=(2.4 * n, 2.8), squeeze=False)
+    half = 1.15 * max(max(r["a_mm"], r["b_mm"]) for r in records.values())
+    t = np.linspace(0, 2 * np.pi, 200)
+    for ax, (roller, r) in zip(axes[0], records.items()):
+        ax.fill(r["a_mm"] * np.cos(t), r["b_mm"] * np.sin(t), alpha=0.4)
+        ax.set(xlim=(-half, half), ylim=(-half, half), aspect="equal", xlabel="rolling direction [mm]",
+               title=f"{roller}: {r['a_mm']:.2f} × {r['b_mm']:.2f} mm\np0 {r['p0_MPa']:.2f} MPa")
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("across [mm]")
+    fig.suptitle(f"{name}: contact patches at the preload (to scale)")
+    fig.tight_layout()
+    save(fig, path, dpi=90)
+    return path

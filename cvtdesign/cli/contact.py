@@ -1,0 +1,59 @@
+"""`cvtdesign contact`: every roller's contact patch with the sphere at its preload, by Hertz and Kalker.
+
+For each roller: the Hertz ellipse (a along the rolling direction, b across), its peak pressure, Kalker's
+coefficients C11, C22, C23, μ, linear theory's creep constants, and the creep–force curves of the
+saturating law (core.creep: Kalker's linear theory saturated by Polach's method) for longitudinal, lateral
+and spin creepage. The variant's own creep law is not used here: this is the contact physics the layout's
+radii, crowns, materials and preloads give.
+"""
+from __future__ import annotations
+
+from rich.console import Console
+
+from cvtdesign.cli.printing import engineering, json_text, number, show
+from cvtdesign.core.patch import curves, patch
+from cvtdesign.io import plots
+from cvtdesign.io.output import make_folder, write_file
+from cvtdesign.io.report import Note, Table
+from cvtdesign.io.variant import load_variant
+
+
+def roller_record(layout, roller) -> dict:
+    """The JSON record of a roller's contact at its preload (SI unless the key names a unit)."""
+    p = {k: float(v) for k, v in patch(layout, roller).items()}
+    c = curves(p)
+    return {"role": roller.role, "N": p["N"], "a_mm": p["a"] * 1e3, "b_mm": p["b"] * 1e3,
+            "p0_MPa": p["p0"] * 1e-6, "G_MPa": p["G"] * 1e-6, "nu": p["nu"], "C11": p["C11"], "C22": p["C22"],
+            "C23": p["C23"], "mu": p["mu"], "eps_long_per_N": p["eps_long"], "eps_lat_per_N": p["eps_lat"],
+            "spin_coefficient_Nm": p["spin_coefficient"], "curve_longitudinal": c["longitudinal"],
+            "curve_lateral": c["lateral"], "curve_spin": c["spin"]}
+
+
+def patch_table(name: str, records: dict) -> Table:
+    t = Table(f"{name}: contact patches at the preload (Hertz; Kalker's linear theory)",
+              ["roller", "role", "N", "a", "b", "p0", "C11", "C22", "C23", "μ", "ε_long", "ε_lat", "spin coeff."])
+    for n, r in records.items():
+        t.add(n, r["role"], engineering(r["N"], "force"), engineering(r["a_mm"] / 1e3, "length"),
+              engineering(r["b_mm"] / 1e3, "length"), engineering(r["p0_MPa"] * 1e6, "pressure"),
+              number(r["C11"], 3), number(r["C22"], 3), number(r["C23"], 3), number(r["mu"], 3),
+              engineering(r["eps_long_per_N"], "compliance", 3), engineering(r["eps_lat_per_N"], "compliance", 3),
+              f"{number(r['spin_coefficient_Nm'], 3)} N·m")
+    return t
+
+
+def run(args):
+    layout = load_variant(args.variant)
+    records = {r.name: roller_record(layout, r) for r in layout.rollers}
+    console = Console(width=150)
+    show(console, [patch_table(layout.name, records),
+                   Note("creep constants: ε_long = 1/(G a b C11), ε_lat = 1/(G a b C22); spin coeff. G (ab)^1.5 C23 "
+                        "(lateral force per unit spin creepage [1/m]); in the curves (--json, --plots) creepage saturates at μN, while "
+                        "pure spin's lateral force peaks and then falls as the traction comes to circulate")])
+    if args.plots:
+        folder = make_folder(args.plots, kind="--plots")
+        for f in plots.contact_figures(layout.name, records, folder):
+            console.print(f"plot: {f}")
+    if args.json:
+        write_file(args.json, json_text({"variant": layout.name, "rollers": records}), kind="--json")
+        console.print(f"contacts written to {args.json}")
+    return 0

@@ -1,0 +1,96 @@
+"""`cvtdesign contact`: every roller's Hertz patch against an independent Hertz solution, Kalker's creep
+constants, and creep–force curves with linear theory's slope that saturate at μN."""
+import json
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+from scipy.special import ellipe, ellipk
+
+from conftest import variant_data, write_yaml
+
+from cvtdesign.cli import main
+from cvtdesign.core.creep import creep_forces, spin_force
+
+
+def hertz_independent(R, r_roll, r_crown, N, E1, nu1, E2, nu2):
+    """Semi-axes a (along the rolling direction, curvature sum A) and b, and the peak pressure, of a sphere on
+    a crowned roller: Johnson, "Contact Mechanics", sec. 4.2, eqs 4.36–4.39 solved with SciPy (its elliptic
+    integrals take the parameter m = e²)."""
+    A, B = 0.5 * (1 / R + 1 / r_roll), 0.5 * (1 / R + 1 / r_crown)
+    E_star = 1 / ((1 - nu1 ** 2) / E1 + (1 - nu2 ** 2) / E2)
+    assert B > A                       # a crowned roller: the patch is longest along the rolling direction
+    ratio = lambda m: ((1 / (1 - m)) * ellipe(m) - ellipk(m)) / (ellipk(m) - ellipe(m))   # B/A, (a/b)² = 1/(1-m)
+    m = brentq(lambda m: ratio(m) - B / A, 1e-12, 1 - 1e-12, xtol=1e-15)
+    a = (3 * N * (ellipk(m) - ellipe(m)) / (2 * np.pi * A * m * E_star)) ** (1 / 3)
+    b = a * np.sqrt(1 - m)
+    return a, b, 3 * N / (2 * np.pi * a * b)
+
+
+@pytest.fixture(scope="module")
+def kalker_existing(tmp_path_factory):
+    """existing.yaml without Kim's fitted creep constants (the contact physics alone), through the CLI."""
+    tmp = tmp_path_factory.mktemp("contact")
+
+    data = variant_data("existing")
+    data.pop("contact", None)
+    path = write_yaml(tmp / "kalker.yaml", data)
+    assert main(["contact", str(path), "--json", str(tmp / "c.json"), "--plots", str(tmp / "plots")]) == 0
+    return data, json.loads((tmp / "c.json").read_text()), tmp
+
+
+def test_every_contact_is_reported_with_its_curves(kalker_existing):
+    data, out, tmp = kalker_existing
+    assert set(out["rollers"]) == set(data["rollers"])
+    keys = {"a_mm", "b_mm", "p0_MPa", "C11", "C22", "C23", "mu", "eps_long_per_N", "eps_lat_per_N",
+            "spin_coefficient_Nm", "curve_longitudinal", "curve_lateral", "curve_spin"}
+    for r in out["rollers"].values():
+        assert keys <= set(r)
+    for f in ("contact_curves.png", "contact_patches.png"):
+        assert (tmp / "plots" / f).read_bytes().startswith(b"\x89PNG")
+
+
+def test_hertz_matches_an_independent_solution(kalker_existing):
+    """Kim's drive rollers (40 mm, crown 15 mm, 82A urethane) and steering rollers (38 mm, 84A) on the 63.5 mm
+    bowling ball at 100 N: a, b and p0 agree with Johnson's equations solved by SciPy. Measured: 2.2e-16 (rel)."""
+    data, out, _ = kalker_existing
+    q = lambda v: float(str(v).split()[0]) * {"mm": 1e-3, "MPa": 1e6, "GPa": 1e9, "N": 1.0}[str(v).split()[1]]
+    mats, R = data["materials"], 63.5e-3
+    sphere = mats[data["sphere"]["material"]]
+    for name, r in data["rollers"].items():
+        m = mats[r["material"]]
+        radius = q(r["radius"]) if not str(r["radius"]).startswith("=") else q(data["parameters"]["r_steer"])
+        a, b, p0 = hertz_independent(R, radius, q(r.get("crown_radius", "15 mm")), 100.0, q(m["youngs_modulus"]),
+                                     m["poisson_ratio"], q(sphere["youngs_modulus"]), sphere["poisson_ratio"])
+        got = out["rollers"][name]
+        assert got["a_mm"] * 1e-3 == pytest.approx(a, rel=1e-12), name
+        assert got["b_mm"] * 1e-3 == pytest.approx(b, rel=1e-12), name
+        assert got["p0_MPa"] * 1e6 == pytest.approx(p0, rel=1e-12), name
+
+
+def test_creep_constants_and_curves(kalker_existing):
+    """The curves start with linear theory's slope G a b C11 (longitudinal; the law at ξ = 1e-8 agrees with
+    it to 1e-12) and reach μN (last point ≥ 0.99 μN, none above μN); Kim's CVT's Hertz + Kalker constants
+    are the 0.00121 and 0.00140 1/N the review measured (about 3× stiffer than Kim's fitted 0.0038, 0.0049)."""
+    _, out, _ = kalker_existing
+    d1 = out["rollers"]["D1"]
+    assert d1["eps_long_per_N"] == pytest.approx(0.00121, abs=5e-6)
+    assert d1["eps_lat_per_N"] == pytest.approx(0.00140, abs=5e-6)
+    for r in out["rollers"].values():
+        G = 1.0 / (r["eps_long_per_N"] * r["a_mm"] * r["b_mm"] * 1e-6 * r["C11"])
+        a, b, N, mu = r["a_mm"] * 1e-3, r["b_mm"] * 1e-3, r["N"], r["mu"]
+        fx, _ = creep_forces(1e-8, 0.0, N, mu, a, b, G, r["C11"], r["C22"])
+        assert -float(fx) / 1e-8 == pytest.approx(G * a * b * r["C11"], rel=1e-12)
+        fy = spin_force(0.0, 0.0, 1e-6, N, mu, a, b, G, r["C23"])
+        assert -float(fy) / 1e-6 == pytest.approx(r["spin_coefficient_Nm"], rel=1e-9)
+        for kind in ("curve_longitudinal", "curve_lateral"):
+            f = np.array(r[kind])[:, 1]
+            assert f[0] == 0 and np.all(np.diff(f) > 0) and 0.99 <= f[-1] <= 1.0
+
+
+def test_bad_variant_is_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\n")
+    assert main(["contact", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "bad.yaml" in err and "Traceback" not in err
