@@ -29,9 +29,10 @@ optimiser, at the cost of a FASTSIM grid's per-element saturation; tests/validat
       ε_M = (8/3) (G b √(ab))/(μN) · C23 s_C / k,      δ = (ε_M² − 1)/(ε_M² + 1),
       K_M = |ε_M| (δ³/3 − δ²/2 + 1/6) − √((1 − δ²)³)/3,
 
-  with s_C = √(ξ² + η_C²), η_C = η + φ a where that adds to |η|, else η. At small spin K_M → −(2/3)|ε_M| and
-  Fy_φ → −G (ab)^(3/2) C23 φ, Kalker's linear spin term (sign of Kalker's convention; Polach prints the force
-  on the other body).
+  with s_C = √(ξ² + η_C²), η_C = η + φ a where that adds to |η|, else η. K_M simplifies exactly to
+  −(2/3)|ε_M|/(1 + ε_M²)², so Fy_φ = −G (ab)^(3/2) C23 φ/(1 + ε_M²)² (spin_force): Kalker's linear spin term
+  at small spin (in Kalker's sign convention; Polach prints the force on the other body), falling as the
+  traction comes to circulate at large spin.
 
 Every function takes floats or CasADi scalars (no Python branches on values), so the same expressions go
 into the compiled model.
@@ -44,6 +45,7 @@ import casadi as ca
 
 SPIN_SHAPE = 6.3          # Polach's empirical factor of the spin term's patch-shape correction k
 TINY = 1e-30              # keeps square roots and ratios smooth at zero creepage
+NEWTON_STEPS = 6          # of saturation_amplification (4 already reach machine precision)
 
 
 def _smooth_abs(x):
@@ -56,6 +58,19 @@ def saturation_ratio(eps):
     return 0.5 * (1.0 / (1.0 + e * e) + ca.atan(e) / e)
 
 
+def saturation_amplification(u):
+    """The inverse of Polach's law for the creepage part: at utilisation u = |F|/(μN) < 1, the creepage over
+    linear theory's creepage for the same force, 1/r = 2ε/(ε/(1 + ε²) + arctan ε) = 4 tan θ/(π u), where
+    ε = tan θ solves θ + sin(2θ)/2 = πu/2 (the law in θ; its derivative 2cos²θ). Newton's method, unrolled
+    (NEWTON_STEPS) from the larger of πu/4 (small u) and π/2 − (3π(1 − u)/4)^(1/3) (u → 1), converges to
+    machine precision for 0 ≤ u ≤ 1 − 1e-9 (tests/unit/test_creep.py). 1 at u = 0, → ∞ as u → 1."""
+    y = 0.5 * math.pi * u
+    theta = ca.fmax(0.25 * math.pi * u, 0.5 * math.pi - (0.75 * math.pi * (1.0 - u)) ** (1.0 / 3.0))
+    for _ in range(NEWTON_STEPS):
+        theta = theta - (theta + 0.5 * ca.sin(2.0 * theta) - y) / (2.0 * ca.cos(theta) ** 2)
+    return 4.0 * ca.tan(theta) / (math.pi * ca.fmax(u, 1e-300))
+
+
 def creep_forces(xi, eta, N, mu, a, b, G, C11, C22):
     """(Fx, Fy) [N] from longitudinal and lateral creepage, Kalker's linear law saturated by Polach's method
     (module docstring). N: normal force [N]; a, b: semi-axes [m]; G [Pa]."""
@@ -66,15 +81,15 @@ def creep_forces(xi, eta, N, mu, a, b, G, C11, C22):
 
 
 def spin_force(xi, eta, phi, N, mu, a, b, G, C23):
-    """Fy [N] from spin φ [1/m] by Polach's method (module docstring); −G (ab)^(3/2) C23 φ at small spin."""
+    """Fy [N] from spin φ [1/m] by Polach's method (module docstring), in the closed form
+    Fy = −G (ab)^(3/2) C23 φ / (1 + ε_M²)²: Polach's K_M simplifies to −(2/3)|ε_M|/(1 + ε_M²)² (with
+    δ = (ε_M² − 1)/(ε_M² + 1): δ³/3 − δ²/2 + 1/6 = (δ − 1)²(2δ + 1)/6 and 1 − δ² = 4ε_M²/(1 + ε_M²)²), and
+    |ε_M|/s_C cancels against his φ/s_C. Linear theory at small spin; no division by s_C, no square root of a
+    difference, so it is smooth for Newton."""
     k = 1.0 + SPIN_SHAPE * (1.0 - ca.exp(-a / b))
     eta_c = ca.if_else(_smooth_abs(eta + phi * a) > _smooth_abs(eta), eta + phi * a, eta)
-    s_c = ca.sqrt(xi * xi + eta_c * eta_c + TINY)
-    eps_m = (8.0 / 3.0) * G * b * ca.sqrt(a * b) / (mu * N) * C23 * s_c / k
-    e2 = eps_m * eps_m
-    d = (e2 - 1.0) / (e2 + 1.0)
-    K_m = _smooth_abs(eps_m) * (d ** 3 / 3.0 - d ** 2 / 2.0 + 1.0 / 6.0) - ca.sqrt((1.0 - d * d) ** 3) / 3.0
-    return (9.0 / 16.0) * a * mu * N * K_m * k * phi / s_c
+    eps_m2 = ((8.0 / 3.0) * G * b * ca.sqrt(a * b) * C23 / (mu * N * k)) ** 2 * (xi * xi + eta_c * eta_c)
+    return -G * (a * b) ** 1.5 * C23 * phi / (1.0 + eps_m2) ** 2
 
 
 def polach_forces(xi, eta, phi, N, mu, a, b, G, C11, C22, C23):

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from cvtdesign.core.effects import EFFECTS, ContactState, parameter_vector, smooth_abs
+from cvtdesign.core.effects import EFFECTS, ContactState, check_effects, parameter_vector, smooth_abs
 from cvtdesign.core.geometry import (
     ideal_gamma,
     roller_pose,
@@ -47,6 +47,7 @@ from cvtdesign.core.kinematics import (
     wrap_axis_angle,
 )
 from cvtdesign.core.layout import Layout
+from cvtdesign.core.creep import saturation_amplification, spin_force
 from cvtdesign.core.patch import patch
 
 EPS_RIGID = 1e-9      # [1/N] creep-compliance floor of the directions that are rigid in the model
@@ -199,7 +200,8 @@ def _contact_constants(layout: Layout) -> list[dict]:
         # Kim's constants were fitted at a reference force (100 N); Hertz + Kalker ones hold at the preload
         n_ref = layout.creep_reference_force if kim is not None and layout.creep_reference_force is not None \
             else r.preload
-        const.append(dict(a=p["a"], b=p["b"], p0=p["p0"], eps0=eps0, mu=p["mu"], n_ref=n_ref))
+        const.append(dict(a=p["a"], b=p["b"], p0=p["p0"], eps0=eps0, mu=p["mu"], n_ref=n_ref, G=p["G"],
+                          C11=p["C11"], C22=p["C22"], C23=p["C23"]))
     return const
 
 
@@ -248,7 +250,7 @@ def _equations(layout: Layout, hooks: _Hooks, const, u: _Unknowns, w1, phi):
     N = _normal_forces(layout, poses, Fvec)
     slip, moment, idle, tau, sat = [], ca.SX.zeros(3), [], {1: 0, 2: 0}, []
     per = {k: [] for k in ("xi", "eta", "spin", "utilisation", "mu")}
-    floor = EPS_RIGID * ca.fabs(u.v_ref)
+    kalker = layout.contact_law == "kalker"
     for i, r in enumerate(layout.rollers):
         (n, a), t, c = poses[i], tdirs[i], const[i]
         drive = r.role != "steering"
@@ -258,16 +260,14 @@ def _equations(layout: Layout, hooks: _Hooks, const, u: _Unknowns, w1, phi):
         s_t, s_a = ca.dot(s, t), ca.dot(s, a)
         roll, spin = ca.dot(u.Om, a), ca.dot(u.Om, n)
         V = smooth_abs(R * roll, 1e-9 * u.v_ref)                          # rolling speed [m/s]
-        N_creep, n_exp = hooks.transform("creep_normal", (r.preload, 2.0 / 3.0), N[i])   # default: ε ∝ P^(-2/3)
+        N_creep, n_exp = (_positive(N[i], r.preload), 0.0) if kalker else \
+            hooks.transform("creep_normal", (r.preload, 2.0 / 3.0), N[i])  # kim: ε ∝ P^(-2/3) unless N varies
         state = ContactState(r, drive, V, spin, 1e-9 * u.om_ref, 1e-6 * u.om_ref, roll, N[i], N_creep,
                              c["eps0"] * (c["n_ref"] / N_creep) ** n_exp, c["b"],
                              hooks.transform("friction", c["mu"]), u.Ft[i], u.Fa[i])
-        terms = hooks.collect("compliance", state)
-        ct, ca_ = sum(x[0] for x in terms), sum(x[1] for x in terms)
-        for gain, util in hooks.collect("saturation", state):
-            ct, ca_ = ct * gain, ca_ * gain
-            sat.append(util)
-        slip += [(s_t + (ct + floor) * u.Ft[i]) / u.v_ref, (s_a + (ca_ + floor) * u.Fa[i]) / u.v_ref]
+        rows, util = (_kalker_rows if kalker else _kim_rows)(layout, hooks, state, c, s_t, s_a, u, i)
+        slip += rows
+        sat += util
         M = sum(hooks.collect("resistance", state))
         moment += R * ca.cross(n, Fvec[i]) - M * a
         if drive:
@@ -281,6 +281,54 @@ def _equations(layout: Layout, hooks: _Hooks, const, u: _Unknowns, w1, phi):
         per["utilisation"].append(ca.sqrt(u.Ft[i] ** 2 + u.Fa[i] ** 2 + 1e-6) / (state.mu * N[i]))  # 1 mN smoothing
     per["N"] = N
     return slip, moment, idle, tau, per, sat
+
+
+def _positive(N, preload):
+    """N kept above zero on the scale of 1e-3 of the preload (a patch at N ≤ 0 does not exist; such a point
+    is reported as lost contact), smooth for Newton: (N + √(N² + (1e-3 P)²))/2."""
+    return 0.5 * (N + ca.sqrt(N * N + (1e-3 * preload) ** 2))
+
+
+def _kim_rows(layout: Layout, hooks: _Hooks, c: ContactState, const, s_t, s_a, u: _Unknowns, i):
+    """Contact law kim: s + c·F = 0 with the effects' creep compliances c (the rigid directions at the
+    EPS_RIGID floor) and their saturation gains. Returns (two scaled rows, saturation utilisations)."""
+    floor = EPS_RIGID * ca.fabs(u.v_ref)
+    terms = hooks.collect("compliance", c)
+    ct, ca_ = sum(x[0] for x in terms), sum(x[1] for x in terms)
+    sat = []
+    for gain, util in hooks.collect("saturation", c):
+        ct, ca_ = ct * gain, ca_ * gain
+        sat.append(util)
+    return [(s_t + (ct + floor) * u.Ft[i]) / u.v_ref, (s_a + (ca_ + floor) * u.Fa[i]) / u.v_ref], sat
+
+
+def _kalker_rows(layout: Layout, hooks: _Hooks, c: ContactState, const, s_t, s_a, u: _Unknowns, i):
+    """Contact law kalker (core.creep): Kalker's linear theory with the Hertz patch at the force-balanced N
+    (a, b ∝ N^(1/3)), Kalker's coefficients divided by the calibration factor (contact.calibration × the
+    calibration hooks), saturated by Polach's method. Returns (two scaled rows, the creep utilisation).
+
+    Patch frame: Kalker's theory has the material pass through the patch along −e_x, so e_x = σ t, e_y = −σ a,
+    e_n = n with σ the sign of Ω·a. The law is odd in creepage and spin, so F·t and −F·a are its (Fx, Fy) at
+    creepages (s_t/V, −s_a/V) and spin σ Ω·n/V: only the spin term sees the rolling direction. In the spin
+    term σ and V are smoothed on 1e-3 of the reference speed (V_f = √(V² + (1e-3 v_ref)²)), so a contact that
+    does not roll makes no spin force (and creepages stay finite). The rows are the
+    creepage form of the law, s + V·e·A(u)·F_creep = 0 with e linear theory's compliance, A Polach's
+    amplification at the creep force's utilisation u and F_creep the force less the spin term (the form of
+    the kim law, and like it floored at EPS_RIGID: a contact at rest sticks)."""
+    k = layout.calibration["drive" if c.drive else "steering"]
+    for factor in hooks.collect("calibration", c):
+        k = k * factor
+    size = (c.N_creep / c.roller.preload) ** (1.0 / 3.0)
+    a, b, G = const["a"] * size, const["b"] * size, const["G"]
+    v_f = ca.sqrt(c.V ** 2 + (1e-3 * u.v_ref) ** 2)
+    sigma = layout.sphere_radius * c.roll / v_f
+    f_spin = spin_force(s_t / v_f, -s_a / v_f, sigma * c.spin / v_f, c.N_creep, c.mu, a, b, G, const["C23"] / k)
+    fx, fy = u.Ft[i], -u.Fa[i] - f_spin                        # the creep part of the force, patch frame
+    util = ca.fmin(ca.sqrt(fx ** 2 + fy ** 2 + 1e-18) / (c.mu * c.N_creep), 1 - 1e-9)
+    amp = saturation_amplification(util)
+    floor = EPS_RIGID * ca.fabs(u.v_ref)
+    e11, e22 = k / (G * a * b * const["C11"]), k / (G * a * b * const["C22"])
+    return [(s_t + (c.V * e11 * amp + floor) * fx) / u.v_ref, (s_a - (c.V * e22 * amp + floor) * fy) / u.v_ref], [util]
 
 
 def _status(resid, per, sat):
@@ -326,10 +374,8 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
 
     `design` is the vector of CasADi symbols that the layout's fields may depend on (design variables of
     an optimisation study); numeric layouts need none."""
-    effects = tuple(layout.effects if effects is None else effects)
-    for e in effects:
-        if e not in EFFECTS:
-            raise ValueError(f"unknown effect '{e}'")
+    effects = check_effects(tuple(layout.effects if effects is None else effects), f"{layout.file}: effects",
+                            layout.contact_law)
     design = ca.SX(0, 1) if design is None else design
     pnames, pvalues = parameter_vector(effects, layout.effect_parameters)
     theta = ca.SX.sym("theta", len(pnames))
@@ -390,3 +436,5 @@ def _point_builder(outs, x, params, solver, x0_fn, steer, misfit, theta, design)
         res["steer_misfit"] = misfit(phi_m, ca.vertcat(g_m, d_m))
         return ca.Function(name, ins, [res[k] for k in selected], in_names, list(selected))
     return build
+
+

@@ -155,9 +155,24 @@ class SteeringSpec(Strict):
     forks: list[ForkSpec] = spec_field("the forks; each fork's fields: rollers, axis, sign")
 
 
+class CalibrationSpec(Strict):
+    """Factors on the Kalker compliances of contact.law: kalker (1: the theory as it stands)."""
+    drive: Num = spec_field("factor on the compliances of the drive and follower contacts (fitted by diagnose "
+                            "as drive_longitudinal_creep.scale)", 1.0, kind="dimensionless", plausible="calibration")
+    steering: Num = spec_field("factor on the compliances of the steering contacts (fitted by diagnose as "
+                               "steering_lateral_creep.scale)", 1.0, kind="dimensionless", plausible="calibration")
+
+
 class ContactSpec(Strict):
-    """Creep constants of the contacts (Kim et al., 'Causes of microslip in a continuously variable
-    transmission', fitted ε_D and ε_S); omitted ones come from Hertz + Kalker theory."""
+    """The contact law. `kim` (the default): Kim et al.'s fitted creep constants ε_D and ε_S ('Causes of
+    microslip in a continuously variable transmission'), omitted ones from Hertz + Kalker at the preload, with
+    the effects of the vocabulary on top. `kalker`: at every contact the Hertz patch at its force-balanced
+    normal force and Kalker's linear theory in every direction (C11, C22, C23: creep and spin), saturated
+    towards μN by Polach's method (core.creep), scaled by `calibration`."""
+    law: Literal["kim", "kalker"] = spec_field("the contact law: kim (fitted creep constants) or kalker (Hertz + "
+                                               "Kalker + Polach at every contact)", "kim")
+    calibration: CalibrationSpec = spec_field("factors on the Kalker compliances (law kalker only): drive, steering",
+                                              CalibrationSpec())
     creep_drive: Num | None = spec_field("creep constant ε_D of drive and follower rollers: slip ratio per "
                                          "newton of tangential force (omitted: Hertz + Kalker C11)", None,
                                          kind="compliance", plausible="creep")
@@ -231,8 +246,8 @@ class VariantSpec(Strict):
         "the rollers by name; each: role, contact, axle, shaft, ratio, radius, material, crown_radius, width, "
         "preload, mount_stiffness; shafts 1 and 2 each need a drive roller")
     steering: SteeringSpec = spec_field("the steering linkage: its forks")
-    contact: ContactSpec = spec_field("creep constants of the contacts: creep_drive, creep_steering, "
-                                      "creep_reference_force", ContactSpec())
+    contact: ContactSpec = spec_field("the contact law and its constants: law, calibration (kalker), creep_drive, "
+                                      "creep_steering, creep_reference_force (kim)", ContactSpec())
     effects: list[str] = spec_field("the effects the model includes, names from the effect vocabulary "
                                     "(docs/effects.md); [] is the ideal CVT",
                                     ["drive_longitudinal_creep", "steering_lateral_creep"])

@@ -115,6 +115,7 @@ PLAUSIBLE = {
     "allowable_pressure": ("allowable pressure", "pressure", 1e4, 1e11, False, "MPa"),
     "creep": ("creep constant", "compliance", 0.0, 1.0, True, None),
     "creep_reference_force": ("creep reference force", "force", 0.0, 1e5, True, None),
+    "calibration": ("calibration factor", "dimensionless", 0.0, 100.0, True, None),
     "direction_angle": ("direction angle", "angle", -2 * math.pi, 2 * math.pi, False, "deg"),
     "gamma": ("transmission angle γ", "angle", -math.pi, math.pi, False, "deg"),
     "load": ("load", "torque", -1e4, 1e4, False, None),
@@ -187,6 +188,7 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         quantity(spec.frame.distance, "frame_distance", f"{where}: frame.distance", names, "a positive distance")
         quantity(spec.frame.thickness, "frame_thickness", f"{where}: frame.thickness", names, "a positive thickness")
     c, env = spec.contact, spec.envelope
+    law, calibration = _contact_law(spec, where, names)
 
     def creep(value, key, field):
         return None if value is None else quantity(value, key, f"{where}: contact.{field}", names, "a positive value")
@@ -201,7 +203,26 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         gamma_grid=grid(env.gamma, "angle", f"{where}: envelope.gamma"),
         load_grid=grid(env.load, "torque", f"{where}: envelope.load"),
         motor_speed=quantity(env.motor_speed, "motor_speed", f"{where}: envelope.motor_speed", None, "a positive value"),
-        parameters=names, spec=spec)
+        parameters=names, spec=spec, contact_law=law, calibration=calibration)
+
+
+def _contact_law(spec: VariantSpec, where: str, names: dict) -> tuple[str, dict]:
+    """contact.law and the kalker calibration factors; under kalker the fitted constants and the effects the
+    law already contains are refused (one InputError line), under kim a calibration is."""
+    c = spec.contact
+    w = f"{where}: contact"
+    if c.law == "kim":
+        if c.calibration != type(c.calibration)():
+            raise InputError(f"{w}.calibration: applies to law kalker only; expected contact.law: kalker with it, "
+                             "or no calibration (law kim uses creep_drive and creep_steering)")
+        return "kim", {"drive": 1.0, "steering": 1.0}
+    for f in ("creep_drive", "creep_steering", "creep_reference_force"):
+        if getattr(c, f) is not None:
+            raise InputError(f"{w}.{f}: a fitted creep constant belongs to law kim; under law kalker the contacts "
+                             "follow Hertz and Kalker, scaled by contact.calibration: {drive, steering}")
+    fx.check_effects(spec.effects, f"{where}: effects", "kalker")
+    return "kalker", {k: quantity(getattr(c.calibration, k), "calibration", f"{w}.calibration.{k}", names,
+                                  "a positive factor") for k in ("drive", "steering")}
 
 
 def _materials(spec: VariantSpec, where: str, names: dict) -> dict:
