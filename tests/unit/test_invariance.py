@@ -53,6 +53,9 @@ from cvtdesign.core.geometry import pose, rigid_constraints  # noqa: E402
 from cvtdesign.core.model import compile_model  # noqa: E402
 
 SHIPPED = ("existing", "box", "unequal")
+# the same layouts under contact law kalker (every direction compliant, spin through C23): the model tests
+# run on them too, which checks the patch frame and the spin term's sign under rotation and mirroring
+KALKER = ("existing+kalker", "box+kalker")
 SMALL = dict(gamma_deg=(-60, 60, 30), load_nm=(-1, 1, 1))
 FIGURES = ("max_abs_alpha_deg", "rms_alpha_deg", "max_abs_alpha_steering_deg", "max_abs_alpha_drive_deg",
            "ratio_error_pct_at_max_load", "min_efficiency", "max_traction_utilisation", "max_hertz_pressure_MPa")
@@ -77,7 +80,11 @@ MODEL = settings(max_examples=8, **_COMMON)         # each example compiles one 
 
 @functools.cache
 def _base(name: str) -> dict:
-    return lt.set_envelope(lt.read(name), **SMALL)
+    shipped, _, law = name.partition("+")
+    data = lt.read(shipped)
+    if law:
+        data["contact"] = {"law": law}
+    return lt.set_envelope(data, **SMALL)
 
 
 def base(name: str) -> dict:
@@ -319,7 +326,7 @@ def test_set_radius_keeps_follower_consistent():
 # 2. the model: same figures, and pointwise where the map is known
 # ==============================================================================================
 
-@pytest.mark.parametrize("name", SHIPPED)
+@pytest.mark.parametrize("name", SHIPPED + KALKER)
 @MODEL
 @given(q=quaternions)
 @example(q=(np.cos(np.pi / 8), 0.0, 0.0, np.sin(np.pi / 8)))     # 45° about z: d1 → y, d2 → −x
@@ -341,7 +348,7 @@ def _flip_sign_map(res, s):
     return res if s == 1 else res[..., ::-1, ::-1]
 
 
-@pytest.mark.parametrize("name", SHIPPED)
+@pytest.mark.parametrize("name", SHIPPED + KALKER)
 @MODEL
 @given(data=st.data())
 def test_axle_and_fork_flips(name, data):
@@ -374,7 +381,7 @@ def test_axle_and_fork_flips(name, data):
         assert_close(res1["N"], _flip_sign_map(res0["N"], s), f"{what}: N [N]", scaled=FORCE_TOL)
 
 
-@pytest.mark.parametrize("name", SHIPPED)
+@pytest.mark.parametrize("name", SHIPPED + KALKER)
 @MODEL
 @given(q=quaternions, v=directions)
 @example(q=(1.0, 0.0, 0.0, 0.0), v=(1.0, 0.0, 0.0))     # x → −x: swaps d1 and −d2 (existing's shaft axes)
@@ -389,7 +396,7 @@ def test_mirror_image(name, q, v):
         assert_close(res1[k], res0[k], f"{what}: {k} [rad]", atol=ANGLE_TOL)
 
 
-@pytest.mark.parametrize("name", SHIPPED)
+@pytest.mark.parametrize("name", SHIPPED + KALKER)
 @MODEL
 @given(q=quaternions, v=directions, data=st.data())
 def test_composed_transforms(name, q, v, data):
