@@ -33,7 +33,7 @@ def run(args):
     console = Console(width=120)
     with progress_bar(console, "multistart", lambda sol: f"last: {sol.status}, f = {sol.objective:.5g}",
                       transient=True) as progress:
-        res = solve.run(args.study, args.out, args.starts, progress, write=False)
+        res = solve.run(args.study, args.out, args.starts, progress, write=False, calibration=args.calibration)
     blocks = result_blocks(res, design_kinds(args.study, res["design"]))
     # the optimum's variant file, the JSON and the HTML report: written together, all or nothing
     files = res.pop("pending_files")

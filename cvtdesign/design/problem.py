@@ -39,7 +39,12 @@ import numpy as np
 from cvtdesign.core.geometry import roller_pose, steering_angle_guess, steering_data
 from cvtdesign.core.model import compile_model
 from cvtdesign.design.solution import EnvelopeCheck, check_envelope
-from cvtdesign.design.study_file import StudySpec, load_study, min_normal_force, problem_inputs
+from cvtdesign.design.study_file import (
+    StudySpec,
+    load_study,
+    min_normal_force,
+    problem_inputs,
+)
 from cvtdesign.io.variant import grid, parameter_value, resolve
 
 IPOPT_OPTIONS = {"tol": 1e-8, "acceptable_tol": 1e-6, "hessian_approximation": "limited-memory",

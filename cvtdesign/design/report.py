@@ -74,6 +74,8 @@ def variant_text(problem: Problem, sol: Solution, out_dir: Path, name: str | Non
     # (a study's narrower envelope is what the clearance and reach constraints held for)
     if problem.spec.envelope is not None:
         data["envelope"] = problem.spec.envelope.model_dump(exclude_unset=True)
+    if problem.spec.calibration:          # the fitted effect parameters the design was optimised with
+        data["effect_parameters"] = problem.vspec.effect_parameters
     for n, v in (problem.fixed | sol.design).items():
         unit = _unit_of(data["parameters"][n])
         if unit:
@@ -88,7 +90,8 @@ def variant_text(problem: Problem, sol: Solution, out_dir: Path, name: str | Non
               f"# study: {problem.spec.name}; objective: {problem.spec.objective.kind} = {sol.objective:.6g}\n"
               f"# date: {datetime.datetime.now().isoformat(timespec='seconds')}; solver: IPOPT, status "
               f"{sol.status}, {sol.iterations} iterations, start {sol.start}\n"
-              f"# base variant: {problem.base_file}\n")
+              f"# base variant: {problem.base_file}\n"
+              + (f"# calibration: {problem.spec.calibration} (fitted effect parameters)\n" if problem.spec.calibration else ""))
     return Path(out_dir) / f"{name}.yaml", header + yaml.safe_dump(data, sort_keys=False, allow_unicode=True)
 
 

@@ -22,7 +22,7 @@ from scipy.stats import qmc
 from cvtdesign.design.problem import Problem, build_problem, nlpsol
 from cvtdesign.design.report import constraint_report, variant_text, write_variant
 from cvtdesign.design.solution import Solution
-from cvtdesign.design.study_file import StudySpec
+from cvtdesign.design.study_file import StudySpec, load_study
 
 NEAR_BINDING = 0.01  # working set: envelope points with a row within this fraction of its bound's scale
 WORKING_SET_MAX = 2_000_000   # entries of the working set's row-selection matrix beyond which every row is used
@@ -238,11 +238,15 @@ def distinct_optima(solutions: list[Solution], tol=1e-3) -> list[tuple[Solution,
 
 
 def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, progress=None,
-        write: bool = True) -> dict:
+        write: bool = True, calibration=None) -> dict:
     """Build, multistart-solve and report one study; writes the best design as a variant file (with
     `write` False it is not written: result['pending_files'] = {path: text}, for the caller to write
-    together with its own files)."""
-    problem = build_problem(study_path)
+    together with its own files). `calibration`: a diagnosis report whose fitted effect parameters the base
+    variant carries (overrides the study's `calibration`)."""
+    spec, base = load_study(study_path)
+    if calibration is not None:
+        spec.calibration = str(Path(calibration).resolve())
+    problem = build_problem(study_path, spec, base)
     if n_starts is not None:
         problem.spec.multistart.starts = n_starts
     zs = starts(problem)

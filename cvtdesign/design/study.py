@@ -69,10 +69,13 @@ class Interrupted(KeyboardInterrupt):
 
 
 def study_hash(study_file: Path, spec, base: Path) -> str:
-    """Hash of the study file and of every variant file it names (so an edited variant is a new study)."""
+    """Hash of the study file, of every variant file it names and of its calibration report (so an edited
+    variant or a new fit is a new study)."""
     h = hashlib.sha256(Path(study_file).read_bytes())
     for v in variant_files(study_file, spec, base):
         h.update(v.read_bytes())
+    if spec.calibration:
+        h.update((Path(study_file).parent / spec.calibration).read_bytes())
     return h.hexdigest()[:16]
 
 

@@ -27,6 +27,7 @@ from pydantic import BeforeValidator, Field, StrictBool
 from cvtdesign.core.checks import check_layout
 from cvtdesign.core.effects import check_effects
 from cvtdesign.errors import InputError, shorten, suggest
+from cvtdesign.io.fitted import read_fitted
 from cvtdesign.io.schema import EnvelopeSpec, Name, Num, Strict, no_bool
 from cvtdesign.io.units import check_range, dimension_of, kind_name, to_si
 from cvtdesign.io.variant import grid, load_spec, parameter_value, quantity, resolve
@@ -106,6 +107,8 @@ class StudySpec(Strict):
     batch: Batch = Batch()
     pareto: Pareto = Pareto()
     max_iter: Int = 200
+    calibration: str | None = None     # a diagnosis report (cvtdesign diagnose --json) whose fitted effect
+                                       # parameters the base variants carry (path relative to the study)
 
 
 def load_study(path) -> tuple[StudySpec, Path]:
@@ -166,6 +169,12 @@ def problem_inputs(study_path, spec: StudySpec, base_file: Path, fixed: dict | N
                              f"{suggest(n, vspec.parameters)}")
         if n in spec.design:
             raise InputError(f"{where}: batch.sweep.{n}: '{n}' is a design variable; sweep fixed parameters only")
+    if spec.calibration:
+        fitted = read_fitted(Path(study_path).parent / spec.calibration)
+        merged = {e: dict(ps) for e, ps in vspec.effect_parameters.items()}
+        for e, ps in fitted.items():
+            merged.setdefault(e, {}).update(ps)
+        vspec = vspec.model_copy(update={"effect_parameters": merged})
     base = resolve(vspec, str(base_file), overrides=fixed)
     check_layout(base)
     names = [n for n in spec.design if _free_in(spec, n, base_file, study_path)]
@@ -196,7 +205,7 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
     of starts and of Pareto points)."""
     where = str(study_path)
     if spec.effects is not None:
-        check_effects(spec.effects, f"{where}: effects")
+        check_effects(spec.effects, f"{where}: effects", base.contact_law)
     if spec.envelope is not None:
         grid(spec.envelope.gamma, "angle", f"{where}: envelope.gamma")
         grid(spec.envelope.load, "torque", f"{where}: envelope.load")

@@ -39,6 +39,7 @@ from scipy.optimize import least_squares
 from scipy.stats import f_oneway, wilcoxon
 
 from cvtdesign.core.effects import EFFECTS
+from cvtdesign.core.effects import candidates as effect_candidates
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.metrics import efficiency
 from cvtdesign.core.model import compile_model
@@ -614,7 +615,7 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
     """Run the whole diagnosis; returns the report (JSON-ready except the keys starting with '_')."""
     t0 = time.perf_counter()
     base = tuple(base)
-    candidates = [e for e in (candidates or EFFECTS) if e not in base]
+    candidates = [e for e in (candidates or effect_candidates(layout.contact_law)) if e not in base]
     raw, data = data, merge_points(data)
     models = Models(layout, data)
     fold = folds(data)

@@ -1,9 +1,12 @@
 """contact.law: kalker in the model: what the variant may say with it, calibration, and what it changes.
 (Its invariance under rotation, mirroring and axle flips is in test_invariance.py, its contact physics in
 test_creep.py, test_contact_command.py and tests/validation.)"""
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
-
+import yaml
 from conftest import variant_data, write_yaml
 
 from cvtdesign.cli import main
@@ -78,3 +81,52 @@ def test_calibrated_box_follows_kims_fit_in_the_linear_range(tmp_path):
     kal = compile_model(load_variant(kalker(tmp_path, "box", calibration=cal))).evaluate(g, np.array([0.05, -0.05]))
     slope = lambda r: (r["alpha"][0] - r["alpha"][1]) / 0.1    # noqa: E731
     assert slope(kal) == pytest.approx(slope(kim), rel=5e-3)
+
+
+def fitted_report(path, **values) -> str:
+    """A diagnosis report (the part `--calibration` reads): final_fit {effect.param: {value, std, ...}}."""
+    path.write_text(json.dumps({"verdict": "none", "final_fit": {
+        k.replace("__", "."): {"value": v, "std": 0.01, "identifiable": True} for k, v in values.items()}}))
+    return str(path)
+
+
+def test_optimise_carries_a_fitted_calibration(tmp_path):
+    """optimise --calibration REPORT.json: under kalker the fitted drive_longitudinal_creep.scale multiplies the
+    drive contacts' compliances in the study, and the optimum's variant file carries it, so compare of that
+    file gives the study's objective (to 1e-6°)."""
+    study = tmp_path / "study.yaml"
+    study.write_text(yaml.safe_dump({
+        "name": "t", "base": str(shipped_variant("box_kalker")), "design": {"d": {"lower": "40 mm", "upper": "90 mm"}},
+        "multistart": {"starts": 1},
+        "envelope": {"gamma": {"start": "20 deg", "stop": "60 deg", "step": "20 deg"},
+                     "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}}))
+    report = fitted_report(tmp_path / "fit.json", drive_longitudinal_creep__scale=1.4)
+    out = tmp_path / "res"
+    assert main(["optimise", str(study), "--out", str(out), "--json", str(tmp_path / "o.json"),
+                 "--calibration", report]) == 0
+    res = json.loads((tmp_path / "o.json").read_text())
+    variant = Path(res["variant_file"])
+    text = variant.read_text()
+    assert "# calibration: " in text and yaml.safe_load(text)["effect_parameters"]["drive_longitudinal_creep"]["scale"] == 1.4
+    assert main(["compare", str(variant), str(variant), "--out", str(tmp_path / "p"), "--json", str(tmp_path / "c.json")]) == 0
+    row = json.loads((tmp_path / "c.json").read_text())["variants"][0]
+    assert row["max_abs_alpha_deg"] == pytest.approx(res["objective"], abs=1e-6)
+    plain = tmp_path / "plain"
+    assert main(["optimise", str(study), "--out", str(plain), "--json", str(tmp_path / "p.json")]) == 0
+    assert json.loads((tmp_path / "p.json").read_text())["objective"] < res["objective"]    # softer drive contacts
+
+
+@pytest.mark.parametrize("content, message", [
+    ("not json", "not a JSON file"),
+    ('{"verdict": "none"}', "final_fit: missing"),
+    ('{"final_fit": {"no_such_effect.scale": {"value": 1}}}', "final_fit.no_such_effect.scale: not a parameter"),
+    ('{"final_fit": {"drive_longitudinal_creep.scale": {"value": -2}}}', "final_fit.drive_longitudinal_creep.scale"),
+])
+def test_bad_calibration_report_is_one_line(tmp_path, capsys, content, message):
+    (tmp_path / "fit.json").write_text(content)
+    study = tmp_path / "study.yaml"
+    study.write_text(yaml.safe_dump({"name": "t", "base": str(shipped_variant("box_kalker")),
+                                     "design": {"d": {"lower": "40 mm", "upper": "90 mm"}}}))
+    assert main(["optimise", str(study), "--calibration", str(tmp_path / "fit.json"), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and "Traceback" not in err, err
