@@ -20,7 +20,6 @@ from cvtdesign.io.variant import load_variant
 
 
 def run(args):
-
     layout = load_variant(args.variant)
     base = effects_arg(args.base, layout.effects, "--base")
     candidates = effects_arg(args.candidates, [], "--candidates")

@@ -20,7 +20,6 @@ def export_steps(console, variant_files, out_dir: Path):
 
 
 def run(args):
-
     res = export_variant(args.variant, args.out, args.gamma, args.check)
     console = Console(width=120)
     console.print(f"{res['step']}: {len(res['parts'])} parts at γ = {res['gamma_deg']:g}° (φ = {res['phi_deg']:.3f}°) "

@@ -27,7 +27,6 @@ OBJECTIVE = {"worst_alpha": ("worst |α|", degrees), "rms_alpha": ("RMS α", deg
 
 
 def run(args):
-
     if args.starts is not None and args.starts < 1:
         raise InputError(f"--starts: expected a positive number of multistart points, got {args.starts}")
     console = Console(width=120)

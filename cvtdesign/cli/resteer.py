@@ -18,7 +18,6 @@ from cvtdesign.io.variant import load_variant
 
 
 def run(args):
-
     if args.truth_set and args.truth_effects is None:
         raise InputError("--truth-set: sets a parameter of the rig's effects; expected --truth-effects with it")
     layout = load_variant(args.variant)

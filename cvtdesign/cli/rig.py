@@ -12,7 +12,6 @@ from cvtdesign.io.variant import load_variant
 
 
 def run(args):
-
     if args.replicates is not None and args.replicates < 1:
         raise InputError(f"--replicates: expected at least 1 replicate of each operating point, got {args.replicates}")
     layout = load_variant(args.variant)

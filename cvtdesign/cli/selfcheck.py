@@ -12,7 +12,6 @@ from cvtdesign.io.output import write_file
 
 
 def run(args):
-
     if args.seeds < 1:
         raise InputError(f"--seeds: expected a positive integer (null datasets per noise level / 2), got {args.seeds}")
     console = Console(width=120)

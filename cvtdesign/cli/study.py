@@ -19,7 +19,6 @@ from cvtdesign.io.variant import load_spec
 
 
 def run(args):
-
     console = Console(width=140)
     with progress_bar(console, "cases", lambda row: f"last: {row['case_id']} {row['status']}") as progress:
         res = study.run_study(args.study, args.out, args.scheduler, args.workers, progress,
