@@ -4,26 +4,19 @@ import json
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
-from scipy.special import ellipe, ellipk
-
 from conftest import variant_data, write_yaml
+from hertz_reference import hertz_axes
 
 from cvtdesign.cli import main
 from cvtdesign.core.creep import creep_forces, spin_force
 
 
 def hertz_independent(R, r_roll, r_crown, N, E1, nu1, E2, nu2):
-    """Semi-axes a (along the rolling direction, curvature sum A) and b, and the peak pressure, of a sphere on
-    a crowned roller: Johnson, "Contact Mechanics", sec. 4.2, eqs 4.36–4.39 solved with SciPy (its elliptic
-    integrals take the parameter m = e²)."""
+    """Semi-axes a (along the rolling direction) and b and the peak pressure of a sphere on a crowned roller,
+    from the independent Hertz solution in tests/validation/hertz_reference.py (Johnson, sec. 4.2)."""
     A, B = 0.5 * (1 / R + 1 / r_roll), 0.5 * (1 / R + 1 / r_crown)
     E_star = 1 / ((1 - nu1 ** 2) / E1 + (1 - nu2 ** 2) / E2)
-    assert B > A                       # a crowned roller: the patch is longest along the rolling direction
-    ratio = lambda m: ((1 / (1 - m)) * ellipe(m) - ellipk(m)) / (ellipk(m) - ellipe(m))   # B/A, (a/b)² = 1/(1-m)
-    m = brentq(lambda m: ratio(m) - B / A, 1e-12, 1 - 1e-12, xtol=1e-15)
-    a = (3 * N * (ellipk(m) - ellipe(m)) / (2 * np.pi * A * m * E_star)) ** (1 / 3)
-    b = a * np.sqrt(1 - m)
+    a, b = hertz_axes(A, B, N, E_star)
     return a, b, 3 * N / (2 * np.pi * a * b)
 
 

@@ -16,12 +16,11 @@ Each tolerance is the measured accuracy times a stated margin; measured numbers 
 """
 from __future__ import annotations
 
+import kim_closed_forms as kim  # tests/validation is on sys.path (tests/conftest.py)
 import numpy as np
 import pytest
-from scipy import optimize, special
-
-import kim_closed_forms as kim  # tests/validation is on sys.path (tests/conftest.py)
 from conftest import shipped_layout, shipped_model
+from hertz_reference import hertz_axes
 from test_contact_anchors import KALKER_ROWS
 
 from cvtdesign.core.model import compile_model
@@ -187,19 +186,6 @@ def test_rolling_resistance_moment_and_dissipation(load, follow_n):
 
 
 # --- Hertz + Kalker creep constants (a variant without Kim's fitted ones) --------------------------------
-
-def hertz_axes(A, B, N, E_star):
-    """Hertz semi-axes (a along x, b along y) [m] for h = A x² + B y², B > A (Johnson's "Contact Mechanics"
-    sec. 4.2, elliptic integrals from scipy)."""
-    def ratio(q):
-        m = 1 - q ** -2
-        return (q * q * special.ellipe(m) - special.ellipk(m)) / (special.ellipk(m) - special.ellipe(m))
-    q = optimize.brentq(lambda x: ratio(x) - B / A, 1 + 1e-9, 1e3, xtol=1e-15, rtol=1e-15)
-    m = 1 - q ** -2
-    K, E = special.ellipk(m), special.ellipe(m)
-    a = (3 * N * (K - E) / (2 * np.pi * A * E_star * m)) ** (1 / 3)
-    return a, a / q
-
 
 def kalker_c22(a_over_b, nu):
     """Kalker's C22 from the typed table rows, piecewise linear in log(a/b) and linear in ν between the

@@ -14,12 +14,13 @@ printed (run pytest with -s to see them).
 """
 from __future__ import annotations
 
+import kim_closed_forms as kim
 import numpy as np
 import pytest
-from scipy import optimize, special
-
-import kim_closed_forms as kim  # tests/validation is on sys.path (tests/conftest.py)
 from conftest import shipped_layout, shipped_model
+from hertz_reference import (
+    hertz_axes,  # tests/validation is on sys.path (tests/conftest.py)
+)
 from reference_existing import ExistingCVT
 
 from cvtdesign.core.effects import EFFECTS
@@ -320,28 +321,13 @@ TOL_GILLESPIE_RATIO = 1e-6
 TOL_EQ17 = 1e-7
 
 
-def hertz_half_width(A, B, N, E_star):
-    """Lateral Hertz semi-axis b [m] across the rolling direction (x), from Johnson's "Contact Mechanics"
-    sec. 4.2 with scipy: for B > A the major axis is along x, e² = 1 − (b/a)² solves
-    B/A = [(a/b)² E(e) − K(e)]/[K(e) − E(e)] and a³ = 3 N (K − E)/(2π A E* e²); the lateral semi-
-    axis b = a/q, q = a/b. Independent of cvtdesign.core.contact."""
-    def ratio(q):                                          # B/A implied by a/b = q ≥ 1
-        m = 1 - q ** -2
-        return (q * q * special.ellipe(m) - special.ellipk(m)) / (special.ellipk(m) - special.ellipe(m))
-    q = optimize.brentq(lambda x: ratio(x) - B / A, 1 + 1e-9, 1e3, xtol=1e-15, rtol=1e-15)
-    m = 1 - q ** -2
-    K, E = special.ellipk(m), special.ellipe(m)
-    a = (3 * N * (K - E) / (2 * np.pi * A * E_star * m)) ** (1 / 3)
-    return a / q
-
-
 def gillespie_k_existing():
     """k = b/(R r μ N) (Brokowski eq 19) for the existing CVT's drive rollers at the preload, every number
     typed from existing.yaml: sphere R = 63.5 mm (2 GPa, ν 0.35), drive roller r = 40 mm with a 15 mm crown
-    (10.7 MPa, ν 0.48), μ = 0.8, N = 100 N; b the lateral Hertz semi-axis (hertz_half_width)."""
+    (10.7 MPa, ν 0.48), μ = 0.8, N = 100 N; b the lateral Hertz semi-axis (hertz_reference)."""
     R, r, crown, N, mu = 0.0635, 0.040, 0.015, 100.0, 0.8
     e_star = 1 / ((1 - 0.48 ** 2) / 10.7e6 + (1 - 0.35 ** 2) / 2e9)
-    b = hertz_half_width(0.5 * (1 / R + 1 / r), 0.5 * (1 / R + 1 / crown), N, e_star)
+    _, b = hertz_axes(0.5 * (1 / R + 1 / r), 0.5 * (1 / R + 1 / crown), N, e_star)
     return kim.gillespie_k(b, R, r, mu, N)
 
 
