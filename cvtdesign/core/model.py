@@ -8,9 +8,12 @@ SPHERE from roller i (components F_t along t_i, F_a along a_i), N_i normal force
 Equations (derived from the vectors; the effects' terms come from effects.py, by hook):
  * slip velocity of sphere over roller at the contact: s_i = R·Ω × n_i − r_i·ω_i·t_i
    (no slip: r_i ω_i = −R Ω·a_i, so shaft s turns at ω_s = g_s·Ω, kinematics.py);
- * creep law, dissipative (F·s ≤ 0): s_t + c_t·F_t = 0, s_a + c_a·F_a = 0, with the compliances c the effects
-   contribute (`compliance`, scaled by `saturation`) plus a floor EPS_RIGID·V_ref on every direction (rigid in
-   Kim's sense where no effect adds compliance; it keeps the statically indeterminate system regular);
+ * creep law, dissipative (F·s ≤ 0), by the variant's contact law:
+   - kim: s_t + c_t·F_t = 0, s_a + c_a·F_a = 0, with the compliances c the effects contribute (`compliance`,
+     scaled by `saturation`) plus a floor EPS_RIGID·V_ref on every direction (rigid in Kim's sense where no
+     effect adds compliance; it keeps the statically indeterminate system regular);
+   - kalker: Kalker's linear theory in every direction, creep and spin (C11, C22, C23), on the Hertz patch
+     at N_i, saturated by Polach's method and scaled by the calibration (core.creep, `_kalker_rows`);
  * sphere moment balance: Σ R n_i × F_i − Σ M_i a_i = 0 (M_i: `resistance` moments on the rollers);
  * sphere force balance on preloaded compliant mounts: N_i = P_i + k_i n_i·δ, Σ (F_i − N_i n_i) = 0, solved
    for the sphere's displacement δ in closed form (a 3×3 solve), so the normal-force distribution of an
