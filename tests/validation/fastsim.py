@@ -41,6 +41,8 @@ towards the trailing edge in steps dx > 0,
     p_x <- p_x - (xi/L1 - phi y/L3) dx,      p_y <- p_y - (eta/L2 + phi x/L3) dx,
 
 and wherever |p| exceeds mu p(x, y) it is scaled back onto the bound (slip). That is FASTSIM (Kalker 1982).
+``bound="elliptic"`` takes the Hertz pressure 3 N/(2 pi a b) sqrt(1 - x^2/a^2 - y^2/b^2) as the bound instead,
+the choice CONTACT's user guide recommends (the parabolic one allows higher tractions in the patch centre).
 Without spin the trial increment has the fixed direction -(xi/L1, eta/L2), so in full slip F points along
 -(C11 xi, C22 eta), not along the creepage -(xi, eta) (they differ for C11 != C22; 3.3 deg at a/b = 1,
 xi = eta). The spin term of the x-equation uses L3, as in Kalker's algorithm; it gives
@@ -74,6 +76,10 @@ Discretisation (this implementation)
 
 Defaults ``NX = 400``, ``NY = 200``: see ``test_grid_convergence`` in
 tests/validation/test_fastsim_published.py for the measured change when both are doubled.
+
+:func:`fastsim_rectangular` is the same algorithm on CONTACT's rectangular grid of element centres (first
+order, no extrapolation), to reproduce CONTACT's printed FASTSIM results case by case
+(tests/validation/test_contact_published.py).
 """
 from __future__ import annotations
 
@@ -91,7 +97,7 @@ def flexibilities(a, b, G, C11, C22, C23):
 
 
 def fastsim(a, b, N, mu, G, C11, C22, C23, xi=0.0, eta=0.0, phi=0.0, *, nx=NX, ny=NY, extrapolate=True,
-            moment=False):
+            moment=False, bound="parabolic"):
     """Tangential force of an elliptical rolling contact by FASTSIM (Kalker 1982).
 
     Parameters
@@ -105,6 +111,8 @@ def fastsim(a, b, N, mu, G, C11, C22, C23, xi=0.0, eta=0.0, phi=0.0, *, nx=NX, n
     extrapolate : Richardson-extrapolate in nx, 2 F(nx) - F(nx/2) (see the module docstring); False gives
         plain FASTSIM on the nx-by-ny grid
     moment : also return Mz
+    bound : traction bound mu p(x, y): "parabolic" (Kalker 1982, the default) or "elliptic" (the Hertz
+        pressure; its strip sum falls short of mu N by 6e-10 at NY = 200, so |F| <= mu N holds as well)
 
     Returns
     -------
@@ -113,19 +121,38 @@ def fastsim(a, b, N, mu, G, C11, C22, C23, xi=0.0, eta=0.0, phi=0.0, *, nx=NX, n
     """
     xi, eta, phi = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (xi, eta, phi)))
     shape = xi.shape
+    if bound not in _BOUNDS:
+        raise ValueError(f"bound must be one of {sorted(_BOUNDS)}, not {bound!r}")
     args = (a, b, N, mu, G, C11, C22, C23, xi.reshape(-1, 1), eta.reshape(-1, 1), phi.reshape(-1, 1))
     if extrapolate:
         if nx % 2:
             raise ValueError("nx must be even with extrapolate=True")
-        fine, coarse = _sweep(*args, nx, ny, moment), _sweep(*args, nx // 2, ny, moment)
+        fine, coarse = _sweep(*args, nx, ny, moment, bound), _sweep(*args, nx // 2, ny, moment, bound)
         out = [2.0 * f - c for f, c in zip(fine, coarse)]
     else:
-        out = _sweep(*args, nx, ny, moment)
+        out = _sweep(*args, nx, ny, moment, bound)
     out = [v.reshape(shape) for v in out]
     return tuple(float(v) if v.ndim == 0 else v for v in out)
 
 
-def _sweep(a, b, N, mu, G, C11, C22, C23, xi, eta, phi, nx, ny, moment):
+def _parabolic_mean(mu, N, a, b, ay, x, h):
+    """Element mean of mu p over [x - h/2, x + h/2] on the strip of half-length ay, parabolic pressure."""
+    return 2.0 * mu * N / (np.pi * a**3 * b) * (ay * ay - x * x - h * h / 12.0)
+
+
+def _elliptic_mean(mu, N, a, b, ay, x, h):
+    """Element mean of mu p over [x - h/2, x + h/2], Hertz pressure mu p = k sqrt(ay^2 - x^2), k = 3 mu N/(2 pi
+    a^2 b): the exact integral (s sqrt(ay^2 - s^2) + ay^2 asin(s/ay))/2 between the element's ends."""
+    def primitive(s):
+        s = np.clip(s, -ay, ay)
+        return 0.5 * (s * np.sqrt(np.maximum(ay * ay - s * s, 0.0)) + ay * ay * np.arcsin(s / ay))
+    return 3.0 * mu * N / (2.0 * np.pi * a * a * b) * (primitive(x + 0.5 * h) - primitive(x - 0.5 * h)) / h
+
+
+_BOUNDS = {"parabolic": _parabolic_mean, "elliptic": _elliptic_mean}
+
+
+def _sweep(a, b, N, mu, G, C11, C22, C23, xi, eta, phi, nx, ny, moment, bound):
     """Plain FASTSIM on an nx-by-ny grid; xi, eta, phi of shape (m, 1). Returns Fx, Fy[, Mz] of shape (m,)."""
     L1, L2, L3 = flexibilities(a, b, G, C11, C22, C23)
     theta = (np.arange(ny) + 0.5) * np.pi / ny
@@ -134,7 +161,7 @@ def _sweep(a, b, N, mu, G, C11, C22, C23, xi, eta, phi, nx, ny, moment):
     dy = b * w * (np.pi / ny)
     ay = a * w                                      # strip half-length a(y)
     h = 2.0 * ay / nx                               # element length
-    k = 2.0 * mu * N / (np.pi * a**3 * b)           # mu p(x, y) = k (a(y)^2 - x^2)
+    element_bound = _BOUNDS[bound]
 
     rx = xi / L1 - phi * y / L3                     # (m, ny): d p_x / dx in adhesion
     ey, sy = eta / L2, phi / L3                     # d p_y / dx = ey + sy x
@@ -150,8 +177,8 @@ def _sweep(a, b, N, mu, G, C11, C22, C23, xi, eta, phi, nx, ny, moment):
         xbar = 0.5 * (x_prev + x)                   # exact mean of the linear slip over the step
         px = px - rx * step
         py = py - (ey + sy * xbar) * step
-        bound = k * (ay * ay - x * x - h * h / 12.0)   # element mean of mu p (exact integral)
-        scale = np.minimum(1.0, bound / np.maximum(np.hypot(px, py), 1e-300))
+        limit = element_bound(mu, N, a, b, ay, x, h)   # element mean of mu p (exact integral)
+        scale = np.minimum(1.0, limit / np.maximum(np.hypot(px, py), 1e-300))
         px, py = px * scale, py * scale
         Fx += px
         Fy += py
@@ -161,6 +188,52 @@ def _sweep(a, b, N, mu, G, C11, C22, C23, xi, eta, phi, nx, ny, moment):
     area = h * dy                                   # element area of each strip
     out = (Fx, Fy, Mz) if moment else (Fx, Fy)
     return tuple((v * area).sum(axis=1) for v in out)
+
+
+def fastsim_rectangular(a, b, N, mu, flex, xi=0.0, eta=0.0, phi=0.0, *, mx, my, scale=1.1, bound="parabolic"):
+    """FASTSIM discretised as CONTACT discretises it, to reproduce CONTACT's printed FASTSIM results.
+
+    CONTACT (E. A. H. Vollebregt, https://github.com/eve70a/CONTACT, Apache-2.0), ``src/m_solvpt.f90``
+    ``modif_fastsim`` with slope reduction k = 1, ``src/m_sdis.f90`` ``set_tang_rhs`` and the traction bound of
+    ``init_curr_data``: the potential contact [-scale a, scale a] x [-scale b, scale b] is divided into
+    mx x my equal elements; an element is in contact where the pressure at its centre is positive; along
+    each row, from the leading edge x = +a on (rolling in +x, CONTACT's CHI = 0), the traction at element
+    centre i is p_i = p_(i-1) - dx (xi/L1 - phi y/L3, eta/L2 + phi (x_i + dx/6)/L3) (implicit Euler with
+    step dq = dx; the spin slip is taken at x_i + dx/6, CONTACT's ``facphi``), scaled back onto mu p(x_i, y)
+    where it exceeds it. First order in dx: it is not extrapolated.
+
+    Parameters
+    ----------
+    a, b : semi-axes [m];  N : normal force [N];  mu : friction coefficient [-]
+    flex : (L1, L2, L3) flexibilities [m/Pa], e.g. as CONTACT prints them (FLX1..3, mm^3/N = 1e-9 m/Pa)
+    xi, eta : creepages [-];  phi : spin [1/m] (scalars)
+    mx, my, scale : CONTACT's MX, MY and SCALE
+    bound : "parabolic" (CONTACT's B = 3) or "elliptic" (B = 2), evaluated at the element centres
+
+    Returns
+    -------
+    Fx, Fy [N], Mz [N m] on body 1, and the number of elements in contact.
+    """
+    if bound not in _BOUNDS:
+        raise ValueError(f"bound must be one of {sorted(_BOUNDS)}, not {bound!r}")
+    L1, L2, L3 = flex
+    dx, dy = 2.0 * scale * a / mx, 2.0 * scale * b / my
+    x = -scale * a + (np.arange(mx) + 0.5) * dx
+    y = -scale * b + (np.arange(my) + 0.5) * dy
+    r = np.maximum(1.0 - (x[None, :] / a) ** 2 - (y[:, None] / b) ** 2, 0.0)   # (my, mx)
+    limit = mu * (2.0 * N / (np.pi * a * b) * r if bound == "parabolic" else
+                  3.0 * N / (2.0 * np.pi * a * b) * np.sqrt(r))
+    inside = limit > 0.0
+    px, py = np.zeros(my), np.zeros(my)
+    F = np.zeros(3)
+    for i in range(mx - 1, -1, -1):                # leading edge (+x) to trailing edge
+        px = np.where(inside[:, i], px - dx * (xi / L1 - phi * y / L3), 0.0)
+        py = np.where(inside[:, i], py - dx * (eta / L2 + phi * (x[i] + dx / 6.0) / L3), 0.0)
+        s = np.minimum(1.0, limit[:, i] / np.maximum(np.hypot(px, py), 1e-300))
+        px, py = px * s, py * s
+        F += np.array([px.sum(), py.sum(), (x[i] * py - y * px).sum()])
+    Fx, Fy, Mz = F * dx * dy
+    return float(Fx), float(Fy), float(Mz), int(inside.sum())
 
 
 def linear_forces(a, b, G, C11, C22, C23, xi=0.0, eta=0.0, phi=0.0):
