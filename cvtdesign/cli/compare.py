@@ -38,28 +38,26 @@ def run(args):
 def _compare(args, painter):
     files = [Path(f) for f in args.variants]
     layouts = [load_variant(f) for f in files]
-    rows, results = [], []
     if len(files) == 1:
-        ideal = compile_model(layouts[0], effects=())
-        res = envelope(ideal)
-        row = metrics(ideal, res)
-        row["name"] = f"ideal ({layouts[0].name})"
-        rows.append(row)
         existing = shipped_variant("existing")     # Kim's CVT, wherever the command runs from
         if existing.resolve() != files[0].resolve():
             layouts.insert(0, load_variant(existing))
-    for L in layouts:
-        m = compile_model(L)
-        res = envelope(m)
-        rows.append(metrics(m, res))
-        results.append((L, res))
+    models = [compile_model(L) for L in layouts]
+    results = [envelope(m) for m in models]
+    figure = make_folder(args.out, kind="--out") / "compare.png"
+    # the figure is drawn while the ideal CVT is evaluated and the table printed
+    painter.draw("compare_figure", [(L.name, {k: res[k] for k in plots.COMPARE_KEYS})
+                                    for L, res in zip(layouts, results)], figure)
+    rows = [metrics(m, res) for m, res in zip(models, results)]
+    if len(files) == 1:
+        ideal = compile_model(layouts[-1], effects=())
+        row = metrics(ideal, envelope(ideal))
+        row["name"] = f"ideal ({layouts[-1].name})"
+        rows.insert(0, row)
 
     blocks = comparison_blocks(rows)
     console = Console(width=max(100, 30 + 22 * len(rows)))
     show(console, blocks)
-
-    figure = make_folder(args.out, kind="--out") / "compare.png"
-    painter.draw("compare_figure", [(L.name, res) for L, res in results], figure)
     if args.json:
         write_file(args.json, json_text({"variants": rows}), kind="--json")
         console.print(f"figures written to {args.json}")

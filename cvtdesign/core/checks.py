@@ -4,8 +4,6 @@ Each failure is one InputError line naming the file and the field a user would e
 """
 from __future__ import annotations
 
-import itertools
-
 import casadi as ca
 import numpy as np
 
@@ -40,35 +38,73 @@ def check_kinematics(layout: Layout):
                              "rounded (write them as frame names, '= expressions' or in full precision)")
 
 
-def roller_surface_points(r, phi, R):
-    """Points on the roller's cylinder (rims and faces) [m] and the frame of the cylinder."""
-    n, a = pose(r, phi)
-    t = np.cross(n, a)
-    rad, half = float(r.radius), float(r.width) / 2
-    centre = (R + rad) * n
+def roller_poses(layout: Layout, phis) -> tuple[np.ndarray, np.ndarray]:
+    """Contact normals and axles of every roller at each steering angle φ [rad], shapes (len(phis), rollers,
+    3): geometry.roller_pose for many angles at once (Rodrigues' rotation of each steered roller about its
+    fork axis by its sign · φ; fixed rollers ignore φ)."""
+    phis = np.atleast_1d(np.asarray(phis, float))
+    normals, axles = [], []
+    for r in layout.rollers:
+        n0, a0 = pose(r, 0.0)
+        if r.fork_axis is None:
+            normals.append(np.broadcast_to(n0, (len(phis), 3)))
+            axles.append(np.broadcast_to(a0, (len(phis), 3)))
+            continue
+        k = np.asarray(r.fork_axis, float).ravel()
+        c, s = np.cos(r.fork_sign * phis)[:, None], np.sin(r.fork_sign * phis)[:, None]
+        for v, out in ((n0, normals), (a0, axles)):
+            out.append(v * c + np.cross(k, v) * s + k * (k @ v) * (1 - c))
+    return np.stack(normals, axis=1), np.stack(axles, axis=1)
+
+
+def surface_points(centres, normals, axles, radii, halves) -> np.ndarray:
+    """Points on each roller's cylinder [m], shape (rollers, 3 × 3 × N_RIM + 1, 3): circles of the full
+    radius and of 0.66 and 0.33 of it on both faces and the mid-plane, and the centre."""
     th = np.linspace(0, 2 * np.pi, N_RIM, endpoint=False)
-    pts = []
-    for s in (-half, 0.0, half):
-        for f in (1.0, 0.66, 0.33):
-            pts.append(centre + s * a + f * rad * (np.cos(th)[:, None] * n + np.sin(th)[:, None] * t))
-    return np.vstack(pts + [centre[None, :]]), centre, a, rad, half
+    t = np.cross(normals, axles)
+    ring = np.cos(th)[None, :, None] * normals[:, None, :] + np.sin(th)[None, :, None] * t[:, None, :]  # (n, N_RIM, 3)
+    pts = [centres[:, None, :] + (s * halves)[:, None, None] * axles[:, None, :] + f * radii[:, None, None] * ring
+           for s in (-1.0, 0.0, 1.0) for f in (1.0, 0.66, 0.33)]
+    return np.concatenate(pts + [centres[:, None, :]], axis=1)
+
+
+def overlapping_rollers(layout: Layout) -> list[tuple[float, str, str]]:
+    """(γ [rad], roller, roller) for every two rollers whose bodies (cylinders of their radius and width)
+    intersect at the steering angle of γ, over 9 γ across the envelope: a point sampled on one body
+    (`surface_points`) lies inside the other. Pairs whose bounding spheres are apart are not sampled (no
+    point of one can then lie inside the other)."""
+    R = float(layout.sphere_radius)
+    gammas = np.linspace(layout.gamma_grid.min(), layout.gamma_grid.max(), 9)
+    phis, _ = steering_angle_guess(*steering_data(layout), gammas)
+    names = [r.name for r in layout.rollers]
+    radii = np.array([float(r.radius) for r in layout.rollers])
+    halves = np.array([float(r.width) / 2 for r in layout.rollers])
+    bound = np.hypot(radii, halves)
+    i, j = np.triu_indices(len(names), 1)
+    found = []
+    for g, normals, axles in zip(gammas, *roller_poses(layout, phis)):
+        centres = (R + radii)[:, None] * normals
+        near = np.linalg.norm(centres[i] - centres[j], axis=1) < bound[i] + bound[j]
+        if not near.any():
+            continue
+        pts = surface_points(centres, normals, axles, radii, halves)
+        a, b = np.concatenate([i[near], j[near]]), np.concatenate([j[near], i[near]])   # points of a in body b
+        d = pts[a] - centres[b][:, None, :]
+        along = np.einsum("pkx,px->pk", d, axles[b])
+        radial = np.linalg.norm(d - along[..., None] * axles[b][:, None, :], axis=-1)
+        inside = ((np.abs(along) < halves[b][:, None] * (1 - 1e-9)) & (radial < radii[b][:, None] * (1 - 1e-9))).any(axis=1)
+        hit = inside[:near.sum()] | inside[near.sum():]
+        found += [(float(g), names[p], names[q]) for p, q in zip(i[near][hit], j[near][hit])]
+    return found
 
 
 def check_overlaps(layout: Layout):
     """No two roller bodies (cylinders of their radius and width) intersect, at any steering angle."""
-    R = float(layout.sphere_radius)
-    gammas = np.linspace(layout.gamma_grid.min(), layout.gamma_grid.max(), 9)
-    phis, _ = steering_angle_guess(*steering_data(layout), gammas)
-    for g, phi in zip(gammas, phis):
-        bodies = {r.name: roller_surface_points(r, phi, R) for r in layout.rollers}
-        for (na, A), (nb, B) in itertools.combinations(bodies.items(), 2):
-            for (pts, _, _, _, _), (_, c, ax, rad, half) in ((A, B), (B, A)):
-                d = pts - c
-                along = d @ ax
-                radial = np.linalg.norm(d - np.outer(along, ax), axis=1)
-                if np.any((np.abs(along) < half * (1 - 1e-9)) & (radial < rad * (1 - 1e-9))):
-                    raise InputError(f"{layout.file}: rollers.{na}, rollers.{nb}: the two rollers overlap at "
-                                     f"γ = {np.degrees(g):.0f}°; move them apart or make them smaller")
+    found = overlapping_rollers(layout)
+    if found:
+        g, a, b = found[0]
+        raise InputError(f"{layout.file}: rollers.{a}, rollers.{b}: the two rollers overlap at "
+                         f"γ = {np.degrees(g):.0f}°; move them apart or make them smaller")
 
 
 def check_mounts(layout: Layout):

@@ -1,8 +1,12 @@
-"""Matplotlib figures (Agg backend, written as PNG by output.write_file: atomically, umask's mode)."""
+"""Matplotlib figures, drawn on Agg canvases without pyplot (no figure manager, no GUI backend), written as
+PNG by output.write_file (atomically, umask's mode)."""
 from __future__ import annotations
 
 import multiprocessing
+import os
+import signal
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -10,24 +14,38 @@ from cvtdesign.core.geometry import FRAME, pose
 from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.io.output import OutputError, write_file
 
+PNG_COMPRESSION = 1     # zlib level of the PNG files: 40 % faster than the default 6, files 5 % larger
 
-def _plt():
-    import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def _mpl():
+    """The parts of matplotlib the figures use, imported here only (the heavy optional import's boundary):
+    `figure(figsize=...)` and `subplots(...)` make Figures on Agg canvases; Line2D, Rectangle, Circle,
+    Normalize and get_cmap as in pyplot."""
+    from matplotlib import collections, colormaps, colors, lines, patches
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
-    return plt
+    def figure(**kw):
+        fig = Figure(**kw)
+        FigureCanvasAgg(fig)
+        return fig
+
+    def subplots(*args, figsize=None, **kw):
+        fig = figure(figsize=figsize)
+        return fig, fig.subplots(*args, **kw)
+
+    return SimpleNamespace(figure=figure, subplots=subplots, Line2D=lines.Line2D, Rectangle=patches.Rectangle,
+                           Circle=patches.Circle, PatchCollection=collections.PatchCollection,
+                           Normalize=colors.Normalize, get_cmap=colormaps.get_cmap)
 
 
 def save(fig, path: Path, dpi=80):
     """Write a figure with output.write_file (matplotlib draws into the temporary file, which is then
-    renamed onto `path`); the figure is closed either way."""
+    renamed onto `path`)."""
     path = Path(path)
-    try:
-        write_file(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=path.suffix[1:] or "png"), kind="plot")
-    finally:
-        _plt().close(fig)
+    fmt = path.suffix[1:] or "png"
+    extra = {"pil_kwargs": {"compress_level": PNG_COMPRESSION}} if fmt == "png" else {}
+    write_file(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=fmt, **extra), kind="plot")
 
 
 COMPARE_ROWS = (("alpha", "slip angle α [°]", np.degrees),
@@ -37,6 +55,7 @@ COMPARE_ROWS = (("alpha", "slip angle α [°]", np.degrees),
 LOAD_STYLES = ("-", "--", ":", "-.")
 LOAD_MARKERS = ("o", "s", "^", "v")
 FLAGS = ((1, "+", "grey", "not converged"), (2, "x", "k", "lost contact"), (3, "x", "r", "gross slip"))
+COMPARE_KEYS = ("gamma_cmd", "load", "status", *(key for key, _, _ in COMPARE_ROWS))   # what compare_figure reads
 
 
 def _load_columns(results, loads):
@@ -83,7 +102,8 @@ def _line_row(axes, results, row, columns, colours):
                 g, y, status = _curve(res, key, conv, L)
                 ax.plot(g, y, ls=ls, marker=marker, ms=3, color=colour, lw=1.2)
                 bad = status != 0
-                ax.plot(g[bad], np.full(bad.sum(), lo + 0.03 * (hi - lo)), "x", color=colour, ms=6, mew=1.5)
+                if bad.any():
+                    ax.plot(g[bad], np.full(bad.sum(), lo + 0.03 * (hi - lo)), "x", color=colour, ms=6, mew=1.5)
         ax.set_ylim(lo, hi)
         ax.set_title(f"{label.split(' [')[0]}, {title}", fontsize=9)
         ax.set_xlabel("commanded γ [°]")
@@ -92,7 +112,7 @@ def _line_row(axes, results, row, columns, colours):
     return lo, hi
 
 
-def _efficiency_map(ax, name, res, norm, plt):
+def _efficiency_map(ax, name, res, norm, mpl):
     """Efficiency over γ × τ⊥ for one variant on the shared colour scale `norm`; where no power enters (τ⊥ = 0,
     efficiency undefined) the cell is hatched grey; points that left the physics marked (how many: returned
     with the colour mesh)."""
@@ -101,9 +121,8 @@ def _efficiency_map(ax, name, res, norm, plt):
     idle = (res["status"] == 0) & ~np.isfinite(eff)
     dg = np.min(np.diff(g[:, 0])) / 2 if g.shape[0] > 1 else 1.0
     dt = np.min(np.diff(t[0])) / 2 if t.shape[1] > 1 else 0.05
-    for gi, ti in zip(g[idle], t[idle]):
-        ax.add_patch(plt.Rectangle((gi - dg, ti - dt), 2 * dg, 2 * dt, fc="lightgrey", ec="grey", hatch="///",
-                                   lw=0, zorder=0))
+    cells = [mpl.Rectangle((gi - dg, ti - dt), 2 * dg, 2 * dt) for gi, ti in zip(g[idle], t[idle])]
+    ax.add_collection(mpl.PatchCollection(cells, fc="lightgrey", ec="grey", hatch="///", lw=0, zorder=0))
     pc = ax.pcolormesh(g, t, np.ma.masked_invalid(eff), cmap="viridis", norm=norm, shading="nearest", zorder=1)
     marked = 0
     for code, marker, colour, label in FLAGS:
@@ -116,16 +135,16 @@ def _efficiency_map(ax, name, res, norm, plt):
     return pc, marked
 
 
-def _compare_legend(fig, results, columns, colours, plt):
-    handles = [plt.Line2D([], [], color=c, lw=2, label=name) for (name, _), c in zip(results, colours)]
-    handles.append(plt.Line2D([], [], color="k", lw=1.5, label="ideal CVT (α = 0, efficiency 1)"))
+def _compare_legend(fig, results, columns, colours, mpl):
+    handles = [mpl.Line2D([], [], color=c, lw=2, label=name) for (name, _), c in zip(results, colours)]
+    handles.append(mpl.Line2D([], [], color="k", lw=1.5, label="ideal CVT (α = 0, efficiency 1)"))
     for L, ls, marker in sorted({x for _, col in columns for x in col}, key=lambda x: x[0]):
-        handles.append(plt.Line2D([], [], color="dimgrey", ls=ls, marker=marker, ms=4, label=f"τ⊥ = {L:+g} N·m"))
-    handles.append(plt.Line2D([], [], color="dimgrey", marker="x", ls="none", label="left out (status ≠ ok), at "
+        handles.append(mpl.Line2D([], [], color="dimgrey", ls=ls, marker=marker, ms=4, label=f"τ⊥ = {L:+g} N·m"))
+    handles.append(mpl.Line2D([], [], color="dimgrey", marker="x", ls="none", label="left out (status ≠ ok), at "
                               "the panel's foot"))
-    handles.append(plt.Rectangle((0, 0), 1, 1, fc="lightgrey", ec="grey", hatch="///",
+    handles.append(mpl.Rectangle((0, 0), 1, 1, fc="lightgrey", ec="grey", hatch="///",
                                  label="no power transmitted (τ⊥ = 0: efficiency undefined)"))
-    handles += [plt.Line2D([], [], marker=m, color=c, ls="none", label=lab) for _, m, c, lab in FLAGS]
+    handles += [mpl.Line2D([], [], marker=m, color=c, ls="none", label=lab) for _, m, c, lab in FLAGS]
     fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.975), ncol=5, fontsize=8, frameon=False)
 
 
@@ -138,11 +157,11 @@ def compare_figure(results: list[tuple[str, dict]], path: Path, loads=(-1.0, -0.
     physics stops holding marked (not converged, lost contact, gross slip). Returns the axes limits:
     {'ylim': {quantity: [(lo, hi) per panel]}, 'clim': (lo, hi) of the maps, 'marked': [number of flagged
     points marked on each variant's map]}."""
-    plt = _plt()
+    mpl = _mpl()
     n = len(results)
-    colours = [plt.get_cmap("tab10")(k % 10) for k in range(n)]
+    colours = [mpl.get_cmap("tab10")(k % 10) for k in range(n)]
     columns = _load_columns(results, loads)
-    fig = plt.figure(figsize=(max(12, 4.2 * n), 17))
+    fig = mpl.figure(figsize=(max(12, 4.2 * n), 17))
     grid = fig.add_gridspec(5, 1, height_ratios=(1, 1, 1, 1, 1.25), top=0.9, bottom=0.04, left=0.07, right=0.95,
                             hspace=0.42)
     limits = {"ylim": {}}
@@ -153,16 +172,16 @@ def compare_figure(results: list[tuple[str, dict]], path: Path, loads=(-1.0, -0.
         limits["ylim"][row[0]] = [ax.get_ylim() for ax in axes]
     effs = np.concatenate([res["efficiency"].ravel() for _, res in results])
     lo = float(np.nanmin(effs)) if np.isfinite(effs).any() else 0.0
-    norm = plt.Normalize(vmin=min(np.floor(lo * 20) / 20, 0.95), vmax=1.0)
+    norm = mpl.Normalize(vmin=min(np.floor(lo * 20) / 20, 0.95), vmax=1.0)
     sub = grid[4].subgridspec(1, n, wspace=0.35)
     maps = [fig.add_subplot(sub[0, c]) for c in range(n)]
     limits["marked"] = []
     for ax, (name, res) in zip(maps, results):
-        pc, marked = _efficiency_map(ax, name, res, norm, plt)
+        pc, marked = _efficiency_map(ax, name, res, norm, mpl)
         limits["marked"].append(marked)
     fig.colorbar(pc, ax=maps, label="efficiency P_out/P_in [-] (one scale for all)")
     limits["clim"] = (norm.vmin, norm.vmax)
-    _compare_legend(fig, results, columns, colours, plt)
+    _compare_legend(fig, results, columns, colours, mpl)
     fig.suptitle("variants over their envelope: slip angle α, its steering and drive parts and efficiency "
                  "against commanded γ (Kim Figs 20-21)", fontsize=12, y=0.995)
     save(fig, path)
@@ -213,12 +232,12 @@ def _arrow(ax, p0, p1, colour, text=None, lw=1.2):
                 bbox={"fc": "white", "ec": "none", "alpha": 0.6, "pad": 0.5})
 
 
-def _view(ax, scene, view, plt):
+def _view(ax, scene, view, mpl):
     """One orthographic view of the scene: horizontal/vertical axes i, j; rollers whose centre lies behind
     the sphere's mid-plane drawn dashed and faint."""
     title, i, j, k, sense = view
     R = scene["R"]
-    ax.add_patch(plt.Circle((0, 0), R, fc="lightgrey", ec="k", alpha=0.35, lw=1, zorder=1))
+    ax.add_patch(mpl.Circle((0, 0), R, fc="lightgrey", ec="k", alpha=0.35, lw=1, zorder=1))
     for v, names in scene["forks"]:
         ax.plot([-1.5 * R * v[i], 1.5 * R * v[i]], [-1.5 * R * v[j], 1.5 * R * v[j]], ":", color="purple",
                 lw=1.2, zorder=2)
@@ -288,25 +307,25 @@ def layout_figure(layout, phi: float, gamma: float, path: Path):
     roller at its contact (rim circle, axle arrow, name and role; steered rollers turned to the steering
     angle φ [rad] that realises the commanded γ [rad]), the fork axes, Kim's frame vectors d1 d2 c1 c2 c3,
     both shafts' axes and the commanded sphere axis u(γ). Written to `path` (PNG)."""
-    plt = _plt()
+    mpl = _mpl()
     scene = layout_scene(layout, phi, gamma)
-    fig = plt.figure(figsize=(13, 13))
+    fig = mpl.figure(figsize=(13, 13))
     _view_3d(fig.add_subplot(2, 2, 1, projection="3d"), scene)
     for k, view in enumerate(VIEWS):
-        _view(fig.add_subplot(2, 2, k + 2), scene, view, plt)
+        _view(fig.add_subplot(2, 2, k + 2), scene, view, mpl)
     reach = scene["R"] + 2 * max(r["radius"] for r in scene["rollers"])
     for ax in fig.axes[1:]:
         ax.set_xlim(-reach, reach)
         ax.set_ylim(-reach, reach)
-    handles = [plt.Line2D([], [], color=c, lw=4, alpha=0.6, label=f"{role} roller") for role, c in ROLE_COLOURS.items()
+    handles = [mpl.Line2D([], [], color=c, lw=4, alpha=0.6, label=f"{role} roller") for role, c in ROLE_COLOURS.items()
                if any(r["role"] == role for r in scene["rollers"])]
-    handles += [plt.Line2D([], [], color="navy", label="roller axle (positive spin)"),
-                plt.Line2D([], [], color="k", lw=2, label="commanded sphere axis u(γ)"),
-                plt.Line2D([], [], color=SHAFT_COLOURS[0], ls="-.", label="shaft 1 axis"),
-                plt.Line2D([], [], color=SHAFT_COLOURS[1], ls="-.", label="shaft 2 axis"),
-                plt.Line2D([], [], color="purple", ls=":", label="fork axis"),
-                plt.Line2D([], [], color="dimgrey", label="frame vectors d1 d2 c1 c2 c3"),
-                plt.Line2D([], [], color="grey", ls="--", label="behind the sphere (dashed, faint)")]
+    handles += [mpl.Line2D([], [], color="navy", label="roller axle (positive spin)"),
+                mpl.Line2D([], [], color="k", lw=2, label="commanded sphere axis u(γ)"),
+                mpl.Line2D([], [], color=SHAFT_COLOURS[0], ls="-.", label="shaft 1 axis"),
+                mpl.Line2D([], [], color=SHAFT_COLOURS[1], ls="-.", label="shaft 2 axis"),
+                mpl.Line2D([], [], color="purple", ls=":", label="fork axis"),
+                mpl.Line2D([], [], color="dimgrey", label="frame vectors d1 d2 c1 c2 c3"),
+                mpl.Line2D([], [], color="grey", ls="--", label="behind the sphere (dashed, faint)")]
     fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8, frameon=False)
     fig.suptitle(f"{layout.name}: layout at commanded γ = {np.degrees(gamma):g}° (steering angle "
                  f"φ = {np.degrees(phi):.2f}°); ideal law {scene['law']}", fontsize=11)
@@ -314,17 +333,21 @@ def layout_figure(layout, phi: float, gamma: float, path: Path):
     save(fig, path, dpi=90)
 
 
-def worker(conn):
+def worker(conn, parent_end):
     """Plotting process: imports matplotlib at once (while the parent computes), then draws what it is
-    sent, (figure function name, args), and answers None or an error text."""
-    _plt()
+    sent, (figure function name, args), and answers None or an error text. Interrupted (Background.close),
+    it stops quietly: output.write_file has removed the file it was writing."""
+    parent_end.close()      # its copy of the parent's end: without it, a parent that dies would not be noticed
     try:
+        _mpl()
         name, args = conn.recv()
-    except EOFError:
+    except (EOFError, KeyboardInterrupt):
         return
     try:
         globals()[name](*args)
         conn.send(None)
+    except KeyboardInterrupt:
+        return
     except OutputError as e:  # raised again by the parent (Background.wait): one line, exit status 2
         conn.send(e)
     except Exception as e:  # reported by the parent as one line
@@ -335,13 +358,15 @@ class Background:
     """Run figure functions of this module in a forked process that has matplotlib ready.
 
     Start it before the computation; `draw` hands over the data; `wait` returns the error text or None
-    (a file that could not be written is raised as the OutputError it was)."""
+    (a file that could not be written is raised as the OutputError it was); `close` ends the process if it
+    still runs, without leaving a half-written file."""
 
     def __init__(self):
         ctx = multiprocessing.get_context("fork")
         self.conn, child = ctx.Pipe()
-        self.proc = ctx.Process(target=worker, args=(child,), daemon=True)
+        self.proc = ctx.Process(target=worker, args=(child, self.conn), daemon=True)
         self.proc.start()
+        child.close()
 
     def draw(self, name, *args):
         self.conn.send((name, args))
@@ -358,18 +383,23 @@ class Background:
         return answer
 
     def close(self):
+        """After an answer the process ends by itself; otherwise (the parent failed) it is interrupted, so a
+        file it is writing is removed (output.write_file), and ended if it does not stop."""
+        self.proc.join(timeout=0.1)
         if self.proc.is_alive():
-            self.proc.join(timeout=0.1)
-            if self.proc.is_alive():
-                self.proc.terminate()
+            os.kill(self.proc.pid, signal.SIGINT)
+            self.proc.join(timeout=5)
+        if self.proc.is_alive():
+            self.proc.terminate()
+        self.conn.close()
 
 
 def pareto_figure(chains: list[tuple[str, list[dict], int]], path: Path):
     """Slip/efficiency Pareto fronts (worst |α| [deg] against mean power loss [W]), knee marked, every point
     labelled with the stem of its variant file. chains: (label, points with worst_alpha_deg, power_loss_W,
     variant_file, success, point), index of the knee point)."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(8, 5.5))
+    mpl = _mpl()
+    fig, ax = mpl.subplots(figsize=(8, 5.5))
     for label, pts, k in chains:
         ok = [p for p in pts if p["success"]]
         x = [p["worst_alpha_deg"] for p in ok]
@@ -396,8 +426,8 @@ def residual_map_figure(gamma_levels, load_levels, maps: list[tuple[str, np.ndar
                         path: Path, unit="deg"):
     """Residual maps over commanded γ [deg] × lateral load τ⊥ [N·m] (mean over replicates per operating point),
     one panel per (title, grid); the gap's regions outlined on the first panel."""
-    plt = _plt()
-    fig, axes = plt.subplots(1, len(maps), figsize=(6 * len(maps), 4.6), squeeze=False)
+    mpl = _mpl()
+    fig, axes = mpl.subplots(1, len(maps), figsize=(6 * len(maps), 4.6), squeeze=False)
     lim = max(float(np.nanmax(np.abs(m))) for _, m in maps) or 1.0
     for ax, (title, grid) in zip(axes[0], maps):
         pc = ax.pcolormesh(gamma_levels, load_levels, grid.T, cmap="RdBu_r", vmin=-lim, vmax=lim, shading="nearest")
@@ -409,7 +439,7 @@ def residual_map_figure(gamma_levels, load_levels, maps: list[tuple[str, np.ndar
     dl = np.min(np.diff(load_levels)) / 2 if len(load_levels) > 1 else 0.05
     for k, r in enumerate(regions):
         (g0, g1), (l0, l1) = r["gamma_deg"], r["load_Nm"]
-        axes[0][0].add_patch(plt.Rectangle((g0 - dg, l0 - dl), g1 - g0 + 2 * dg, l1 - l0 + 2 * dl, fill=False,
+        axes[0][0].add_patch(mpl.Rectangle((g0 - dg, l0 - dl), g1 - g0 + 2 * dg, l1 - l0 + 2 * dl, fill=False,
                                            ec="k", lw=1.5, ls="--"))
         axes[0][0].annotate(f"R{k + 1}: {r['mean_residual_deg']:+.2f}°", (g0 - dg, l1 + dl), fontsize=8)
     fig.tight_layout()
@@ -420,10 +450,10 @@ def diagnosis_fit_figure(curves: dict, path: Path):
     """Slip angle and efficiency against commanded γ at a few loads: the data (points), the base model and
     the diagnosed model (lines, held-out predictions). curves: {'loads': [...], 'panels': [(title, ylabel,
     [(load, γ, data, base, final)])]}."""
-    plt = _plt()
+    mpl = _mpl()
     panels = curves["panels"]
-    fig, axes = plt.subplots(1, len(panels), figsize=(7 * len(panels), 4.8), squeeze=False)
-    cmap = plt.get_cmap("coolwarm")
+    fig, axes = mpl.subplots(1, len(panels), figsize=(7 * len(panels), 4.8), squeeze=False)
+    cmap = mpl.get_cmap("coolwarm")
     for ax, (title, ylabel, series) in zip(axes[0], panels):
         lo, hi = min(s[0] for s in series), max(s[0] for s in series)
         for load, g, d, b, f in series:
@@ -442,8 +472,8 @@ def diagnosis_fit_figure(curves: dict, path: Path):
 
 def resteer_figure(ratios, load, table: dict, path: Path):
     """Brokowski Fig. 17: speed-ratio error by eq 23 [%] against the requested ratio, one line per method."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(8, 5))
+    mpl = _mpl()
+    fig, ax = mpl.subplots(figsize=(8, 5))
     for m, row in table.items():
         ax.plot(ratios, row["error_pct"], "o-", label=f"{m} (mean |error| {row['mean_abs_error_pct']:.1f} %)")
     ax.axhline(0, color="k", lw=0.5)
@@ -462,8 +492,8 @@ def resteer_figure(ratios, load, table: dict, path: Path):
 def cad_picture(image, caption: str, path):
     """A CAD assembly's shaded picture (an RGB array (rows, columns, 3), 8-bit or 0..1 floats, as
     cad.picture.rasterise draws it) with a caption above it, as PNG."""
-    plt = _plt()
-    fig = plt.figure(figsize=(8, 8.4))
+    mpl = _mpl()
+    fig = mpl.figure(figsize=(8, 8.4))
     ax = fig.add_axes((0, 0, 1, 8 / 8.4))
     ax.imshow(image, interpolation="none")
     ax.axis("off")
@@ -479,8 +509,8 @@ CONTACT_CURVES = (("curve_longitudinal", "longitudinal creepage ξ [-]", "Fx/(μ
 def contact_figures(name: str, records: dict, folder: Path) -> list[Path]:
     """`cvtdesign contact`'s figures: the creep–force curves of every roller (one panel per creepage, the
     linear theory's slope dotted) and the contact patches drawn to scale [mm]. Returns the files written."""
-    plt = _plt()
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    mpl = _mpl()
+    fig, axes = mpl.subplots(1, 3, figsize=(15, 4.2))
     for (key, xlabel, ylabel), ax in zip(CONTACT_CURVES, axes):
         for n, r in records.items():
             s, f = np.array(r[key]).T
@@ -496,13 +526,13 @@ def contact_figures(name: str, records: dict, folder: Path) -> list[Path]:
     fig.tight_layout()
     curves_png = folder / "contact_curves.png"
     save(fig, curves_png, dpi=90)
-    return [curves_png, _patch_figure(name, records, folder / "contact_patches.png", plt)]
+    return [curves_png, _patch_figure(name, records, folder / "contact_patches.png", mpl)]
 
 
-def _patch_figure(name: str, records: dict, path: Path, plt) -> Path:
+def _patch_figure(name: str, records: dict, path: Path, mpl) -> Path:
     """Each roller's Hertz ellipse to scale [mm]: a along the rolling direction, b across it."""
     n = len(records)
-    fig, axes = plt.subplots(1, n, figsize=(2.4 * n, 2.8), squeeze=False)
+    fig, axes = mpl.subplots(1, n, figsize=(2.4 * n, 2.8), squeeze=False)
     half = 1.15 * max(max(r["a_mm"], r["b_mm"]) for r in records.values())
     t = np.linspace(0, 2 * np.pi, 200)
     for ax, (roller, r) in zip(axes[0], records.items()):

@@ -1,6 +1,7 @@
 """The compare figure (io.plots.compare_figure) on two small envelopes: one y-scale per row of panels that holds
 every variant's curves and the ideal CVT's reference, one colour scale for the efficiency maps, flagged points
-marked."""
+marked; drawn by the plotting process (io.plots.Background), which never leaves a half-written file."""
+import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -9,7 +10,7 @@ import pytest
 
 from cvtdesign.core.metrics import envelope
 from cvtdesign.core.model import compile_model
-from cvtdesign.io.plots import COMPARE_ROWS, compare_figure
+from cvtdesign.io.plots import COMPARE_ROWS, Background, compare_figure
 from cvtdesign.io.variant import load_variant
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -79,3 +80,19 @@ def test_flagged_points_stay_marked(results, tmp_path):
     limits = compare_figure([(name, res), results[1]], path, LOADS)
     assert path.read_bytes()[:8] == PNG
     assert limits["marked"] == [3, 0]
+
+
+@pytest.mark.parametrize("delay", [0.0, 0.2, 0.6])
+def test_closing_the_plotting_process_leaves_no_half_written_file(results, tmp_path, delay):
+    """The parent fails while the plotting process draws and closes it (Background.close) at some moment
+    of the drawing: the figure is then either whole or absent, and no temporary file is left behind."""
+    painter = Background()
+    painter.draw("compare_figure", results, tmp_path / "compare.png")
+    time.sleep(delay)
+    painter.close()
+    assert not painter.proc.is_alive()
+    files = [p.name for p in tmp_path.iterdir()]
+    assert files in ([], ["compare.png"]), files
+    if files:
+        data = (tmp_path / "compare.png").read_bytes()
+        assert data[:8] == PNG and data[-8:-4] == b"IEND"

@@ -1,8 +1,9 @@
 """Physically impossible layouts are refused when a variant loads, each with one line naming the file and
 the field: preloads that do not balance, no or empty steering forks, contact points off the sphere, axles
-not in the tangent plane of a contact point, a shaft without a drive roller. Shipped and balanced custom
-layouts still load."""
+not in the tangent plane of a contact point, a shaft without a drive roller, rollers that overlap. Shipped and
+balanced custom layouts still load."""
 import copy
+import itertools
 import re
 from dataclasses import replace
 from pathlib import Path
@@ -14,9 +15,9 @@ import yaml
 
 from conftest import shipped_layout
 
-from cvtdesign.core.checks import check_preload_equilibrium
+from cvtdesign.core.checks import N_RIM, check_overlaps, check_preload_equilibrium, overlapping_rollers
 from cvtdesign.cli import main
-from cvtdesign.core.geometry import FRAME
+from cvtdesign.core.geometry import FRAME, pose, steering_angle_guess, steering_data
 from cvtdesign.errors import InputError
 from cvtdesign.io.variant import load_spec, load_variant, resolve
 
@@ -263,3 +264,67 @@ def test_rounded_directions_are_refused_with_the_reason(tmp_path):
     d["rollers"]["A_"]["axle"] = [-0.707107, -0.707106, 0]
     _, msg = refusal(tmp_path, d)
     assert "(rollers fight)" in msg and "no direction is rounded" in msg, msg
+
+
+# --- 6. rollers that overlap ----------------------------------------------------------------------------------
+
+def sampled_overlaps(layout) -> list[tuple[float, str, str]]:
+    """The overlap test written plainly, as the check was before it was vectorised: per γ and pair of rollers,
+    every point sampled on one roller's cylinder (rims and 0.66, 0.33 of the radius on both faces and the
+    mid-plane, and the centre; poses from geometry.pose) tested against the other cylinder, and vice versa."""
+    R = float(layout.sphere_radius)
+    gammas = np.linspace(layout.gamma_grid.min(), layout.gamma_grid.max(), 9)
+    phis, _ = steering_angle_guess(*steering_data(layout), gammas)
+    th = np.linspace(0, 2 * np.pi, N_RIM, endpoint=False)
+
+    def body(r, phi):
+        n, a = pose(r, phi)
+        t = np.cross(n, a)
+        rad, half = float(r.radius), float(r.width) / 2
+        c = (R + rad) * n
+        pts = [c + s * a + f * rad * (np.cos(th)[:, None] * n + np.sin(th)[:, None] * t)
+               for s in (-half, 0.0, half) for f in (1.0, 0.66, 0.33)]
+        return np.vstack(pts + [c[None, :]]), c, a, rad, half
+
+    found = []
+    for g, phi in zip(gammas, phis):
+        bodies = {r.name: body(r, phi) for r in layout.rollers}
+        for (na, A), (nb, B) in itertools.combinations(bodies.items(), 2):
+            for (pts, *_), (_, c, ax, rad, half) in ((A, B), (B, A)):
+                d = pts - c
+                along = d @ ax
+                radial = np.linalg.norm(d - np.outer(along, ax), axis=1)
+                if np.any((np.abs(along) < half * (1 - 1e-9)) & (radial < rad * (1 - 1e-9))):
+                    found.append((float(g), na, nb))
+                    break
+    return found
+
+
+def grown(layout, factor):
+    """The layout with every roller's radius and width times `factor` (the rollers close in on each other)."""
+    return replace(layout, rollers=tuple(replace(r, radius=float(r.radius) * factor, width=float(r.width) * factor)
+                                         for r in layout.rollers))
+
+
+@pytest.mark.parametrize("name", ["existing", "box", "unequal"])
+def test_overlap_check_agrees_with_the_plain_test(name):
+    """The vectorised check finds the same overlapping pairs at the same γ as the plain test: none on the
+    shipped variants, and the same ones when the rollers grow until they overlap (box: at 1.5×, the steering
+    pairs first; existing and unequal: S1 and S2 at 4×)."""
+    layout = shipped_layout(name)
+    assert overlapping_rollers(layout) == sampled_overlaps(layout) == []
+    check_overlaps(layout)
+    for factor in (1.25, 1.5, 2.0, 3.0, 4.0):
+        big = grown(layout, factor)
+        assert overlapping_rollers(big) == sampled_overlaps(big), f"{name} × {factor}"
+    assert overlapping_rollers(grown(layout, 4.0))
+
+
+def test_overlapping_steering_rollers_are_refused_at_the_first_gamma():
+    """Box with its rollers 1.5× as large: N1/N2 and S1/S2 overlap; the message names the first pair at the
+    first γ of the envelope."""
+    big = grown(shipped_layout("box"), 1.5)
+    g, a, b = sampled_overlaps(big)[0]
+    with pytest.raises(InputError, match=rf"rollers\.{a}, rollers\.{b}: the two rollers overlap at "
+                                         rf"γ = {np.degrees(g):.0f}°; move them apart or make them smaller"):
+        check_overlaps(big)
