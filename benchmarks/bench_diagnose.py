@@ -1,17 +1,28 @@
-"""Speed of the diagnosis, printed as figures and as ratios to baselines run in the same process.
+"""Speed of the diagnosis as ratios to baselines measured in the same run, with the goals of the diagnosis
+issue.
 
-1. `diagnose` of a 187-row dataset (Kim's protocol on variants/existing.yaml, steering lateral creep withheld
-   from a drive-creep-only base) against every candidate of the effect vocabulary: the whole diagnosis (noise,
-   base fit, 7 candidates × (full fit + 5 cross-validation fits), the greedy second round) — target < 60 s —
-   against one evaluation of the base model at the 187 rows, the unit of work.
+1. The whole diagnosis of a 187-row dataset (Kim's protocol on variants/existing.yaml, steering lateral creep
+   withheld from a drive-creep-only base, against the 7 other effects of the vocabulary: noise, base fit,
+   7 candidates × (full fit + 5 cross-validation fits), the greedy second round), reading its CSV included,
+   as a multiple of a fixed numpy computation (`reference`: what this machine does in a given time, whatever
+   cvtdesign's code does). Goal: at most DIAGNOSE_GOAL references, the issue's "under 60 s" on this machine
+   (60 s over the reference's best time on this machine when the goal was set, 18.3 ms). Also printed,
+   without a goal: the diagnosis in evaluations of the base model at the same rows, the unit its fits are
+   made of.
 2. One weighted fit of the base model with the model's exact Jacobian (CasADi through the Newton solves)
    against the same fit with scipy's finite-difference Jacobian, from the same start to the same optimum.
-3. Scale: the same diagnosis on Kim's protocol × 27 replicates (5049 rows) and × 535 (≈ 100k rows), reading
-   the CSV included, as ratios to the 187-row diagnosis (target ≤ 3× for 5049 rows): replicates are merged
-   into operating points, so the fit's cost follows the 187 points, not the rows.
+3. Scale: the same diagnosis on Kim's protocol × 27 replicates (5049 rows), reading the CSV included, as a
+   multiple of the 187-row diagnosis read the same way. Goal: at most SCALE_GOAL (replicates are merged into
+   operating points, so the fit's cost follows the 187 points, not the rows). With --large, also × 535
+   (≈ 100k rows), without a goal.
 
-Run: python benchmarks/bench_diagnose.py   (the machine is shared and noisy: best of repeats)
+The rounds are interleaved (each baseline is measured next to what it is the baseline of) and each figure is
+the best of the rounds: the machine is shared and noisy.
+
+Run: python benchmarks/bench_diagnose.py [--rounds N] [--large]
 """
+import argparse
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -27,26 +38,66 @@ from timing import best_of
 
 ROOT = Path(__file__).resolve().parents[1]
 KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
+BASE = ("drive_longitudinal_creep",)
+DIAGNOSE_GOAL = 3280      # [references] the whole 187-row diagnosis, at most: 60 s / 18.3 ms
+SCALE_GOAL = 3.0          # [×] the 5049-row diagnosis against the 187-row one, at most
 
 
+def goal_line(what, ratio, goal, unit):
+    print(f"   goal: {what} ≤ {goal:g}{unit}: {ratio:.3g}{unit} — {'met' if ratio <= goal else 'not met'}")
 
-def main():
-    L = load_variant(ROOT / "variants/existing.yaml")
-    rows, _ = rig.simulate(L, KIM, seed=1)
+
+def reference() -> float:
+    """The fixed baseline computation (numpy, one thread; 18 ms here, alone): sort a million random numbers and
+    sum a function of them."""
+    x = np.random.default_rng(0).random(1_000_000)
+    return float(np.sum(np.sin(np.sort(x)) * np.exp(-x)))
+
+
+def dataset(L, protocol=None, seed=1):
+    """Rig data for the protocol (default Kim's) as measured-data CSV text."""
+    rows, _ = rig.simulate(L, KIM, protocol=protocol, seed=seed)
+    return rig.to_csv_text(rows)
+
+
+def load(L, text):
+    """The measured dataset of the CSV text."""
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "d.csv"
-        path.write_text(rig.to_csv_text(rows))
-        data = measured.load_measured(path, L)
-    base = ("drive_longitudinal_creep",)
-    t_diag, rep = best_of(lambda: diagnose.diagnose(L, data, base), 1)
-    P = diagnose.Predictor(L, base, data)
-    t_eval, _ = best_of(lambda: P(P.defaults), 20)
-    print(f"1. diagnose, {len(data.rows)} rows, {len(rep['candidates'])} candidates: {t_diag:.1f} s (target < 60 s), "
-          f"verdict {rep['verdict']}; one base-model evaluation at the rows {1e3 * t_eval:.1f} ms; "
-          f"ratio {t_diag / t_eval:.0f} evaluations' worth")
+        path.write_text(text)
+        return measured.load_measured(path, L)
 
-    # 2. exact Jacobian vs finite differences, same weighted problem
-    data = measured.merge_points(data)
+
+def diagnose_csv(L, text) -> tuple[float, dict]:
+    """(wall time [s], report) of the diagnosis of the CSV text, reading the file included."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "d.csv"
+        path.write_text(text)
+        t = time.perf_counter()
+        report = diagnose.diagnose(L, measured.load_measured(path, L), BASE)
+        return time.perf_counter() - t, report
+
+
+def whole_diagnosis(L, rounds):
+    """1. The 187-row diagnosis against the reference and one base-model evaluation at its rows, interleaved."""
+    text = dataset(L)
+    P = diagnose.Predictor(L, BASE, load(L, text))
+    t_ref, t_eval, t_diag = [], [], []
+    for _ in range(rounds):
+        t_ref.append(best_of(reference, 10)[0])
+        t_eval.append(best_of(lambda: P(P.defaults), 20)[0])
+        t, rep = diagnose_csv(L, text)
+        t_diag.append(t)
+    ratio = min(t_diag) / min(t_ref)
+    print(f"1. diagnose, {rep['rows']} rows, {len(rep['candidates'])} candidates, verdict {rep['verdict']}: "
+          f"{min(t_diag):.1f} s; reference {1e3 * min(t_ref):.1f} ms, ratio {ratio:.0f}; one base-model "
+          f"evaluation at the rows {1e3 * min(t_eval):.2f} ms, ratio {min(t_diag) / min(t_eval):.0f}")
+    goal_line("whole diagnosis", ratio, DIAGNOSE_GOAL, " references")
+
+
+def exact_jacobian(L):
+    """2. A weighted base fit with the model's exact Jacobian against finite differences."""
+    data = measured.merge_points(load(L, dataset(L)))
     P2 = diagnose.Predictor(L, KIM, data)
     noise = diagnose.estimate_noise(P2, data)
     t_exact, f_exact = best_of(lambda: diagnose.fit(P2, data, noise, multistart=False), 3)
@@ -63,22 +114,35 @@ def main():
     print(f"2. base fit ({len(P2.names)} parameters): exact Jacobian {1e3 * t_exact:.0f} ms vs finite differences "
           f"{1e3 * t_fd:.0f} ms (ratio {t_fd / t_exact:.2f}); parameters agree to {agree:.1e} relative")
 
-    # 3. scale: replicated datasets, from the CSV on disk
-    t_small = _from_csv(L, rig.kim_protocol(L), base)
-    for reps in (27, 535):
-        t = _from_csv(L, rig.kim_protocol(L, replicates=reps), base)
-        print(f"3. diagnose from the CSV, {187 * reps} rows ({reps} replicates): {t:.1f} s, "
-              f"ratio {t / t_small:.2f} to 187 rows ({t_small:.1f} s)" + ("  (target ≤ 3)" if reps == 27 else ""))
+
+def scale(L, rounds, large):
+    """3. The replicated datasets against the 187-row one, from the CSV on disk, interleaved."""
+    small, big = dataset(L, rig.kim_protocol(L), seed=3), dataset(L, rig.kim_protocol(L, replicates=27), seed=3)
+    t_small, t_big = [], []
+    for _ in range(rounds):
+        t_small.append(diagnose_csv(L, small)[0])
+        t_big.append(diagnose_csv(L, big)[0])
+    ratio = min(t_big) / min(t_small)
+    print(f"3. diagnose from the CSV, 5049 rows (27 replicates): {min(t_big):.1f} s, ratio {ratio:.2f} to 187 rows "
+          f"({min(t_small):.1f} s)")
+    goal_line("5049 rows against 187 rows", ratio, SCALE_GOAL, "×")
+    if large:
+        t, _ = diagnose_csv(L, dataset(L, rig.kim_protocol(L, replicates=535), seed=3))
+        print(f"3. diagnose from the CSV, 100045 rows (535 replicates): {t:.1f} s, ratio {t / min(t_small):.2f} "
+              f"to 187 rows (one round)")
 
 
-def _from_csv(L, protocol, base) -> float:
-    rows, _ = rig.simulate(L, KIM, protocol=protocol, seed=3)
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "d.csv"
-        path.write_text(rig.to_csv_text(rows))
-        t = time.perf_counter()
-        diagnose.diagnose(L, measured.load_measured(path, L), base)
-        return time.perf_counter() - t
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds; each figure is the best (default 3)")
+    parser.add_argument("--large", action="store_true", help="also the 100k-row diagnosis (one round)")
+    args = parser.parse_args()
+    L = load_variant(ROOT / "variants/existing.yaml")
+    print(f"load average {os.getloadavg()[0]:.1f} at the start; best of {args.rounds} interleaved rounds")
+    whole_diagnosis(L, args.rounds)
+    exact_jacobian(L)
+    scale(L, args.rounds, args.large)
+    print(f"load average {os.getloadavg()[0]:.1f} at the end")
 
 
 if __name__ == "__main__":

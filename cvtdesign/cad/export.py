@@ -3,13 +3,13 @@ file (named, coloured parts; see `plan` for what each part is), an SVG line draw
 geometric checks of the written file (`checks.check_step`)."""
 from __future__ import annotations
 
-import threading
+import multiprocessing
 import time
 
 import numpy as np
 
 from cvtdesign.cad.checks import check_step
-from cvtdesign.cad.picture import picture_caption, rasterise, view_mesh, write_svg
+from cvtdesign.cad.picture import picture_caption, rasterise, svg_text, view_mesh
 from cvtdesign.cad.plan import plan
 from cvtdesign.cad.step import assembly, build, screen, step_header, write_step
 from cvtdesign.core.checks import check_layout
@@ -19,30 +19,57 @@ from cvtdesign.io.output import make_folder, staged
 from cvtdesign.io.variant import load_variant
 
 
-class _Picture(threading.Thread):
-    """The shaded picture, rasterised beside the main thread (numpy releases the GIL in its array work):
-    `image` as 8-bit RGB, or `error`."""
+def _answer(conn, fn, args):
+    """In the forked process: send (True, fn(*args)), or (False, the exception it raised)."""
+    try:
+        answer = (True, fn(*args))
+    except Exception as e:      # raised again by the parent (`_Forked.result`)
+        answer = (False, e)
+    try:
+        conn.send(answer)
+    except Exception as e:      # an answer that cannot be pickled
+        conn.send((False, RuntimeError(f"{type(e).__name__}: {e}")))
 
-    def __init__(self, mesh, colours):
-        super().__init__(daemon=True)
-        self.mesh, self.colours, self.image, self.error = mesh, colours, None, None
 
-    def run(self):
+class _Forked:
+    """fn(*args) run in a forked copy of this process, which has cadquery and the shapes already, on the
+    other core while this one goes on (OpenCascade holds the GIL, so a thread would not run beside it)."""
+
+    def __init__(self, fn, *args):
+        ctx = multiprocessing.get_context("fork")
+        self.conn, child = ctx.Pipe(duplex=False)
+        self.proc = ctx.Process(target=_answer, args=(child, fn, args), daemon=True)
+        self.proc.start()
+        child.close()
+
+    def result(self):
+        """What fn returned; what it raised is raised here."""
         try:
-            self.image = np.round(255 * rasterise(*self.mesh, self.colours)).astype(np.uint8)
-        except Exception as e:      # raised again by the main thread
-            self.error = e
+            ok, value = self.conn.recv()
+        except EOFError:
+            raise RuntimeError("the drawing process ended unexpectedly") from None
+        if not ok:
+            raise value
+        return value
+
+    def close(self):
+        if self.proc.is_alive():
+            self.proc.terminate()
+        self.proc.join()
+        self.conn.close()
 
 
 def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, check: bool = False) -> dict:
     """Export a variant's assembly at commanded γ [deg] as `<out_dir>/<name>.step` (+ .svg, .png).
 
     `layout_or_path`: a numeric `Layout` or a variant file. Impossible geometry raises InputError before
-    anything is written; the three files appear together or not at all (`output.staged`). The picture is
-    rasterised here while the STEP and SVG files are written, then captioned and written as PNG by a
-    second process (plots.Background, which imports matplotlib while cadquery is imported here). Returns
-    {step, svg, png (paths), parts (names), gamma_deg, phi_deg, seconds (export time), and with `check`:
-    checks ([{check, ok, detail}], see `checks.check_step`), check_seconds}."""
+    anything is written; the three files appear together or not at all (`output.staged`). Three processes
+    share the work once the parts are built: a forked copy of this one draws the SVG (cadquery's exact
+    hidden lines, the longest step); this one renders the picture and writes the STEP file; a plotting
+    process started at the outset (plots.Background, which imports matplotlib while cadquery is imported
+    here) captions the picture and writes it as PNG. Returns {step, svg, png (paths), parts (names),
+    gamma_deg, phi_deg, seconds (export time), and with `check`: checks ([{check, ok, detail}], see
+    `checks.check_step`), check_seconds}."""
     t0 = time.perf_counter()
     painter = plots.Background()
     try:
@@ -56,16 +83,20 @@ def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, c
         screen(p, pieces)
         out = make_folder(out_dir, kind="CAD output folder")
         paths = [out / f"{layout.name}.{ext}" for ext in ("step", "svg", "png")]
-        picture = _Picture(view_mesh(p, shapes), [part.colour for part in p.parts])
-        picture.start()
         with staged(paths, kind="CAD file") as tmps:     # the three files appear together or not at all
-            write_step(assembly(p, shapes), tmps[0], step_header(p, paths[0].name))
-            write_svg(p, shapes, tmps[1])
-            picture.join()
-            if picture.error is not None:
-                raise picture.error
-            painter.draw("cad_picture", picture.image, picture_caption(p), tmps[2])
-            error = painter.wait()
+            svg = _Forked(svg_text, p, shapes)
+            drawn = False
+            try:
+                image = rasterise(*view_mesh(p, shapes), [part.colour for part in p.parts])
+                painter.draw("cad_picture", np.round(255 * image).astype(np.uint8), picture_caption(p), tmps[2])
+                drawn = True
+                write_step(assembly(p, shapes), tmps[0], step_header(p, paths[0].name))
+                tmps[1].write_text(svg.result())
+            finally:
+                svg.close()
+                # the painter writes through a temporary file of its own: let it finish, on a failure too,
+                # so that nothing is left behind once `staged` removes the temporary files
+                error = painter.wait() if drawn else None
             if error:
                 raise RuntimeError(f"PNG rendering failed: {error}")
     finally:

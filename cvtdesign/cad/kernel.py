@@ -14,6 +14,7 @@ def kernel() -> SimpleNamespace:
     from cadquery.occ_impl.assembly import toCAF
     from cadquery.occ_impl.exporters.svg import getSVG
     from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
+    from OCP.BRep import BRep_Tool
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
     from OCP.BRepExtrema import BRepExtrema_DistShapeShape
     from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
@@ -22,6 +23,8 @@ def kernel() -> SimpleNamespace:
     from OCP.STEPCAFControl import STEPCAFControl_Writer
     from OCP.STEPControl import STEPControl_StepModelType
     from OCP.TCollection import TCollection_HAsciiString
+    from OCP.TopAbs import TopAbs_Orientation
+    from OCP.TopLoc import TopLoc_Location
     from OCP.XSControl import XSControl_WorkSession
 
     return SimpleNamespace(
@@ -30,4 +33,5 @@ def kernel() -> SimpleNamespace:
         written=IFSelect_ReturnStatus.IFSelect_RetDone, HArray1OfHAsciiString=Interface_HArray1OfHAsciiString,
         Static=Interface_Static, STEPCAFControl_Writer=STEPCAFControl_Writer,
         as_is=STEPControl_StepModelType.STEPControl_AsIs, HAsciiString=TCollection_HAsciiString,
-        WorkSession=XSControl_WorkSession)
+        WorkSession=XSControl_WorkSession, triangulation=BRep_Tool.Triangulation_s, Location=TopLoc_Location,
+        reversed=TopAbs_Orientation.TopAbs_REVERSED)

@@ -13,7 +13,7 @@ import pytest
 
 from importlib.metadata import version
 
-from cvtdesign.cad import checks, plan, step
+from cvtdesign.cad import checks, picture, plan, step
 from cvtdesign.cad.export import export_variant
 from cvtdesign.cad.kernel import kernel
 from cvtdesign.cli import main
@@ -273,14 +273,60 @@ def test_mounting_plate_from_the_variant(tmp_path):
     assert np.allclose(plate.bbox()[1][:2], rest[:, 1, :2].max(axis=0) + plan.FRAME_MARGIN)
 
 
-def test_failed_drawing_leaves_no_file(tmp_path, monkeypatch):
+@pytest.mark.parametrize("step", ["svg_text", "write_step"])
+def test_failed_drawing_leaves_no_file(tmp_path, monkeypatch, step):
+    """A failure in the forked SVG process or in this one, while the plotting process writes the PNG, leaves
+    no file, not even a temporary one."""
     def broken(*args, **kwargs):
         raise RuntimeError("disk full")
 
-    monkeypatch.setattr("cvtdesign.cad.export.write_svg", broken)
+    monkeypatch.setattr(f"cvtdesign.cad.export.{step}", broken)
     with pytest.raises(RuntimeError, match="disk full"):
         export_variant(EXISTING, tmp_path / "cad")
     assert list((tmp_path / "cad").iterdir()) == []
+
+
+def test_rasterise_is_a_z_buffer():
+    """The scanline rasteriser marks the same pixels, with the nearest triangle's part and shade, as testing
+    every pixel centre against every triangle."""
+    rng = np.random.default_rng(4)
+    centre = rng.uniform(0, 50, (60, 1, 3))
+    tri = centre + rng.normal(0, 6, (60, 3, 3))
+    ids, shade = np.arange(60) % 4, rng.uniform(0.4, 1, 60)
+    colours = rng.uniform(0, 1, (4, 3))
+    pixels = 64
+    image = picture.rasterise(tri, ids, shade, colours, pixels)
+    # the same transform to pixels, then every centre tested against every triangle
+    t = tri.copy()
+    lo, hi = t[..., :2].reshape(-1, 2).min(axis=0), t[..., :2].reshape(-1, 2).max(axis=0)
+    t[..., :2] = (t[..., :2] - (lo + hi) / 2) * (0.94 * pixels / max(hi - lo)) + pixels / 2
+    t[..., 1] = pixels - t[..., 1]
+    q = np.stack(np.meshgrid(np.arange(pixels) + 0.5, np.arange(pixels) + 0.5), axis=-1).reshape(-1, 1, 2)
+    m = np.stack([t[:, 0, :2] - t[:, 2, :2], t[:, 1, :2] - t[:, 2, :2]], axis=-1)          # (T, 2, 2)
+    w = np.einsum("tij,ptj->pti", np.linalg.inv(m), q - t[:, 2, :2])                     # (P, T, 2)
+    inside = (w.min(axis=2) >= 1e-9) & (w.sum(axis=2) <= 1 - 1e-9)
+    z = np.where(inside, t[:, 2, 2] + w[..., 0] * (t[:, 0, 2] - t[:, 2, 2]) + w[..., 1] * (t[:, 1, 2] - t[:, 2, 2]),
+                 -np.inf)
+    nearest, hit = np.argmax(z, axis=1), inside.any(axis=1)
+    part = np.where(hit, ids[nearest], -1).reshape(pixels, pixels)
+    expected = np.where(hit[:, None], colours[ids[nearest]] * shade[nearest][:, None], 1.0).reshape(pixels, pixels, 3)
+    edge = np.zeros_like(part, dtype=bool)
+    edge[1:, :] |= part[1:, :] != part[:-1, :]
+    edge[:, 1:] |= part[:, 1:] != part[:, :-1]
+    expected[edge] *= 0.25
+    assert np.mean(np.any(np.abs(image - expected) > 1e-9, axis=2)) < 0.002   # a centre on an edge may differ
+
+
+def test_triangles_are_cadquerys_tessellation():
+    """The mesh read from OpenCascade is cadquery's `tessellate`: the wheel's faces are placed by a location,
+    13 of the fork's are reversed."""
+    p = plan.plan(load_variant(BOX))
+    solids, _ = step.build(p)
+    for name in ("drive_A", "fork_1"):
+        verts, idx = picture.triangles(solids[name])
+        cq_verts, cq_idx = solids[name].tessellate(0.5, 0.4)
+        assert np.array_equal(idx, np.array(cq_idx))
+        assert np.allclose(verts, [v.toTuple() for v in cq_verts], rtol=0, atol=1e-12)
 
 
 def test_model_path_does_not_import_cadquery():
