@@ -391,6 +391,7 @@ class Background:
             self.proc.join(timeout=5)
         if self.proc.is_alive():
             self.proc.terminate()
+            self.proc.join()
         self.conn.close()
 
 
