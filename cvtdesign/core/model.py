@@ -22,8 +22,10 @@ Equations (derived from the vectors; the effects' terms come from effects.py, by
  * shaft torques τ_s = Σ_{i on s} ρ_i (r_i F_t,i − M_i) (torque applied to the shaft from outside);
  * the operating point fixes ω1 and either the lateral load τ⊥ (kinematics.ShaftFrame.load_split; Kim eq 17
    for Kim's layout) or the brake torque τ2; the steering angle φ comes from the linkage's inverse kinematics.
-Unknowns: Ω, ω2, idler speeds, (F_t, F_a) per contact. Solved by CasADi's Newton rootfinder, whose implicit
-derivatives give the optimiser exact gradients.
+Unknowns: Ω, ω2, idler speeds, (F_t, F_a) per contact. Solved by CasADi's Newton rootfinder (with its line
+search), whose implicit derivatives give the optimiser exact gradients. Evaluated interpreted by CasADi, or
+compiled to C (core.native): the compiled functions solve by the same iteration written out (core.newton),
+which gives the same numbers.
 
 A solution is returned only where the physics holds (`status`): the solve converged, every N_i > 0 (else
 `lost_contact`) and every |F_i| ≤ μ_i N_i (else `gross_slip`, which is also what a saturation law that needs
@@ -31,6 +33,7 @@ A solution is returned only where the physics holds (`status`): the solve conver
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -50,6 +53,8 @@ from cvtdesign.core.kinematics import (
     wrap_axis_angle,
 )
 from cvtdesign.core.layout import Layout
+from cvtdesign.core.native import Tiered, compiled
+from cvtdesign.core.newton import newton_solver
 from cvtdesign.core.creep import saturation_amplification, spin_force
 from cvtdesign.core.patch import patch
 
@@ -70,7 +75,9 @@ class CompiledModel:
 
     `point` maps (γ_cmd [rad], ω1 [rad/s], load [N m], load_is_τ2 (0: the load is τ⊥, 1: it is the brake
     torque τ2), φ guess [rad], θ effect parameters, p design) to a dict of POINT_OUTPUTS (scalars) and
-    CONTACT_OUTPUTS (one entry per roller). `evaluate` evaluates many points at once, compiled and mapped."""
+    CONTACT_OUTPUTS (one entry per roller), interpreted by CasADi. `evaluate` evaluates many points at once,
+    mapped on two threads, and compiled to C once the model has been used long enough to pay for that
+    (core.native.Tiered); `native_point` is `point` compiled now."""
     layout: Layout
     effects: tuple
     param_names: list
@@ -83,15 +90,22 @@ class CompiledModel:
     outputs: ca.Function           # (x, params) → the point outputs
     frame: ShaftFrame = None       # the layout's shaft axes and ideal law
     _maps: dict = field(default_factory=dict)
-    _point_builder: object = None  # names → a `point` function with only those outputs
+    _point_builder: object = None  # (names, written_out) → a `point` function with only those outputs
+    _tiered: Tiered = None         # `point`, interpreted until compiled
     hertz_p0: ca.Function = None       # design → Hertz peak pressure of each contact at its preload [Pa]
     peak_pressure: ca.Function = None  # (N, p0, design) → Hertz peak pressure p0·(max(N, 0)/preload)^(1/3) [Pa]
+    steering_residual: ca.Function = None  # (φ, [γ_cmd, design]) → residual whose root is the steering angle
 
     def point_function(self, outputs) -> ca.Function:
         """`point` restricted to the named outputs (POINT_OUTPUTS, CONTACT_OUTPUTS, 'steer_misfit'): same
         inputs and the same expressions, but only what those outputs need is evaluated and differentiated
         (the Newton solve is left out when only 'steer_misfit' is asked for)."""
         return self._point_builder(list(outputs))
+
+    def native_point(self, derivatives: bool = False) -> ca.Function | None:
+        """`point` compiled to C (from the cache, else compiled now; with `derivatives`, the library also
+        holds its forward and reverse derivatives), or None where there is no working C compiler."""
+        return compiled(self._point_builder(list(self.point.name_out()), written_out=True), derivatives)
 
     def steering_guess(self, gammas):
         return steering_angle_guess(*steering_data(self.layout), np.asarray(gammas, float))
@@ -116,10 +130,13 @@ class CompiledModel:
         th = np.asarray(self.param_values if theta is None else theta, float)
         p = np.zeros(self.design.numel()) if design is None else np.asarray(design, float)
         n = g.size
-        if n not in self._maps:
-            self._maps[n] = self.point.map(n, "thread", 2)
-        out = self._maps[n](g, w, l, float(load_kind == "tau_2"), phi0, th, p)
-        res = {k: np.asarray(v) for k, v in zip(self.point.name_out(), out)}
+        fn = self._tiered.function(n)
+        if (id(fn), n) not in self._maps:
+            self._maps[id(fn), n] = fn.map(n, "thread", 2)
+        t = time.perf_counter()
+        out = _call(self._maps[id(fn), n], [g, w, l, np.full(n, float(load_kind == "tau_2")), phi0, th, p])
+        self._tiered.record(fn, n, time.perf_counter() - t)
+        res = dict(zip(self.point.name_out(), out))
         status = np.where(np.isfinite(res["status"][0]), res["status"][0], 1).astype(int)
         ok = status == 0
         result = {"status": status.reshape(shape), "ok": ok.reshape(shape),
@@ -132,6 +149,26 @@ class CompiledModel:
             v = np.where(ok, v, np.nan)
             result[k] = v[0].reshape(shape) if v.shape[0] == 1 else v.reshape((v.shape[0],) + shape)
         return result
+
+
+def _call(mapped: ca.Function, args: list) -> list[np.ndarray]:
+    """Outputs (rows × points arrays) of a function mapped over points, given per-point inputs (length-n
+    vectors) and shared ones (vectors repeated for every point). Evaluated on numpy buffers (CasADi's
+    FunctionBuffer): converting ~100 rows of 30k points from CasADi matrices took half as long again as the
+    compiled model itself."""
+    n = mapped.size2_in(0)
+    # CasADi stores a rows × points input column by column: a points × rows C array
+    rows = [mapped.size1_in(i) for i in range(len(args))]
+    ins = [np.ascontiguousarray(np.broadcast_to(np.asarray(a, float).reshape(-1, r), (n, r))) if r else np.empty((n, 0))
+           for a, r in zip(args, rows)]
+    outs = [np.empty((n, mapped.size1_out(i))) for i in range(mapped.n_out())]
+    buf, run = mapped.buffer()
+    for i, a in enumerate(ins):
+        buf.set_arg(i, memoryview(a))
+    for i, o in enumerate(outs):
+        buf.set_res(i, memoryview(o))
+    run()
+    return [o.T for o in outs]
 
 
 def failed_contact(res: dict, status: np.ndarray) -> np.ndarray:
@@ -158,18 +195,30 @@ def status_counts(res: dict, roller_names) -> dict:
     return counts
 
 
-def _steering_solver(layout: Layout, frame: ShaftFrame, design: ca.SX):
-    """Rootfinder φ(γ_cmd): the steering angle at which every steered roller rolls without lateral slip
-    about the commanded axis u(γ) (least squares, so over-determined linkages work). For Kim's linkage it
-    reproduces Kim eq 5 inverted."""
+def _steering_residual(layout: Layout, frame: ShaftFrame, design: ca.SX):
+    """(residual, misfit) of the steering angle φ(γ_cmd) at which every steered roller rolls without lateral
+    slip about the commanded axis u(γ) (least squares, so over-determined linkages work; for Kim's linkage
+    the root is Kim eq 5 inverted): the residual's root is φ, the misfit is how far the rollers are then
+    from rolling about u(γ)."""
     phi, gamma = ca.SX.sym("phi"), ca.SX.sym("gamma")
     u = frame.axis(gamma)
     res = ca.vertcat(*[ca.dot(ca.cross(*roller_pose(r, phi)), u) for r in layout.rollers if r.fork_axis is not None])
     g = ca.jacobian(ca.sumsqr(res) / 2, phi)
     f = ca.Function("steer_res", [phi, ca.vertcat(gamma, design)], [g])
     misfit = ca.Function("steer_misfit", [phi, ca.vertcat(gamma, design)], [ca.sqrt(ca.sumsqr(res) + 1e-30)])
-    return ca.rootfinder("steer", "newton", f, {"abstol": 1e-14, "max_iter": 30, "error_on_fail": False,
-                                                  "show_eval_warnings": False}), misfit
+    return f, misfit
+
+
+def _solvers(residual: ca.Function, steer_residual: ca.Function, written_out: bool):
+    """The model's and the steering angle's Newton solvers: CasADi's rootfinders, or (written_out) the same
+    iteration in nodes that can be code-generated (core.newton)."""
+    tol = {"cvt": (1e-12, 1e-12, 40), "steer": (1e-14, 1e-12, 30)}   # abstol, abstolStep, max_iter
+    fns = {"cvt": residual, "steer": steer_residual}
+    if written_out:
+        return tuple(newton_solver(k, fns[k], *tol[k]) for k in ("cvt", "steer"))
+    return tuple(ca.rootfinder(k, "newton", fns[k], {"abstol": tol[k][0], "abstolStep": tol[k][1], "max_iter": tol[k][2],
+                                                    "error_on_fail": False, "show_eval_warnings": False})
+                 for k in ("cvt", "steer"))
 
 
 class _Hooks:
@@ -396,8 +445,6 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
     resid = ca.vertcat(*slip, moment / (layout.sphere_radius * F_SCALE), *idle, load_res)
     params = ca.vertcat(gamma, w1, load, brake, phi_cmd, theta, design)
     G = ca.Function("residual", [u.x, params], [ca.cse(resid)])
-    solver = ca.rootfinder("cvt", "newton", G, {"abstol": 1e-12, "max_iter": 40, "error_on_fail": False,
-                                                  "show_eval_warnings": False})
     x0_fn = ca.Function("x0", [params], [_initial_guess(layout, frame, gamma, w1, phi, u.om_ref)])
 
     alpha = frame.slip_angle(w1, u.w2, gamma)
@@ -411,19 +458,28 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
         "p_max": peak_pressure(ca.vertcat(*per["N"]), p0_all, design), "xi": ca.vertcat(*per["xi"]),
         "eta": ca.vertcat(*per["eta"]), "spin": ca.vertcat(*per["spin"]), "mu": ca.vertcat(*per["mu"]),
     }
-    steer, misfit = _steering_solver(layout, frame, design)
-    build = _point_builder(outs, u.x, params, solver, x0_fn, steer, misfit, theta, design)
-    point = build(list(POINT_OUTPUTS) + list(CONTACT_OUTPUTS) + ["steer_misfit"])
+    steer_res, misfit = _steering_residual(layout, frame, design)
+    build = _point_builder(outs, u.x, params, G, x0_fn, steer_res, misfit, theta, design)
+    every = list(POINT_OUTPUTS) + list(CONTACT_OUTPUTS) + ["steer_misfit"]
+    point = build(every)
     return CompiledModel(layout, effects, pnames, pvalues, design, point, [r.name for r in layout.rollers], G,
                          x0_fn, ca.Function("post", [u.x, params], [outs[k] for k in POINT_OUTPUTS + CONTACT_OUTPUTS]),
-                         frame=frame, _point_builder=lambda sel: build(sel, "point_" + "_".join(sel)),
-                         hertz_p0=hertz_p0, peak_pressure=peak_pressure)
+                         frame=frame, hertz_p0=hertz_p0, peak_pressure=peak_pressure, steering_residual=steer_res,
+                         _point_builder=lambda sel, written_out=False: build(
+                             sel, "point" if sel == every else "point_" + "_".join(sel), written_out),
+                         _tiered=Tiered(point, lambda: build(every, "point", True)))
 
 
-def _point_builder(outs, x, params, solver, x0_fn, steer, misfit, theta, design):
-    """names → a CasADi Function of one operating point: φ from the linkage's inverse kinematics, then the
-    Newton solve, then only the selected outputs' expressions."""
-    def build(selected, name="point"):
+def _point_builder(outs, x, params, residual, x0_fn, steer_res, misfit, theta, design):
+    """(names, name, written_out) → a CasADi Function of one operating point: φ from the linkage's inverse
+    kinematics, then the Newton solve, then only the selected outputs' expressions; with the solvers that
+    can be code-generated if written_out (_solvers)."""
+    solvers = {}
+
+    def build(selected, name="point", written_out=False):
+        if written_out not in solvers:
+            solvers[written_out] = _solvers(residual, steer_res, written_out)
+        solver, steer = solvers[written_out]
         in_names = ["gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_guess", "theta", "design"]
         ins = [ca.MX.sym(n, *(theta.shape if n == "theta" else design.shape if n == "design" else (1, 1)))
                for n in in_names]

@@ -1,9 +1,11 @@
-"""Operating points given by steering angle instead of γ, and by brake torque τ2 instead of τ⊥."""
+"""Operating points given by steering angle instead of γ, and by brake torque τ2 instead of τ⊥, with the
+model interpreted and compiled."""
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from cvtdesign.core import native
 from cvtdesign.core.geometry import ideal_gamma, kim_gamma_from_phi
 from cvtdesign.core.model import compile_model
 from cvtdesign.io.variant import load_variant
@@ -11,9 +13,14 @@ from cvtdesign.io.variant import load_variant
 ROOT = Path(__file__).resolve().parents[2]
 
 
-@pytest.fixture(scope="module")
-def existing():
-    return compile_model(load_variant(ROOT / "variants/existing.yaml"))
+@pytest.fixture(scope="module", params=["never", "always"])
+def existing(request):
+    """existing.yaml interpreted, and compiled to C (CVTDESIGN_COMPILE; skipped without a C compiler)."""
+    if request.param == "always" and native.compiler() is None:
+        pytest.skip("no C compiler on this machine")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("CVTDESIGN_COMPILE", request.param)
+        yield compile_model(load_variant(ROOT / "variants/existing.yaml"))
 
 
 def test_forward_kinematics_is_kim_eq5(existing):
