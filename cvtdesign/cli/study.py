@@ -33,10 +33,16 @@ def run(args):
     t = Table("cases by status", ["status", "cases"])
     for status, n in df.groupby("status")["case_id"].nunique().items():
         t.add(status, str(n))
+    failed = failure_note(df)
+    if not df["success"].any():         # nothing to report: no optimum, front or knee from failed cases
+        show(console, [t, failed])
+        return 1
     spec, kinds = study_kinds(args.study)
     starts_ = df[(df["kind"] == "start") & df["success"]]
     best = best_optima(starts_)
-    blocks = [t] + ([optima_table(best, starts_, spec.objective.kind, kinds)] if len(best) else [])
+    blocks = [t] + ([failed] if failed else [])
+    if len(best):
+        blocks.append(optima_table(best, starts_, spec.objective.kind, kinds))
     files = [f for f in df["variant_file"] if isinstance(f, str) and f]
     if files:
         blocks.append(Note(f"variant files in {Path(files[0]).parent}"))
@@ -44,8 +50,10 @@ def run(args):
     chains = []
     for cid, grp in pareto.groupby("case_id", sort=False):
         pts = [dict(r) | {"index": r["point"]} for _, r in grp.sort_values("point").iterrows()]
-        chains.append((cid, pts, knee(pts)))
-        blocks += pareto_blocks(cid, pts, chains[-1][2], kinds)
+        k = knee(pts)
+        blocks += pareto_blocks(cid, pts, k, kinds)
+        if any(p["success"] for p in pts):          # a chain with no successful point has no front to draw
+            chains.append((cid, pts, k))
     show(console, blocks)
     if chains:
         figure = Path(res["out_dir"]) / "pareto.png"
@@ -54,7 +62,22 @@ def run(args):
     if args.step:
         chosen = list(best["variant_file"]) + (list(pareto[pareto["success"]]["variant_file"]) if len(pareto) else [])
         export_steps(console, [f for f in chosen if isinstance(f, str) and f], Path(res["out_dir"]) / "step")
-    return 0 if df["success"].any() else 1
+    return 0
+
+
+def failure_note(df) -> Note | None:
+    """How many of the store's cases failed (no successful row) and why (their commonest status), or None."""
+    ok = df.groupby("case_id", sort=False)["success"].any()
+    statuses = df[df["case_id"].isin(ok.index[~ok])].drop_duplicates("case_id")["status"].value_counts()
+    if not len(statuses):
+        return None
+    n, total = int(statuses.sum()), len(ok)
+    why = f"with {statuses.index[0]}" + ("" if len(statuses) == 1 else
+                                         f" ({statuses.iloc[0]} of them; the others' statuses are in the table)")
+    if n == total:
+        return Note(f"no case succeeded: all {total} cases failed {why}; no optimum, Pareto front or knee to "
+                    "report", "bad")
+    return Note(f"{n} of {total} cases failed {why}", "bad")
 
 
 def study_kinds(study_path) -> tuple:

@@ -11,7 +11,15 @@ files, and `manifest.json` (study hash, package versions, solver options). Re-ru
 skips the cases already in the store, so a killed study loses nothing it had finished; a store made by a
 different study file (another hash) is refused. Each case's status is recorded: IPOPT's status
 (Solve_Succeeded, Infeasible_Problem_Detected, Maximum_Iterations_Exceeded, ...), `worker_crashed`, or
-`error: ...`; nothing is swallowed. Every file goes through output.write_file (atomic, umask's mode).
+`error: ...`; nothing is swallowed. A case stored as `worker_crashed` or `error: ...` says what happened to
+the run, not to the design, so the next run runs it again. Every file goes through output.write_files
+(atomic, umask's mode), in this process only: a case's file and its optimum's variant files together.
+
+What travels: the study's content, never a path (`StudyContent`, read and checked here and sent once to each
+worker): the study spec, and each variant file's text and contents with the calibration merged in
+(study_file.StudyVariant). A worker reads no input file and writes nothing; it returns the case's rows and
+its optimum's variant files as text. So a study runs unchanged on workers that share neither this working
+directory nor this filesystem; they need only the same version of cvtdesign (checked when they start).
 
 A run:
  1. checks `--workers` and the whole study before anything is written or submitted: every variant file ×
@@ -25,9 +33,10 @@ A run:
 
 Dask: by default a LocalCluster started by the command, one single-threaded worker process per core;
 `--scheduler ADDRESS` sends the same cases to an existing cluster unchanged. Each worker imports the model
-once at start-up and keeps the problems it has built (a case's NLP depends only on its variant and sweep
-point, not on its start), and the cases that share a problem are sent to the same worker (a preference:
-idle workers still take over), the long Pareto chains first.
+once at start-up (`WarmWorkers`, a worker plugin: workers that join later are warmed too) and keeps the
+problems it has built (a case's NLP depends only on its variant and sweep point, not on its start), and
+the cases that share a problem are sent to the same worker (a preference: idle workers still take over),
+the longest first.
 """
 from __future__ import annotations
 
@@ -35,8 +44,8 @@ import contextlib
 import hashlib
 import itertools
 import json
-import os
 import time
+from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
@@ -45,17 +54,17 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
-from dask.distributed import as_completed
+from dask.distributed import WorkerPlugin, as_completed
 from distributed.scheduler import KilledWorker
 from filelock import FileLock, Timeout
 
 from cvtdesign.design import cluster
 from cvtdesign.design.problem import IPOPT_OPTIONS, build_problem
-from cvtdesign.design.report import write_variant
+from cvtdesign.design.report import variant_text
 from cvtdesign.design.solve import pareto_front, solve_from, starts
-from cvtdesign.design.study_file import load_study, problem_inputs
+from cvtdesign.design.study_file import StudySpec, StudyVariant, load_study, problem_inputs, study_variant
 from cvtdesign.errors import InputError
-from cvtdesign.io.output import OutputError, make_folder, remove_stale_temps, write_file
+from cvtdesign.io.output import OutputError, make_folder, remove_stale_temps, write_file, write_files
 from cvtdesign.io.units import registry
 from cvtdesign.io.variant import parameter_value
 
@@ -64,8 +73,23 @@ CASE_COLUMNS = ("case_id", "kind", "variant", "fixed", "start", "point", "status
                 "worst_alpha_deg", "power_loss_W", "iterations", "variant_file", "seconds")
 
 
+# statuses that say what happened to the run, not to the design: such a case runs again on the next run
+RUN_FAILURES = ("worker_crashed", "error: ")
+
+
 class Interrupted(KeyboardInterrupt):
     """Ctrl-C during a study: the message says how many cases are kept in the store."""
+
+
+@dataclass(frozen=True)
+class StudyContent:
+    """A study as it travels to the workers, read and checked in this process: `path` the study file as
+    this process names it (in messages and provenance only: no worker opens it), `digest` its study_hash,
+    `spec` the study, `variants` each variant file of its cases by the path the cases name it by."""
+    path: str
+    digest: str
+    spec: StudySpec
+    variants: dict[str, StudyVariant]
 
 
 def study_hash(study_file: Path, spec, base: Path) -> str:
@@ -107,39 +131,63 @@ def make_cases(study_file, spec=None, base: Path | None = None) -> list[dict]:
     return cases
 
 
-def check_study(study_file, spec, cases: list[dict]) -> None:
-    """Every distinct problem's inputs (variant file × sweep point), checked before any case is submitted:
-    one InputError line for the first bad one (see study_file.problem_inputs)."""
+def study_content(study_file, spec, base: Path, cases: list[dict]) -> StudyContent:
+    """What the workers get (StudyContent): every variant file of `cases` read once here
+    (study_file.study_variant: one InputError line for a bad one)."""
+    variants = {}
+    for c in cases:
+        if c["variant"] not in variants:
+            variants[c["variant"]] = study_variant(study_file, spec, Path(c["variant"]))
+    return StudyContent(str(study_file), study_hash(study_file, spec, base), spec, variants)
+
+
+def check_study(content: StudyContent, cases: list[dict]) -> None:
+    """Every distinct problem's inputs (variant file × sweep point), checked before any case is submitted,
+    from what the workers will get: one InputError line for the first bad one (study_file.problem_inputs)."""
     seen = set()
     for c in cases:
         key = (c["variant"], json.dumps(c["fixed"], sort_keys=True))
         if key not in seen:
             seen.add(key)
-            problem_inputs(study_file, spec, Path(c["variant"]), c["fixed"])
+            problem_inputs(content.path, content.spec, content.variants[c["variant"]], c["fixed"])
 
 
 _PROBLEMS: dict = {}     # worker-local: built problems by (study, variant, sweep point), most recent last
 _KEEP = 4
 
 
-def warm_worker() -> int:
+def warm_worker() -> str:
     """Start-up of a worker: load what every case needs, so no case pays for it. Running this in a worker
     imports this module, and with it CasADi, the model, SciPy's Latin hypercube and the Parquet writer;
-    here, the unit registry and CasADi's IPOPT and Newton plugins."""
+    here, the unit registry and CasADi's IPOPT and Newton plugins. Returns the worker's cvtdesign version."""
     registry()
     x = ca.SX.sym("x")
     ca.nlpsol("warm", "ipopt", {"x": x, "f": x * x}, {"ipopt": {"print_level": 0, "sb": "yes"}, "print_time": False})
     ca.rootfinder("warm", "newton", ca.Function("r", [x, ca.SX.sym("p")], [x]))
-    return os.getpid()
+    return metadata.version("cvtdesign")
 
 
-def cached_problem(study_file: str, spec, base: Path, fixed: dict):
+class WarmWorkers(WorkerPlugin):
+    """`warm_worker` on every worker of the cluster, now and on each one that joins later (an adaptive
+    dask-jobqueue or Kubernetes cluster grows while a study runs); a worker whose cvtdesign is not
+    `version` (this process's) refuses it, since its cases would not be this version's."""
+    name = "cvtdesign-warm"
+
+    def __init__(self, version: str):
+        self.version = version
+
+    def setup(self, worker):
+        found = warm_worker()
+        if found != self.version:
+            raise RuntimeError(f"worker {worker.address} runs cvtdesign {found}, the client {self.version}")
+
+
+def cached_problem(content: StudyContent, variant: StudyVariant, fixed: dict):
     """The case's NLP, built once per worker: every start of a variant × sweep point shares it (keyed by
-    the study's and variant's contents, so an edited file is a new problem)."""
-    key = (str(study_file), hashlib.sha256(Path(study_file).read_bytes() + base.read_bytes()).hexdigest(),
-           str(base), json.dumps(fixed, sort_keys=True))
+    the study's hash, which covers the contents of its files: an edited file is a new problem)."""
+    key = (content.digest, variant.path, json.dumps(fixed, sort_keys=True))
     if key not in _PROBLEMS:
-        _PROBLEMS[key] = build_problem(study_file, spec, base, fixed)
+        _PROBLEMS[key] = build_problem(content.path, content.spec, variant, fixed)
         while len(_PROBLEMS) > _KEEP:
             _PROBLEMS.pop(next(iter(_PROBLEMS)))
     else:
@@ -147,36 +195,43 @@ def cached_problem(study_file: str, spec, base: Path, fixed: dict):
     return _PROBLEMS[key]
 
 
-def run_case(study_file: str, case: dict, out_dir: str) -> list[dict]:
-    """Run one case in a worker; returns its rows (one per optimum or Pareto point)."""
+def run_case(content: StudyContent, case: dict, out_dir: str) -> dict:
+    """Run one case in a worker, from `content` alone (no file is read or written here). Returns {"rows":
+    one per optimum or Pareto point, "files": {path: text} of the optimum's variant files, named in the
+    store `out_dir` of the client, which writes them}."""
     t0 = time.perf_counter()
-    spec, _ = load_study(study_file)
-    base = Path(case["variant"])
-    common = {"case_id": case["id"], "kind": case["kind"], "variant": base.name,
+    spec, variant = content.spec, content.variants[case["variant"]]
+    common = {"case_id": case["id"], "kind": case["kind"], "variant": variant.name,
               "fixed": json.dumps(case["fixed"]), "start": case["start"]}
     vdir = Path(out_dir) / "variants"
-    rows = []
+    rows, files = [], {}
+
+    def design_file(problem, sol, name: str) -> str | None:
+        if not sol.success:
+            return None
+        path, files[path] = variant_text(problem, sol, vdir, name)
+        return str(path)
+
     if case["kind"] == "start":
-        problem = cached_problem(study_file, spec, base, case["fixed"])
+        problem = cached_problem(content, variant, case["fixed"])
         sol = solve_from(problem, starts(problem)[case["start"]], case["start"])
-        vfile = str(write_variant(problem, sol, vdir, f"{spec.name}_{case['id']}")) if sol.success else None
         rows.append(common | {"point": 0, "status": sol.status, "success": sol.success, "objective": sol.objective,
                               "worst_alpha_deg": sol.check.max_abs_alpha_deg if sol.check else np.nan,
                               "power_loss_W": sol.objective if spec.objective.kind == "power_loss" else np.nan,
                               "iterations": sol.iterations,
-                              "variant_file": vfile} | {f"design.{k}": v for k, v in sol.design.items()})
+                              "variant_file": design_file(problem, sol, f"{spec.name}_{case['id']}")}
+                    | {f"design.{k}": v for k, v in sol.design.items()})
     else:
-        for p in pareto_front(study_file, spec, base, case["fixed"]):
-            sol, problem = p["solution"], p["problem"]
-            name = f"{spec.name}_{case['id']}{p['index']}"
-            vfile = str(write_variant(problem, sol, vdir, name)) if sol.success else None
+        for p in pareto_front(content.path, spec, variant, case["fixed"]):
+            sol = p["solution"]
             rows.append(common | {"point": p["index"], "status": p["status"], "success": p["success"],
                                   "objective": p["power_loss_W"], "worst_alpha_deg": p["worst_alpha_deg"],
                                   "power_loss_W": p["power_loss_W"], "iterations": sol.iterations,
-                                  "variant_file": vfile} | {f"design.{k}": v for k, v in p["design"].items()})
+                                  "variant_file": design_file(p["problem"], sol, f"{spec.name}_{case['id']}{p['index']}")}
+                        | {f"design.{k}": v for k, v in p["design"].items()})
     for r in rows:
         r["seconds"] = time.perf_counter() - t0
-    return rows
+    return {"rows": rows, "files": files}
 
 
 def plan(cases: list[dict], workers: list[str], pareto_points: int = 8) -> list[tuple[dict, str | None, int]]:
@@ -211,13 +266,18 @@ def failure_rows(case: dict, status: str) -> list[dict]:
              "iterations": 0, "variant_file": None, "seconds": np.nan}]
 
 
-def write_case(out_dir: Path, case_id: str, rows: list[dict]):
-    """One Parquet file per case, by output.write_file (pyarrow writes the temporary file, which is then
-    renamed: never half-written); pyarrow directly, a third of pandas' time, which matters in the client
-    that also runs the scheduler."""
+def write_case(out_dir: Path, case_id: str, rows: list[dict], files: dict | None = None):
+    """One Parquet file per case, with the case's variant files `files` ({path: text}, from run_case), all
+    or nothing by output.write_files (pyarrow writes the temporary file, which is then renamed: never
+    half-written); pyarrow directly, a third of pandas' time, which matters in the client that also runs
+    the scheduler."""
     table = pa.Table.from_pylist(rows)
     d = make_folder(Path(out_dir) / "cases", kind="results store")
-    write_file(d / f"{case_id}.parquet", lambda tmp: pq.write_table(table, tmp), kind="case file")
+    if files:
+        make_folder(Path(out_dir) / "variants", kind="variant folder")
+    case_file = d / f"{case_id}.parquet"
+    write_files(dict(files or {}) | {case_file: lambda tmp: pq.write_table(table, tmp)},
+                kind={case_file: "case file"} | {p: "variant file" for p in files or {}})
 
 
 def read_case(path: Path, rows: set[int] | None = None):
@@ -247,8 +307,8 @@ def expected_rows(case: dict, spec) -> set[int]:
 
 def done_cases(out_dir: Path, cases: list[dict] | None = None, spec=None, notice=None) -> set[str]:
     """The ids of the cases whose files are in the store and pass `read_case` (with `cases` and `spec`:
-    only the study's cases, with their row counts). A corrupt file is said in one line by `notice` and left
-    out, so its case runs again."""
+    only the study's cases, with their row counts), except those that ended in a RUN_FAILURES status. A
+    corrupt file is said in one line by `notice` and left out, so its case runs again."""
     d = Path(out_dir) / "cases"
     if not d.is_dir():
         return set()
@@ -257,11 +317,13 @@ def done_cases(out_dir: Path, cases: list[dict] | None = None, spec=None, notice
     done = set()
     for cid in wanted:
         try:
-            read_case(files[cid], None if cases is None else expected_rows(wanted[cid], spec))
-            done.add(cid)
+            table = read_case(files[cid], None if cases is None else expected_rows(wanted[cid], spec))
         except ValueError as e:
             if notice:
                 notice(f"case file {files[cid]}: {e}; running the case again")
+            continue
+        if not any(str(s).startswith(RUN_FAILURES) for s in table.column("status").to_pylist()):
+            done.add(cid)
     return done
 
 
@@ -281,9 +343,9 @@ def manifest(study_file, spec, digest: str) -> dict:
             "solver": {"name": "ipopt", "max_iter": spec.max_iter} | IPOPT_OPTIONS}
 
 
-def prepare_store(study_file, spec, base: Path, out_dir: Path) -> dict:
-    """Create or reopen the store; refuse one that belongs to another version of the study."""
-    digest = study_hash(study_file, spec, base)
+def prepare_store(study_file, spec, digest: str, out_dir: Path) -> dict:
+    """Create or reopen the store; refuse one that belongs to another version of the study (`digest`, its
+    study_hash)."""
     mpath = out_dir / "manifest.json"
     if mpath.exists():
         try:
@@ -328,12 +390,13 @@ def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: i
     cluster.check_workers(workers)
     spec, base = load_study(study_file)
     cases = make_cases(study_file, spec, base)
-    check_study(study_file, spec, cases)
+    content = study_content(study_file, spec, base, cases)
+    check_study(content, cases)
     if scheduler:          # a scheduler that does not answer is refused before the results store is created
         cluster.connect(scheduler).close()
     out_dir = Path(out_dir or Path("results") / spec.name)
     with store_lock(out_dir):
-        man = prepare_store(study_file, spec, base, out_dir)
+        prepare_store(study_file, spec, content.digest, out_dir)
         for folder in (out_dir, out_dir / "cases", out_dir / "variants"):
             if folder.is_dir():
                 remove_stale_temps(folder)       # left by a killed run; nobody else writes here now
@@ -350,8 +413,7 @@ def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: i
 
         if todo:
             try:
-                startup, seconds = _run_cases(study_file, spec, man, todo, out_dir, (scheduler, workers), written,
-                                              step)
+                startup, seconds = _run_cases(content, todo, out_dir, (scheduler, workers), written, step)
             except KeyboardInterrupt:
                 kept = len(done_cases(out_dir, cases, spec))      # what is in the store, counted from its files
                 raise Interrupted(f"interrupted: {kept} of {len(cases)} cases finished and kept in {out_dir}; "
@@ -361,28 +423,46 @@ def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: i
             "seconds": seconds, "startup_seconds": startup, "table": table}
 
 
-def _run_cases(study_file, spec, man: dict, todo: list[dict], out_dir: Path, where: tuple, written: list,
+def _run_cases(content: StudyContent, todo: list[dict], out_dir: Path, where: tuple, written: list,
                progress) -> tuple[float, float]:
     """Run `todo` on Dask (where: (scheduler, workers)), writing each case's file as it finishes and
-    appending its id to `written`; returns (cluster start-up, cases) seconds."""
+    appending its id to `written`; returns (cluster start-up, cases) seconds. The study's content is sent
+    once to every worker (scattered), not with each case."""
     t_start = time.perf_counter()
     with cluster.dask_client(*where) as client:
-        client.run(warm_worker)
+        warm(client, where[0])
+        client.wait_for_workers(1)     # a cluster that is still starting its workers (a batch queue)
         t0 = time.perf_counter()
         names = sorted(client.scheduler_info()["workers"])
-        futures = {client.submit(run_case, str(study_file), c, str(out_dir), key=f"case-{man['study_hash']}-{c['id']}",
+        shared = client.scatter(content, broadcast=True, hash=False)
+        futures = {client.submit(run_case, shared, c, str(out_dir), key=f"case-{content.digest}-{c['id']}",
                                  retries=0, pure=False, priority=prio,
                                  **({} if w is None else {"workers": [w], "allow_other_workers": True})): c
-                   for c, w, prio in plan(todo, names, spec.pareto.points)}
+                   for c, w, prio in plan(todo, names, content.spec.pareto.points)}
         for fut in as_completed(futures):
             case = futures[fut]
+            files = {}
             try:
-                rows = fut.result()
+                result = fut.result()
+                rows, files = result["rows"], result["files"]
             except KilledWorker:
                 rows = failure_rows(case, "worker_crashed")
             except Exception as e:  # recorded in the store, never swallowed
                 rows = failure_rows(case, f"error: {type(e).__name__}: {e}")
-            write_case(out_dir, case["id"], rows)
+            write_case(out_dir, case["id"], rows, files)
             written.append(case["id"])
             progress(rows[0])
         return t0 - t_start, time.perf_counter() - t0
+
+
+def warm(client, scheduler: str | None) -> None:
+    """Warm every worker of the client's cluster (WarmWorkers); a worker that cannot run this version's
+    cases is one InputError line."""
+    version = metadata.version("cvtdesign")
+    try:
+        client.register_plugin(WarmWorkers(version), name=WarmWorkers.name)
+    except Exception as e:    # raised in a worker: a missing or different cvtdesign, a broken install
+        where = f"--scheduler {scheduler}" if scheduler else "local cluster"
+        raise InputError(f"{where}: a worker cannot run this study's cases ({type(e).__name__}: "
+                         f"{' '.join(str(e).split())}); expected cvtdesign {version} installed on every "
+                         "worker") from None

@@ -14,10 +14,16 @@ assembly envelope radius, and the steering linkage still reaching every γ of th
 `constraints.min_normal_force` is a force ('5 N'); left out (null) it is 5 % of each roller's base preload
 (`min_normal_force`). It cannot be switched off: a design with a contact at N ≤ 0 is outside the model,
 whatever else the study asks for (a smaller positive floor is allowed).
+
+A variant file as a study uses it (`StudyVariant`: its text, its contents with the study's calibration merged
+in, its free design variables) is read once on the client by `study_variant`; `problem_inputs` takes either
+a path or one of these, so a Dask worker builds a case's NLP from what it was sent, without the files, the
+study's folder or the client's working directory.
 """
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -28,7 +34,7 @@ from cvtdesign.core.checks import check_layout
 from cvtdesign.core.effects import check_effects
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.fitted import read_fitted
-from cvtdesign.io.schema import EnvelopeSpec, Name, Num, Strict, no_bool
+from cvtdesign.io.schema import EnvelopeSpec, Name, Num, Strict, VariantSpec, no_bool
 from cvtdesign.io.units import check_range, dimension_of, kind_name, to_si
 from cvtdesign.io.variant import grid, load_spec, parameter_value, quantity, resolve
 from cvtdesign.io.yaml_file import read_spec
@@ -120,6 +126,46 @@ def load_study(path) -> tuple[StudySpec, Path]:
     return spec, base
 
 
+@dataclass(frozen=True)
+class StudyVariant:
+    """A variant file as a study uses it, read on the client and sent to the workers as it is: `path` as the
+    client names it (messages and an optimum's provenance header name it), `text` the file as written (an
+    optimum's variant file is made from it, by `read_text` like a file), `spec` its contents with the study's
+    calibration merged in, and `free` the study's design variables that are free in it."""
+    path: str
+    text: str
+    spec: VariantSpec
+    free: tuple[str, ...]
+
+    @property
+    def name(self) -> str:
+        return Path(self.path).name
+
+    def read_text(self) -> str:
+        return self.text
+
+    def __str__(self) -> str:
+        return self.path
+
+
+def study_variant(study_path, spec: StudySpec, base_file) -> StudyVariant:
+    """The variant file `base_file` of the study at `study_path`, read (`load_spec`) with the fitted effect
+    parameters of the study's calibration report merged in; a StudyVariant is returned as it is. Every bad
+    input is one InputError line (an unreadable or invalid variant or calibration file, a missing file in a
+    design variable's `variants`)."""
+    if isinstance(base_file, StudyVariant):
+        return base_file
+    vspec = load_spec(base_file)
+    if spec.calibration:
+        fitted = read_fitted(Path(study_path).parent / spec.calibration)
+        merged = {e: dict(ps) for e, ps in vspec.effect_parameters.items()}
+        for e, ps in fitted.items():
+            merged.setdefault(e, {}).update(ps)
+        vspec = vspec.model_copy(update={"effect_parameters": merged})
+    free = tuple(n for n in spec.design if _free_in(spec, n, base_file, study_path))
+    return StudyVariant(str(base_file), Path(base_file).read_text(encoding="utf-8"), vspec, free)
+
+
 def _free_in(spec: StudySpec, name: str, base_file: Path, study_path) -> bool:
     """Whether design variable `name` is free in the variant `base_file` (its `variants` list, if any, names
     variant files next to the study, as batch.variants does)."""
@@ -154,36 +200,33 @@ def _check_bounds(n: str, spec: StudySpec, vspec, where: str) -> tuple[float, fl
     return lo, hi
 
 
-def problem_inputs(study_path, spec: StudySpec, base_file: Path, fixed: dict | None = None) -> tuple:
-    """The checked inputs of a study's NLP for one variant file and sweep point: (variant spec, base layout
-    with the sweep point, free design variables, their lower and upper bounds [SI]). Every bad input is one
+def problem_inputs(study_path, spec: StudySpec, base_file, fixed: dict | None = None) -> tuple:
+    """The checked inputs of a study's NLP for one variant file (a path, or a StudyVariant: then no file is
+    read) and sweep point: (variant spec, base layout with the sweep point, free design variables, their
+    lower and upper bounds [SI]). `study_path` only names the study in messages once the variant is read.
+    Every bad input is one
     InputError line naming the study file and the field: an unknown sweep or design parameter, a swept
     design variable, inverted bounds, impossible geometry, and the study-wide settings (`check_settings`).
     Nothing is compiled (milliseconds), so `study` checks every case's inputs before it runs any."""
     where = str(study_path)
-    vspec = load_spec(base_file)
+    variant = study_variant(study_path, spec, base_file)
+    vspec = variant.spec
     fixed = fixed or {}
     for n in fixed:
         if n not in vspec.parameters:
-            raise InputError(f"{where}: batch.sweep.{n}: the variant {base_file.name} has no parameter '{n}'"
+            raise InputError(f"{where}: batch.sweep.{n}: the variant {variant.name} has no parameter '{n}'"
                              f"{suggest(n, vspec.parameters)}")
         if n in spec.design:
             raise InputError(f"{where}: batch.sweep.{n}: '{n}' is a design variable; sweep fixed parameters only")
-    if spec.calibration:
-        fitted = read_fitted(Path(study_path).parent / spec.calibration)
-        merged = {e: dict(ps) for e, ps in vspec.effect_parameters.items()}
-        for e, ps in fitted.items():
-            merged.setdefault(e, {}).update(ps)
-        vspec = vspec.model_copy(update={"effect_parameters": merged})
     base = resolve(vspec, str(base_file), overrides=fixed)
     check_layout(base)
-    names = [n for n in spec.design if _free_in(spec, n, base_file, study_path)]
+    names = list(variant.free)
     if not names:
-        raise InputError(f"{where}: design: no design variables" + (f" for {base_file.name}" if spec.design else ""))
+        raise InputError(f"{where}: design: no design variables" + (f" for {variant.name}" if spec.design else ""))
     lower, upper = [], []
     for n in names:
         if n not in vspec.parameters:
-            raise InputError(f"{where}: design.{n}: the variant {base_file.name} has no parameter '{n}'"
+            raise InputError(f"{where}: design.{n}: the variant {variant.name} has no parameter '{n}'"
                              f"{suggest(n, vspec.parameters)} (parameters: {', '.join(vspec.parameters) or 'none'})")
         lo, hi = _check_bounds(n, spec, vspec, where)
         if not lo < hi:

@@ -7,6 +7,7 @@ import os
 import shutil
 import socket
 from pathlib import Path
+from types import SimpleNamespace
 
 import pandas as pd
 import pytest
@@ -103,8 +104,8 @@ def test_interrupt_then_resume(tmp_path, finished, shared, capfd, monkeypatch):
     out = tmp_path / "s"
     real = study_mod.write_case
 
-    def write_then_interrupt(out_dir, case_id, rows):
-        real(out_dir, case_id, rows)
+    def write_then_interrupt(out_dir, case_id, rows, files=None):
+        real(out_dir, case_id, rows, files)
         if len(case_files(out_dir)) == 2:
             raise KeyboardInterrupt
     monkeypatch.setattr(study_mod, "write_case", write_then_interrupt)
@@ -210,6 +211,48 @@ def test_failed_case_status_is_recorded(tmp_path, shared, capsys):
                         batch={"sweep": {}})
     assert main(["study", str(study), "--out", str(tmp_path / "f"), "--scheduler", shared]) == 1
     df = read_store(tmp_path / "f")
+    assert f"no case succeeded: all 1 cases failed with {df['status'].iloc[0]}" in capsys.readouterr().out
     assert len(df) == 1 and not df["success"].iloc[0]
     assert df["status"].iloc[0] in ("Infeasible_Problem_Detected", "Restoration_Failed", "Maximum_Iterations_Exceeded")
     assert df["variant_file"].iloc[0] is None
+
+
+def test_case_that_ended_in_an_error_runs_again(tmp_path, finished, shared):
+    """A case stored as `error: ...` or `worker_crashed` (what happened to the run, e.g. a worker that could
+    not read a file) is not a result: the next run runs it again and reaches the finished store's table."""
+    path, store, ref = finished
+    store = copy_store(store, tmp_path)
+    cases = make_cases(path)
+    study_mod.write_case(store, cases[0]["id"], study_mod.failure_rows(cases[0], "error: OSError: gone"))
+    study_mod.write_case(store, cases[1]["id"], study_mod.failure_rows(cases[1], "worker_crashed"))
+    res = run_study(path, store, scheduler=shared)
+    assert res["skipped"] == 4 and res["ran"] == 2
+    pd.testing.assert_frame_equal(comparable(res["table"]), comparable(ref), rtol=1e-9)
+
+
+def test_no_successful_case_reports_the_failures_and_nothing_else(tmp_path, capsys, monkeypatch):
+    """When every case failed (here a Pareto chain and a start, as a worker that cannot read the study left
+    them) the command says how many failed and why, prints no optimum, front or knee, draws no plot, and
+    exits 1."""
+    path = small_study(tmp_path, batch={"pareto": True})
+    cases = make_cases(path)
+    why = "error: InputError: studies/x.yaml: cannot read file (No such file or directory)"
+    rows = [r for c in cases[-2:] for r in study_mod.failure_rows(c, why)]
+    monkeypatch.setattr(study_mod, "run_study", lambda *a, **k: {
+        "out_dir": str(tmp_path / "s"), "cases": 2, "skipped": 0, "ran": 2, "seconds": 0.1,
+        "startup_seconds": 0.1, "table": pd.DataFrame(rows)})
+    assert main(["study", str(path), "--out", str(tmp_path / "s")]) == 1
+    out = " ".join(capsys.readouterr().out.split())
+    assert f"no case succeeded: all 2 cases failed with {why}; no optimum, Pareto front or knee to report" in out
+    assert "knee" not in out.replace("or knee", "") and "best optimum" not in out and "Pareto plot" not in out
+    assert not (tmp_path / "s" / "pareto.png").exists()
+
+
+def test_worker_with_another_cvtdesign_version_is_refused(tmp_path, shared, capsys, monkeypatch):
+    """Workers that run another version of cvtdesign than the client (here: the client says 0.0.0) are
+    refused in one line when they are warmed, before any case runs."""
+    monkeypatch.setattr(study_mod, "metadata", SimpleNamespace(version=lambda package: "0.0.0"))
+    assert main(["study", str(small_study(tmp_path)), "--out", str(tmp_path / "s"), "--scheduler", shared]) == 2
+    one_line(capsys.readouterr().err, f"cvtdesign: error: --scheduler {shared}: a worker cannot run this study's "
+             "cases (RuntimeError: worker tcp://", "the client 0.0.0); expected cvtdesign 0.0.0 installed on every worker")
+    assert case_files(tmp_path / "s") == []
