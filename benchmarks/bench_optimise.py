@@ -12,24 +12,18 @@
    (model compilation and the CasADi functions, shared by both methods) is shown separately, and so is the
    one-off construction IPOPT's working-set solvers need on a problem's first solve (a multistart or a
    study case reuses them). Best of several repeats: the machine is shared and noisy.
-2. A 16-case study on a Dask LocalCluster, 2 workers against 1: cluster start-up (processes, imports) shown
-   separately from the run of the cases, both ratios printed; and, as the reference of what the machine
-   gives, the same cases in 1 and 2 plain processes without Dask.
+(Batch studies on 1 and 2 Dask workers: benchmarks/bench_cluster.py.)
 
 Run: python benchmarks/bench_optimise.py
 """
-import multiprocessing
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 from scipy.optimize import minimize
 
 from cvtdesign.design.problem import build_problem
 from cvtdesign.design.solve import rows_at, solve_from, starts
-from cvtdesign.design.study import run_case, run_study, warm_worker
 import timing
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -106,52 +100,5 @@ def ipopt_vs_slsqp():
         print(f"    {n:8s} IPOPT {a:.8g}   SLSQP {b:.8g}   IPOPT every row {c:.8g}")
 
 
-def _group(args):
-    """The 8 starts of one preload, one after the other, in this process (the reference without Dask)."""
-    study, preload, out = args
-    t = time.perf_counter()
-    for k in range(8):
-        run_case(study, {"id": f"p{preload:g}_start{k}", "kind": "start", "variant": str(ROOT / "variants/box.yaml"),
-                         "fixed": {"preload": preload}, "start": k}, out)
-    return time.perf_counter() - t
-
-
-def scaling(repeats=5):
-    data = yaml.safe_load((ROOT / "studies/box_placement.yaml").read_text())
-    data["base"] = str(ROOT / "variants/box.yaml")
-    data["multistart"] = {"starts": 8, "seed": 3}
-    data["batch"] = {"sweep": {"preload": ["80 N", "120 N"]}}     # 2 × 8 = 16 cases
-    with tempfile.TemporaryDirectory() as tmp:
-        study = Path(tmp) / "scaling.yaml"
-        study.write_text(yaml.safe_dump(data, allow_unicode=True))
-        # reference: the same 16 cases in 1 and 2 plain processes (warmed the same way), no Dask
-        ref = {}
-        ctx = multiprocessing.get_context("spawn")
-        for _ in range(repeats):
-            for w in (1, 2):
-                with ctx.Pool(w, initializer=warm_worker) as pool:
-                    pool.map(time.sleep, [0.3] * (2 * w), chunksize=1)     # every process has started and warmed
-                    t = time.perf_counter()
-                    pool.map(_group, [(str(study), 80.0, tmp), (str(study), 120.0, tmp)], chunksize=1)
-                    ref[w] = min(ref.get(w, np.inf), time.perf_counter() - t)
-        best = {}
-        for rep in range(repeats):
-            for w in (1, 2):
-                t = time.perf_counter()
-                res = run_study(study, Path(tmp) / f"w{w}_{rep}", workers=w)
-                total = time.perf_counter() - t
-                ok = int(res["table"]["success"].sum())
-                if w not in best or res["seconds"] < best[w][1]:
-                    best[w] = (res["startup_seconds"], res["seconds"], total, ok)
-        print(f"16-case study (box placement, 8 starts × 2 preloads, 17 × 21 envelope), best of {repeats}:")
-        for w, (s, r, tot, ok) in best.items():
-            print(f"  {w} worker(s): cluster start-up {s:5.2f} s, cases {r:5.2f} s, total {tot:5.2f} s ({ok}/16 succeeded)")
-        print(f"  speed-up on 2 workers: cases {best[1][1] / best[2][1]:.2f} ×, total with start-up "
-              f"{best[1][2] / best[2][2]:.2f} ×   target ≥ 1.7 ×")
-        print(f"  reference without Dask, the same cases in 1 and 2 plain processes: {ref[1]:.2f} s → {ref[2]:.2f} s, "
-              f"{ref[1] / ref[2]:.2f} × (what these 2 cores give this workload)")
-
-
 if __name__ == "__main__":
     ipopt_vs_slsqp()
-    scaling()
