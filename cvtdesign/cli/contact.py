@@ -1,9 +1,9 @@
 """`cvtdesign contact`: every roller's contact patch with the sphere at its preload, by Hertz and Kalker.
 
 For each roller: the Hertz ellipse (a along the rolling direction, b across), its peak pressure, Kalker's
-coefficients C11, C22, C23, μ, linear theory's creep constants, and the creep–force curves of the
+coefficients C11, C22, C23, C33, μ, linear theory's creep constants, and the creep–force curves of the
 saturating law (core.creep: Kalker's linear theory saturated by Polach's method) for longitudinal, lateral
-and spin creepage. The variant's own creep law is not used here: this is the contact physics the layout's
+and spin creepage, with the pure-spin moment curve. The variant's own creep law is not used here: this is the contact physics the layout's
 radii, crowns, materials and preloads give.
 """
 from __future__ import annotations
@@ -24,20 +24,24 @@ def roller_record(layout, roller) -> dict:
     c = curves(p)
     return {"role": roller.role, "N": p["N"], "a_mm": p["a"] * 1e3, "b_mm": p["b"] * 1e3,
             "p0_MPa": p["p0"] * 1e-6, "G_MPa": p["G"] * 1e-6, "nu": p["nu"], "C11": p["C11"], "C22": p["C22"],
-            "C23": p["C23"], "mu": p["mu"], "eps_long_per_N": p["eps_long"], "eps_lat_per_N": p["eps_lat"],
-            "spin_coefficient_Nm": p["spin_coefficient"], "curve_longitudinal": c["longitudinal"],
-            "curve_lateral": c["lateral"], "curve_spin": c["spin"]}
+            "C23": p["C23"], "C33": p["C33"], "mu": p["mu"], "eps_long_per_N": p["eps_long"],
+            "eps_lat_per_N": p["eps_lat"], "spin_coefficient_Nm": p["spin_coefficient"],
+            "spin_moment_coefficient_Nm2": p["spin_moment_coefficient"], "pivot_lever_mm": p["pivot_lever"] * 1e3,
+            "curve_longitudinal": c["longitudinal"], "curve_lateral": c["lateral"], "curve_spin": c["spin"],
+            "curve_spin_moment": c["spin_moment"]}
 
 
 def patch_table(name: str, records: dict) -> Table:
     t = Table(f"{name}: contact patches at the preload (Hertz; Kalker's linear theory)",
-              ["roller", "role", "N", "a", "b", "p0", "C11", "C22", "C23", "μ", "ε_long", "ε_lat", "spin coeff."])
+              ["roller", "role", "N", "a", "b", "p0", "C11", "C22", "C23", "C33", "μ", "ε_long", "ε_lat",
+               "spin coeff.", "pivot μNℓ"])
     for n, r in records.items():
         t.add(n, r["role"], engineering(r["N"], "force"), engineering(r["a_mm"] / 1e3, "length"),
               engineering(r["b_mm"] / 1e3, "length"), engineering(r["p0_MPa"] * 1e6, "pressure"),
-              number(r["C11"], 3), number(r["C22"], 3), number(r["C23"], 3), number(r["mu"], 3),
+              number(r["C11"], 3), number(r["C22"], 3), number(r["C23"], 3), number(r["C33"], 3), number(r["mu"], 3),
               engineering(r["eps_long_per_N"], "compliance", 3), engineering(r["eps_lat_per_N"], "compliance", 3),
-              f"{number(r['spin_coefficient_Nm'], 3)} N·m")
+              f"{number(r['spin_coefficient_Nm'], 3)} N·m",
+              f"{number(r['mu'] * r['N'] * r['pivot_lever_mm'], 3)} N·mm")
     return t
 
 
@@ -47,7 +51,7 @@ def run(args):
     console = Console(width=150)
     show(console, [patch_table(layout.name, records),
                    Note("creep constants: ε_long = 1/(G a b C11), ε_lat = 1/(G a b C22); spin coeff. G (ab)^1.5 C23 "
-                        "(lateral force per unit spin creepage [1/m]); in the curves (--json, --plots) creepage saturates at μN, while "
+                        "(lateral force per unit spin creepage [1/m]); a patch that pivots (spins without rolling) carries the moment μNℓ, ℓ the Hertz pressure's mean lever; in the curves (--json, --plots) creepage saturates at μN, while "
                         "pure spin's lateral force peaks and then falls as the traction comes to circulate")])
     if args.plots:
         folder = make_folder(args.plots, kind="--plots")

@@ -12,9 +12,10 @@ Equations (derived from the vectors; the effects' terms come from effects.py, by
    - kim: s_t + c_t·F_t = 0, s_a + c_a·F_a = 0, with the compliances c the effects contribute (`compliance`,
      scaled by `saturation`) plus a floor EPS_RIGID·V_ref on every direction (rigid in Kim's sense where no
      effect adds compliance; it keeps the statically indeterminate system regular);
-   - kalker: Kalker's linear theory in every direction, creep and spin (C11, C22, C23), on the Hertz patch
+   - kalker: Kalker's linear theory in every direction, creep and spin (C11, C22, C23, C33), on the Hertz patch
      at N_i, saturated by Polach's method and scaled by the calibration (core.creep, `_kalker_rows`);
- * sphere moment balance: Σ R n_i × F_i − Σ M_i a_i = 0 (M_i: `resistance` moments on the rollers);
+ * sphere moment balance: Σ R n_i × F_i + Σ Mz_i n_i − Σ M_i a_i = 0 (M_i: `resistance` moments on the
+   rollers; Mz_i the contact's spin moment, kalker law only: C23 and C33, saturated, core.creep.spin_moment);
  * sphere force balance on preloaded compliant mounts: N_i = P_i + k_i n_i·δ, Σ (F_i − N_i n_i) = 0, solved
    for the sphere's displacement δ in closed form (a 3×3 solve), so the normal-force distribution of an
    over-constrained layout comes from compliance;
@@ -55,7 +56,7 @@ from cvtdesign.core.kinematics import (
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.native import Tiered, compiled
 from cvtdesign.core.newton import newton_solver
-from cvtdesign.core.creep import saturation_amplification, spin_force
+from cvtdesign.core.creep import saturation_amplification, spin_force, spin_moment
 from cvtdesign.core.patch import patch
 
 EPS_RIGID = 1e-9      # [1/N] creep-compliance floor of the directions that are rigid in the model
@@ -64,7 +65,7 @@ RES_TOL = 1e-8        # scaled residual above which a point is reported as not c
 SAT_LIMIT = 0.999     # traction utilisation |F|/(μN) of a saturation law beyond which a point is gross slip
 
 STATUS = ("ok", "not_converged", "lost_contact", "gross_slip")   # the `status` output's codes, in order
-CONTACT_OUTPUTS = ("N", "F_t", "F_a", "utilisation", "p_max", "xi", "eta", "spin", "mu")
+CONTACT_OUTPUTS = ("N", "F_t", "F_a", "utilisation", "p_max", "xi", "eta", "spin", "mu", "M_spin")
 POINT_OUTPUTS = ("omega_2", "tau_1", "tau_2", "phi", "gamma_axis", "alpha", "alpha_steering", "alpha_drive",
                  "power_loss", "residual", "status", "Omega_x", "Omega_y", "Omega_z")
 
@@ -253,7 +254,7 @@ def _contact_constants(layout: Layout) -> list[dict]:
         n_ref = layout.creep_reference_force if kim is not None and layout.creep_reference_force is not None \
             else r.preload
         const.append(dict(a=p["a"], b=p["b"], p0=p["p0"], eps0=eps0, mu=p["mu"], n_ref=n_ref, G=p["G"],
-                          C11=p["C11"], C22=p["C22"], C23=p["C23"]))
+                          C11=p["C11"], C22=p["C22"], C23=p["C23"], C33=p["C33"]))
     return const
 
 
@@ -301,7 +302,7 @@ def _equations(layout: Layout, hooks: _Hooks, const, u: _Unknowns, w1, phi):
     Fvec = [u.Ft[i] * tdirs[i] + u.Fa[i] * poses[i][1] for i in range(len(poses))]
     N = _normal_forces(layout, poses, Fvec)
     slip, moment, idle, tau, sat = [], ca.SX.zeros(3), [], {1: 0, 2: 0}, []
-    per = {k: [] for k in ("xi", "eta", "spin", "utilisation", "mu")}
+    per = {k: [] for k in ("xi", "eta", "spin", "utilisation", "mu", "M_spin")}
     kalker = layout.contact_law == "kalker"
     for i, r in enumerate(layout.rollers):
         (n, a), t, c = poses[i], tdirs[i], const[i]
@@ -317,11 +318,11 @@ def _equations(layout: Layout, hooks: _Hooks, const, u: _Unknowns, w1, phi):
         state = ContactState(r, drive, V, spin, 1e-9 * u.om_ref, 1e-6 * u.om_ref, roll, N[i], N_creep,
                              c["eps0"] * (c["n_ref"] / N_creep) ** n_exp, c["b"],
                              hooks.transform("friction", c["mu"]), u.Ft[i], u.Fa[i])
-        rows, util = (_kalker_rows if kalker else _kim_rows)(layout, hooks, state, c, s_t, s_a, u, i)
+        rows, util, m_spin = (_kalker_rows if kalker else _kim_rows)(layout, hooks, state, c, s_t, s_a, u, i)
         slip += rows
         sat += util
         M = sum(hooks.collect("resistance", state))
-        moment += R * ca.cross(n, Fvec[i]) - M * a
+        moment += R * ca.cross(n, Fvec[i]) - M * a + m_spin * n
         if drive:
             tau[r.shaft] = tau[r.shaft] + r.ratio * (r_eff * u.Ft[i] - M)
         else:
@@ -330,6 +331,7 @@ def _equations(layout: Layout, hooks: _Hooks, const, u: _Unknowns, w1, phi):
         per["eta"].append(s_a / V)
         per["spin"].append(spin / V)
         per["mu"].append(state.mu)
+        per["M_spin"].append(m_spin)
         per["utilisation"].append(ca.sqrt(u.Ft[i] ** 2 + u.Fa[i] ** 2 + 1e-6) / (state.mu * N[i]))  # 1 mN smoothing
     per["N"] = N
     return slip, moment, idle, tau, per, sat
@@ -343,7 +345,8 @@ def _positive(N, preload):
 
 def _kim_rows(layout: Layout, hooks: _Hooks, c: ContactState, const, s_t, s_a, u: _Unknowns, i):
     """Contact law kim: s + c·F = 0 with the effects' creep compliances c (the rigid directions at the
-    EPS_RIGID floor) and their saturation gains. Returns (two scaled rows, saturation utilisations)."""
+    EPS_RIGID floor) and their saturation gains. Returns (two scaled rows, saturation utilisations, spin
+    moment 0: Kim's law has none)."""
     floor = EPS_RIGID * ca.fabs(u.v_ref)
     terms = hooks.collect("compliance", c)
     ct, ca_ = sum(x[0] for x in terms), sum(x[1] for x in terms)
@@ -351,22 +354,25 @@ def _kim_rows(layout: Layout, hooks: _Hooks, c: ContactState, const, s_t, s_a, u
     for gain, util in hooks.collect("saturation", c):
         ct, ca_ = ct * gain, ca_ * gain
         sat.append(util)
-    return [(s_t + (ct + floor) * u.Ft[i]) / u.v_ref, (s_a + (ca_ + floor) * u.Fa[i]) / u.v_ref], sat
+    return [(s_t + (ct + floor) * u.Ft[i]) / u.v_ref, (s_a + (ca_ + floor) * u.Fa[i]) / u.v_ref], sat, 0.0
 
 
 def _kalker_rows(layout: Layout, hooks: _Hooks, c: ContactState, const, s_t, s_a, u: _Unknowns, i):
     """Contact law kalker (core.creep): Kalker's linear theory with the Hertz patch at the force-balanced N
     (a, b ∝ N^(1/3)), Kalker's coefficients divided by the calibration factor (contact.calibration × the
-    calibration hooks), saturated by Polach's method. Returns (two scaled rows, the creep utilisation).
+    calibration hooks), saturated by Polach's method. Returns (two scaled rows, the creep utilisation, the
+    spin moment on the sphere about n [N m]).
 
     Patch frame: Kalker's theory has the material pass through the patch along −e_x, so e_x = σ t, e_y = −σ a,
     e_n = n with σ the sign of Ω·a. The law is odd in creepage and spin, so F·t and −F·a are its (Fx, Fy) at
-    creepages (s_t/V, −s_a/V) and spin σ Ω·n/V: only the spin term sees the rolling direction. In the spin
-    term σ and V are smoothed on 1e-3 of the reference speed (V_f = √(V² + (1e-3 v_ref)²)), so a contact that
-    does not roll makes no spin force (and creepages stay finite). The rows are the
-    creepage form of the law, s + V·e·A(u)·F_creep = 0 with e linear theory's compliance, A Polach's
-    amplification at the creep force's utilisation u and F_creep the force less the spin term (the form of
-    the kim law, and like it floored at EPS_RIGID: a contact at rest sticks)."""
+    creepages (s_t/V, −s_a/V) and spin σ Ω·n/V: only the spin term sees the rolling direction. The spin
+    moment about e_n = n is taken at the patch's own creepages (η = −σ s_a/V, φ = Ω·n/V), so its C33 part
+    opposes the sphere's spin in either rolling direction. V is smoothed on 1e-3 of the reference speed
+    (V_f = √(V² + (1e-3 v_ref)²)), and so is σ: a contact that does not roll makes no spin force, and its
+    spin moment is the saturated pivoting moment. The rows are the creepage form of the law,
+    s + V·e·A(u)·F_creep = 0 with e linear theory's compliance, A Polach's amplification at the creep force's
+    utilisation u and F_creep the force less the spin term (the form of the kim law, and like it floored at
+    EPS_RIGID: a contact at rest sticks)."""
     k = layout.calibration["drive" if c.drive else "steering"]
     for factor in hooks.collect("calibration", c):
         k = k * factor
@@ -380,7 +386,10 @@ def _kalker_rows(layout: Layout, hooks: _Hooks, c: ContactState, const, s_t, s_a
     amp = saturation_amplification(util)
     floor = EPS_RIGID * ca.fabs(u.v_ref)
     e11, e22 = k / (G * a * b * const["C11"]), k / (G * a * b * const["C22"])
-    return [(s_t + (c.V * e11 * amp + floor) * fx) / u.v_ref, (s_a - (c.V * e22 * amp + floor) * fy) / u.v_ref], [util]
+    m_spin = spin_moment(-sigma * s_a / v_f, c.spin / v_f, c.N_creep, c.mu, a, b, G, const["C23"] / k,
+                         const["C33"] / k, util)
+    rows = [(s_t + (c.V * e11 * amp + floor) * fx) / u.v_ref, (s_a - (c.V * e22 * amp + floor) * fy) / u.v_ref]
+    return rows, [util], m_spin
 
 
 def _status(resid, per, sat):
@@ -457,6 +466,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
         "N": ca.vertcat(*per["N"]), "F_t": u.Ft, "F_a": u.Fa, "utilisation": ca.vertcat(*per["utilisation"]),
         "p_max": peak_pressure(ca.vertcat(*per["N"]), p0_all, design), "xi": ca.vertcat(*per["xi"]),
         "eta": ca.vertcat(*per["eta"]), "spin": ca.vertcat(*per["spin"]), "mu": ca.vertcat(*per["mu"]),
+        "M_spin": ca.vertcat(*per["M_spin"]),
     }
     steer_res, misfit = _steering_residual(layout, frame, design)
     build = _point_builder(outs, u.x, params, G, x0_fn, steer_res, misfit, theta, design)

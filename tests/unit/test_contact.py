@@ -132,11 +132,16 @@ def test_float_inputs_give_float_convertible_results():
 def test_kalker_table_layout():
     """The table's shape and node order (its values are checked against the printed table, typed
     independently, in tests/validation/test_contact_anchors.py)."""
-    assert c.KALKER_TABLE.shape == (19, 9)
+    assert c.KALKER_TABLE.shape == (19, 9) and c.KALKER_C33.shape == (19, 3)
     assert c.KALKER_A_OVER_B[0] == pytest.approx(0.1) and c.KALKER_A_OVER_B[-1] == pytest.approx(10.0)
     assert np.all(np.diff(c.KALKER_A_OVER_B) > 0)
     # Kalker: for nu = 0 longitudinal and lateral coefficients coincide
     np.testing.assert_array_equal(c.KALKER_TABLE[:, 0], c.KALKER_TABLE[:, 3])
+
+
+def columns(i, j):
+    """Column of coefficient i (C11, C22, C23, C33) at the j-th Poisson ratio of the tables."""
+    return c.KALKER_TABLE[:, 3 * i + j] if i < 3 else c.KALKER_C33[:, j]
 
 
 def test_kalker_between_nodes_lies_between_neighbours():
@@ -145,8 +150,8 @@ def test_kalker_between_nodes_lies_between_neighbours():
         mid = math.sqrt(nodes[i] * nodes[i + 1])  # midpoint in log(a/b)
         for j, nu in enumerate(c.KALKER_NU):
             got = floats(c.kalker_coefficients(mid, nu))
-            for k in range(3):
-                lo, hi = c.KALKER_TABLE[i, 3 * k + j], c.KALKER_TABLE[i + 1, 3 * k + j]
+            for k in range(4):
+                lo, hi = columns(k, j)[i], columns(k, j)[i + 1]
                 assert got[k] == pytest.approx(0.5 * (lo + hi), rel=1e-12)
 
 
@@ -157,20 +162,49 @@ def test_kalker_monotonic_where_table_is():
         assert np.all(np.diff(values[:, 1]) > 0)  # C22 grows with a/b
         assert np.all(np.diff(values[:, 2]) > 0)  # C23 grows with a/b
         assert np.all(np.diff(values[aob >= 0.3, 0]) > 0)  # C11 grows for a/b >= 0.3 (table dips below)
+        # C33 falls with a/b where it is well determined (contact.KALKER_C33: a/b up to about 2.5); beyond, its
+        # nu columns spread so far (0.81 to 0.23 at a/b = 10) that 1/C quadratic in nu need not fall there
+        assert np.all(np.diff(values[aob <= 3.0, 3]) < 0)
+    nus = np.linspace(0, 0.5, 21)
     for x in (0.15, 1.0, 3.0):
-        nus = np.linspace(0, 0.5, 21)
         values = np.array([floats(c.kalker_coefficients(x, nu)) for nu in nus])
-        assert np.all(np.diff(values, axis=0) > 0)  # all grow with nu at these ratios
+        assert np.all(np.diff(values[:, :3], axis=0) > 0)  # C11, C22, C23 grow with nu at these ratios
+    for x, sign in ((0.15, 1), (3.0, -1)):   # C33 grows with nu for a < b and falls for a > b
+        values = np.array([floats(c.kalker_coefficients(x, nu)) for nu in nus])
+        assert np.all(sign * np.diff(values[:, 3]) > 0)
 
 
-def test_kalker_linear_in_nu_and_clamped():
-    c0, c1 = floats(c.kalker_coefficients(0.5, 0.0)), floats(c.kalker_coefficients(0.5, 0.25))
-    assert floats(c.kalker_coefficients(0.5, 0.125)) == pytest.approx(
-        [(x + y) / 2 for x, y in zip(c0, c1)], rel=1e-14)
+def test_kalker_nu_rule_and_clamping():
+    """Between the columns, 1/C is quadratic in nu (CONTACT's linrol), exact for C proportional to 1/(1 - nu):
+    a row built as k/(1 - nu) comes back as k/(1 - nu) at any nu."""
+    nu = 0.37
+    for x in (0.3, 1.0, 4.0):
+        got = floats(c.kalker_coefficients(x, nu))
+        for k in range(4):
+            row = [float(np.interp(np.log(x), np.log(c.KALKER_A_OVER_B), columns(k, j))) for j in range(3)]
+            inverse = (8 * (nu - .25) * (nu - .5) / row[0] - 16 * nu * (nu - .5) / row[1]
+                       + 8 * nu * (nu - .25) / row[2])
+            assert got[k] == pytest.approx(1 / inverse, rel=1e-12)
+    # the rule is exact for 1/(1 - nu): three nodes of a quadratic in nu give it back
+    assert 8 * (nu - .25) * (nu - .5) * 1 - 16 * nu * (nu - .5) * .75 + 8 * nu * (nu - .25) * .5 == \
+        pytest.approx(1 - nu, rel=1e-14)
     assert floats(c.kalker_coefficients(0.05, 0.3)) == pytest.approx(floats(c.kalker_coefficients(0.1, 0.3)))
     assert floats(c.kalker_coefficients(30.0, 0.3)) == pytest.approx(floats(c.kalker_coefficients(10.0, 0.3)))
     assert floats(c.kalker_coefficients(2.0, 0.7)) == pytest.approx(floats(c.kalker_coefficients(2.0, 0.5)))
     assert floats(c.kalker_coefficients(2.0, -0.1)) == pytest.approx(floats(c.kalker_coefficients(2.0, 0.0)))
+
+
+def test_pivot_lever():
+    """Mean lever of the Hertz pressure: 3 pi a/16 for a circle, symmetric in a and b, and equal to a
+    direct quadrature of (3/(2 pi a b)) int sqrt(1 - x^2/a^2 - y^2/b^2) sqrt(x^2 + y^2) dA."""
+    assert float(c.pivot_lever(2.0, 2.0)) == pytest.approx(3 * math.pi * 2.0 / 16, rel=1e-14)
+    assert float(c.pivot_lever(1.0, 3.0)) == pytest.approx(float(c.pivot_lever(3.0, 1.0)), rel=1e-13)
+    a, b, n = 3.0, 1.0, 2000
+    rho, t = (np.arange(n) + 0.5) / n, (np.arange(n) + 0.5) * 2 * math.pi / n
+    R, T = np.meshgrid(rho, t)
+    integrand = np.sqrt(1 - R**2) * np.hypot(a * R * np.cos(T), b * R * np.sin(T)) * a * b * R
+    quad = 3 / (2 * math.pi * a * b) * integrand.sum() / n * 2 * math.pi / n
+    assert float(c.pivot_lever(a, b)) == pytest.approx(quad, rel=1e-5)
 
 
 def test_creep_compliances_and_spin():

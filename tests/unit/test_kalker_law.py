@@ -52,9 +52,10 @@ def test_calibration_and_the_creep_effects_scale_are_one_factor(tmp_path):
 
 
 def test_spin_gives_an_axis_offset_at_zero_load(tmp_path):
-    """Kim's law has no slip without load (α = 0 to the solver's accuracy); under Kalker's theory the steering
-    rollers' spin (C23) makes a lateral creep at zero load, so the axis sits off the commanded one: the whole
-    of α is then the steering part. Measured on the existing CVT, calibrated: up to 0.056°."""
+    """Kim's law has no slip without load (α = 0 to the solver's accuracy). Under Kalker's theory spin makes slip
+    at zero load: the steering rollers' spin force (C23) is a lateral creep that moves the axis (the steering
+    part of α), and the contacts' spin moments (C33), balanced on the sphere by drive forces, add a drive part.
+    Measured on the existing CVT, calibrated: |α| up to 0.139°, steering part 0.201°, drive part 0.062°."""
     L = load_variant(shipped_variant("existing"))
     d, s = L.rollers[0], next(r for r in L.rollers if r.role == "steering")
     cal = {"drive": 0.0038 / float(patch(L, d, 100.0)["eps_long"]),
@@ -64,8 +65,9 @@ def test_spin_gives_an_axis_offset_at_zero_load(tmp_path):
     assert kim["ok"].all() and kal["ok"].all()
     assert np.max(np.abs(kim["alpha"])) < 1e-9
     offset = np.degrees(np.abs(kal["alpha"]))
-    assert 0.03 < offset.max() < 0.1
-    np.testing.assert_allclose(kal["alpha"], kal["alpha_steering"], atol=1e-12)
+    assert 0.1 < offset.max() < 0.2
+    drive = np.degrees(np.abs(kal["alpha"] - kal["alpha_steering"]))
+    assert 0.03 < drive.max() < 0.1
 
 
 def test_calibrated_box_follows_kims_fit_in_the_linear_range(tmp_path):
@@ -130,3 +132,37 @@ def test_bad_calibration_report_is_one_line(tmp_path, capsys, content, message):
     assert main(["optimise", str(study), "--calibration", str(tmp_path / "fit.json"), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err and "Traceback" not in err, err
+
+
+@pytest.mark.parametrize("name", ["box_kalker", "existing_kalker"])
+def test_energy_balance_with_the_spin_moment(name):
+    """The power the shafts put in, τ1ω1 + τ2ω2, is what the contacts dissipate: −Σ F·s (creep) − Σ Mz Ω·n
+    (the spin moment on the sphere against its spin over the roller), to 1e-9 of the largest term, at every
+    ok point. At zero load there is still a loss: the spin moments, and the creep of the forces that balance
+    them on the sphere; the spin moments' own share is most of it (measured ≥ 0.987 on both variants)."""
+    from cvtdesign.core.geometry import pose
+    L = load_variant(shipped_variant(name))
+    m = compile_model(L)
+    g, t = np.meshgrid(np.radians(np.arange(-80, 81, 20.0)), [-0.6, 0.0, 0.6], indexing="ij")
+    r = m.evaluate(g, t)
+    ok = r["ok"]
+    assert ok.sum() >= 0.9 * ok.size
+    Om = np.stack([r["Omega_x"], r["Omega_y"], r["Omega_z"]])
+    creep, spin = np.zeros(g.shape), np.zeros(g.shape)
+    for k, roller in enumerate(L.rollers):
+        for idx in zip(*np.nonzero(ok)):
+            n, a = pose(roller, r["phi"][idx])
+            om = Om[(slice(None),) + idx]
+            V = np.hypot(L.sphere_radius * om @ a, 1e-9 * L.motor_speed * L.rollers[0].radius)
+            creep[idx] -= V * (r["F_t"][(k,) + idx] * r["xi"][(k,) + idx] + r["F_a"][(k,) + idx] * r["eta"][(k,) + idx])
+            spin[idx] -= r["M_spin"][(k,) + idx] * (om @ n)
+    power = r["tau_1"] * r["omega_1"] + r["tau_2"] * r["omega_2"]
+    scale = np.nanmax(np.abs(power))
+    np.testing.assert_allclose(power[ok], (creep + spin)[ok], rtol=0, atol=1e-9 * scale)
+    assert np.all(spin[ok] >= -1e-12) and np.all(creep[ok] >= -1e-9 * scale)
+    zero = ok & (t == 0)
+    print(f"\n{name}: loss up to {scale:.3f} W; at zero load {np.nanmax(power[zero]):.3f} W, "
+          f"of which spin moment {np.nanmax(spin[zero]):.3f} W")
+    share = np.min(spin[zero] / power[zero])
+    print(f"  spin moments' share of the zero-load loss ≥ {share:.3f}")
+    assert share > 0.95

@@ -76,7 +76,7 @@ def test_kalker_anchor_nodes(a_over_b, inu, nu):
     """At every node of the table the interpolation returns the printed coefficients (to their 3 digits,
     exactly: the nodes are the package's own table values, which must equal the printed ones)."""
     expected = [column[inu] for column in KALKER_ROWS[a_over_b]]
-    assert floats(c.kalker_coefficients(a_over_b, nu)) == pytest.approx(expected, rel=1e-12)
+    assert floats(c.kalker_coefficients(a_over_b, nu))[:3] == pytest.approx(expected, rel=1e-12)
 
 
 @pytest.mark.parametrize("sym", [ca.SX, ca.MX])

@@ -188,12 +188,13 @@ def test_rolling_resistance_moment_and_dissipation(load, follow_n):
 # --- Hertz + Kalker creep constants (a variant without Kim's fitted ones) --------------------------------
 
 def kalker_c22(a_over_b, nu):
-    """Kalker's C22 from the typed table rows, piecewise linear in log(a/b) and linear in ν between the
-    ν = 0, 0.25, 0.5 columns (the interpolation the package documents, written here again)."""
+    """Kalker's C22 from the typed table rows, piecewise linear in log(a/b), then 1/C quadratic in ν through
+    the ν = 0, 0.25, 0.5 columns (the interpolation the package documents, CONTACT's, written here again)."""
     keys = sorted(KALKER_ROWS)
     x = np.log(keys)
     col = [np.interp(np.log(a_over_b), x, [KALKER_ROWS[k][1][j] for k in keys]) for j in range(3)]
-    return float(np.interp(nu, [0.0, 0.25, 0.5], col))
+    weights = np.polynomial.polynomial.polyfit([0.0, 0.25, 0.5], 1.0 / np.array(col), 2)
+    return float(1.0 / np.polynomial.polynomial.polyval(nu, weights))
 
 
 def test_hertz_kalker_creep_when_the_variant_gives_no_constants(make_variant):

@@ -27,7 +27,7 @@ RATIOS = (1.0, 0.5, 2.0)
 def patch(a_over_b, nu=NU):
     """Semi-axes with a b = 1 mm^2 and Kalker's coefficients (table E.3) for a/b and nu."""
     a, b = 1e-3 * np.sqrt(a_over_b), 1e-3 / np.sqrt(a_over_b)
-    C11, C22, C23 = (float(c) for c in kalker_coefficients(a_over_b, nu))
+    C11, C22, C23, _ = (float(c) for c in kalker_coefficients(a_over_b, nu))
     return dict(a=a, b=b, N=N, mu=MU, G=G, C11=C11, C22=C22, C23=C23)
 
 
