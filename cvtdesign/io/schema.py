@@ -167,8 +167,8 @@ class ContactSpec(Strict):
     """The contact law. `kim` (the default): Kim et al.'s fitted creep constants ε_D and ε_S ('Causes of
     microslip in a continuously variable transmission'), omitted ones from Hertz + Kalker at the preload, with
     the effects of the vocabulary on top. `kalker`: at every contact the Hertz patch at its force-balanced
-    normal force and Kalker's linear theory in every direction (C11, C22, C23: creep and spin), saturated
-    towards μN by Polach's method (core.creep), scaled by `calibration`."""
+    normal force and Kalker's linear theory in every direction (C11, C22, C23: creep and spin) with the spin
+    moment (C33), saturated towards μN by Polach's method (core.creep), scaled by `calibration`."""
     law: Literal["kim", "kalker"] = spec_field("the contact law: kim (fitted creep constants) or kalker (Hertz + "
                                                "Kalker + Polach at every contact)", "kim")
     calibration: CalibrationSpec = spec_field("factors on the Kalker compliances (law kalker only): drive, steering",
