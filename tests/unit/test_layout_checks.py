@@ -77,8 +77,8 @@ def test_shipped_variants_load(name, rollers):
     normals, axles in the tangent planes, a drive roller on each shaft."""
     layout = shipped_layout(name)
     assert len(layout.rollers) == rollers
-    n = np.array([np.ravel(r.normal) for r in layout.rollers], float)
-    a = np.array([np.ravel(r.axle) for r in layout.rollers], float)
+    n = np.array([np.ravel(np.asarray(r.normal, float)) for r in layout.rollers])
+    a = np.array([np.ravel(np.asarray(r.axle, float)) for r in layout.rollers])
     P = np.array([float(r.preload) for r in layout.rollers])
     assert np.linalg.norm(P @ n) < 1e-9 * P.sum()
     np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, rtol=1e-14)
