@@ -6,7 +6,9 @@
    solve of the box's 24 unknowns takes about that much linear algebra). Goal: the compiled model within
    1.5 × the baseline. Also the one-off compile and the load of the cached library on a later run.
 2. `cvtdesign compare variants/box.yaml` from a cold start (a new process), against `python -c "import
-   casadi"` as the baseline of what merely starting Python with CasADi costs on this machine now.
+   casadi"` as the baseline of what merely starting Python with CasADi costs on this machine now; then one
+   unprofiled run's timeline of both processes, and the floor the figure sets: the baseline's start-up plus
+   what the plotting process alone needs (importing matplotlib, drawing the figure).
 
 Run: python benchmarks/bench_model.py   (the machine is shared and noisy: best of several repeats)
 """
@@ -73,48 +75,118 @@ def grid_benchmark(repeats: int = 5, goal: float = 1.5):
           f"later runs, from the cache (generate C, hash, load) {t_load * 1e3:5.0f} ms")
 
 
-COLD_PROFILE = """
-import cProfile, json, pstats, sys, time
-t0 = time.perf_counter()
-profile = cProfile.Profile()
-profile.enable()
-import cvtdesign.cli.compare
-t_import = time.perf_counter() - t0
+COLD_TIMELINE = """
+import importlib, json, os, resource, sys, time
+t0, started = time.perf_counter(), time.time()
+marks = {}
+mark = lambda what: marks.setdefault(what, time.perf_counter() - t0)
+out = sys.argv[1]
+import_module = importlib.import_module
+
+def timed(fn, before=None, after=None, write=False):
+    def call(*args, **kw):
+        if before:
+            mark(before)
+        value = fn(*args, **kw)
+        mark(after)
+        if write:                     # in the plotting process: its marks, and its own CPU time since the fork
+            marks["CPU"] = time.process_time()
+            with open(os.path.join(out, "painter.json"), "w") as f:
+                json.dump(marks, f)
+        return value
+    return call
+
+def hooked(name, *args, **kw):        # wraps the functions of interest as cli.parser imports their modules
+    module = import_module(name, *args, **kw)
+    if name == "cvtdesign.io.plots":
+        mark("io.plots imported (numpy, CasADi); the plotting process is forked")
+        module._mpl = timed(module._mpl, after="matplotlib imported")
+        module.compare_figure = timed(module.compare_figure, "data received", "figure drawn and written", True)
+    if name == "cvtdesign.cli.compare":
+        mark("the compare command's modules imported (pint, pydantic, rich, the model)")
+        module.envelope = timed(module.envelope, after="first variant evaluated")
+        module.plots.Background.draw = timed(module.plots.Background.draw, after="second variant evaluated: data sent")
+        module.show = timed(module.show, after="ideal CVT evaluated, table printed")
+        module.plots.Background.wait = timed(module.plots.Background.wait, after="figure written (the wait ends)")
+    return module
+
+importlib.import_module = hooked
 from cvtdesign.cli import main
-from cvtdesign.io import plots
-sent = []
-draw = plots.Background.draw
-plots.Background.draw = lambda self, *job: (sent.append(job), draw(self, *job))[1]
-main(["compare", "variants/box.yaml", "--out", sys.argv[1]])
-profile.disable()
-total = time.perf_counter() - t0
-t = time.perf_counter()
-plots._mpl()                      # what the plotting process does, again here, unprofiled
-t_mpl = time.perf_counter() - t
-t = time.perf_counter()
-getattr(plots, sent[0][0])(*sent[0][1:])
-t_draw = time.perf_counter() - t
-
-def entry(targets, callers=None):
-    # cumulative time of the calls into the modules `targets` from `callers` (None: from any other module)
-    inside = lambda f: any(t in f[0] for t in targets)
-    return sum(ct for f, (_, _, _, _, by) in pstats.Stats(profile).stats.items() if inside(f)
-               for c, (_, _, _, ct) in by.items() if (not inside(c) if callers is None else any(k in c[0] for k in callers)))
-
-print(json.dumps({"total": total, "import of cvtdesign (the compare command's modules)": t_import,
-                  "reading and validating the YAML (io.yaml_file, io.schema)": entry(["io/yaml_file.py"], ["io/variant.py"]),
-                  "unit parsing (io.units)": entry(["io/units.py"]),
-                  "geometric checks (core.checks)": entry(["core/checks.py"], ["io/variant.py"]),
-                  "evaluation (compile, envelope, metrics)": entry(["core/model.py", "core/metrics.py"], ["cli/compare.py"]),
-                  "plotting (waiting for the plotting process)": entry(["io/plots.py"], ["cli/compare.py"]),
-                  "painter": {"importing matplotlib": t_mpl, "drawing and writing the figure": t_draw}}))
+mark("cvtdesign.cli imported (the arguments' parser)")
+sys.argv = ["cvtdesign", "compare", "variants/box.yaml", "--out", out]     # as the `cvtdesign` script runs it
+main()
+mark("command returns")
+cpu = resource.getrusage(resource.RUSAGE_SELF)
+print(json.dumps({"main": marks, "main CPU": cpu.ru_utime + cpu.ru_stime, "started": started,
+                  "returned": time.time()}))
 """
+
+FLOOR = """
+import gc, pickle, sys, time
+from cvtdesign.io import plots        # what the plotting process has when it is forked
+gc.disable()                          # as in the plotting process
+t = time.perf_counter()
+plots._mpl()
+t_mpl = time.perf_counter() - t
+with open(sys.argv[1], "rb") as f:
+    data = pickle.load(f)
+t = time.perf_counter()
+plots.compare_figure(data, sys.argv[2])
+print(t_mpl, time.perf_counter() - t)
+"""
+
+FIGURE_DATA = """
+import pickle, sys
+from cvtdesign.cli.compare import run
+sent = []
+class Painter:                       # takes the figure's data instead of drawing it
+    draw = lambda self, name, data, path: sent.append(data)
+    wait = lambda self: None
+run(type("Args", (), {"variants": ["variants/box.yaml"], "out": sys.argv[2], "json": None, "report": None,
+                      "painter": Painter()})())
+with open(sys.argv[1], "wb") as f:
+    pickle.dump(sent[0], f)
+"""
+
+
+def cold_timeline(out: str) -> None:
+    """One unprofiled run of the command in a new process: when each step ends, in both processes [s from
+    the interpreter's start of the command's code], and each process's CPU time."""
+    spawned = time.time()
+    run = subprocess.run([sys.executable, "-c", COLD_TIMELINE, out], cwd=ROOT, check=True, capture_output=True,
+                         text=True)
+    ended = time.time()
+    main = json.loads(run.stdout.strip().splitlines()[-1])
+    painter = json.loads((Path(out) / "painter.json").read_text())
+    events = sorted([(t, "main   ", what) for what, t in main["main"].items()] +
+                    [(t, "plotter", what) for what, t in painter.items() if what not in main["main"] and what != "CPU"])
+    print("  one run, unprofiled (wall time since the script started; plotter = the plotting process):")
+    print(f"    {spawned - main['started']:6.3f} s  main     the interpreter starts")
+    for t, who, what in events:
+        print(f"    {t:6.3f} s  {who}  {what}")
+    print(f"    {ended - main['started']:6.3f} s  main     the process has ended")
+    print(f"    CPU time: main process {main['main CPU']:.2f} s, plotting process {painter['CPU']:.2f} s")
+
+
+def drawing_floor(out: str, w_base: float, rounds: int = 3) -> None:
+    """What the plotting process alone needs, each part the best of `rounds` new processes: importing
+    matplotlib and drawing the figure of box + existing. With the baseline's start-up before it, this is the
+    command's floor however fast the rest became."""
+    data = Path(out) / "figure_data.pkl"
+    subprocess.run([sys.executable, "-c", FIGURE_DATA, str(data), out], cwd=ROOT, check=True, capture_output=True)
+    runs = [subprocess.run([sys.executable, "-c", FLOOR, str(data), str(Path(out) / "floor.png")], cwd=ROOT,
+                           check=True, capture_output=True, text=True).stdout.split() for _ in range(rounds)]
+    t_mpl, t_draw = (min(float(r[k]) for r in runs) for k in (0, 1))
+    floor = w_base + t_mpl + t_draw
+    print(f"  the plotting process alone (best of {rounds}): importing matplotlib {t_mpl:.2f} s, drawing and writing "
+          f"the figure {t_draw:.2f} s (= {t_draw / w_base:.1f} × the baseline);")
+    print(f"  with the baseline's start-up before them: a floor of {floor:.2f} s = {floor / w_base:.1f} × the "
+          "baseline while matplotlib draws this figure")
 
 
 def cold_start_benchmark(rounds: int = 5, goal: float = 4.0):
     """Cold `cvtdesign compare variants/box.yaml` (a new process) against `python -c "import casadi"`, run in
-    turn `rounds` times, best of each; then where the time goes, from one profile of the command in a new
-    process (profiling slows every call, so read its shares rather than its seconds)."""
+    turn `rounds` times, best of each; then one run's timeline and the floor the figure sets."""
     out = tempfile.mkdtemp(prefix="cvtdesign_bench_")
     cmd = [str(Path(sys.executable).parent / "cvtdesign"), "compare", "variants/box.yaml", "--out", out]
     base = [sys.executable, "-c", "import casadi"]
@@ -135,17 +207,8 @@ def cold_start_benchmark(rounds: int = 5, goal: float = 4.0):
     print(f"  cvtdesign compare variants/box.yaml   {w_cmp:6.2f} s   CPU {c_cmp:5.2f} s (both processes)")
     print(f"  ratio {ratio:.1f} × the baseline   goal ≤ {goal:g} ×: {'met' if ratio <= goal else 'not met'}   "
           f"(CPU time: {c_cmp / c_base:.1f} ×; on a busy machine the wall-time ratio tends to it)")
-    run = subprocess.run([sys.executable, "-c", COLD_PROFILE, out], cwd=ROOT, check=True, capture_output=True, text=True)
-    phases = json.loads(run.stdout.strip().splitlines()[-1])
-    total, painter = phases.pop("total"), phases.pop("painter")
-    print(f"  where the time goes (one profile of the command in a new process, {total:.2f} s profiled):")
-    for what, t in [*phases.items(), ("the rest (interpreter start, argument parsing, the table, JSON)",
-                                      total - sum(phases.values()))]:
-        print(f"    {what:66s} {t:6.2f} s  {100 * t / total:3.0f} %")
-    print("  the plotting process's work, done again in that process after the command, unprofiled (it starts "
-          "with the command and imports matplotlib while the variants are evaluated):")
-    for what, t in painter.items():
-        print(f"    {what:66s} {t:6.2f} s")
+    cold_timeline(out)
+    drawing_floor(out, w_base)
 
 
 if __name__ == "__main__":

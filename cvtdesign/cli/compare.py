@@ -28,14 +28,9 @@ COLUMNS = [
 
 
 def run(args):
-    painter = plots.Background()   # imports matplotlib in a second process while we compute
-    try:
-        return _compare(args, painter)
-    finally:
-        painter.close()
-
-
-def _compare(args, painter):
+    """Print the comparison table and have args.painter (the plotting process that cli.parser starts before it
+    imports this module) draw the figure, which is completely written when this returns."""
+    painter = args.painter
     files = [Path(f) for f in args.variants]
     layouts = [load_variant(f) for f in files]
     if len(files) == 1:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import sys
 from importlib.metadata import version
@@ -31,6 +32,13 @@ COMMANDS = {     # name -> one-line help; cvtdesign.cli.<name> runs it
     "resteer": "steering commands for requested speed ratios under a known load (Brokowski sec. 5)",
     "selfcheck": "prove the diagnosis on rig data with withheld effects; exit 1 if a target is missed",
 }
+
+# Short commands that draw one figure. A plotting process (args.painter, an io.plots.Background) draws it, started
+# before the command's module is imported, so that it imports matplotlib while the command imports its libraries
+# and computes. They run without Python's cyclic garbage collector, whose passes would walk every object the
+# imports made (30 ms each) for the little garbage such a run leaves; and when the command is the process's
+# (main's argv None), its objects are frozen at the end, so that the interpreter's exit does not walk them either.
+SHORT_WITH_FIGURE = ("compare",)
 
 
 def build_parser():
@@ -175,8 +183,14 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help()
         return 0
+    short, collecting, painter = args.command in SHORT_WITH_FIGURE, gc.isenabled(), None
     try:
         check_outputs(args)
+        if short:
+            gc.disable()
+            # imported here, as the command modules are: io.plots loads numpy and CasADi (not matplotlib), which
+            # `cvtdesign --help` and `new` need not wait for
+            args.painter = painter = importlib.import_module("cvtdesign.io.plots").Background()
         # the one place a command's module (and its libraries: Dask, CadQuery, SciPy) is imported
         return importlib.import_module(f"cvtdesign.cli.{args.command}").run(args)
     except InputError as e:
@@ -185,4 +199,11 @@ def main(argv=None) -> int:
     except KeyboardInterrupt as e:   # study.Interrupted says how much is kept
         print(f"cvtdesign: {str(e) or 'interrupted'}", file=sys.stderr)
         return 130
+    finally:
+        if painter is not None:
+            painter.close()
+        if short and argv is None:
+            gc.freeze()
+        elif short and collecting:
+            gc.enable()
 

@@ -15,14 +15,33 @@ from __future__ import annotations
 
 import ast
 import functools
+import importlib
 import math
 import operator
 import re
+import sys
 
 import casadi as ca
-import pint
 
 from cvtdesign.errors import InputError, shorten
+
+
+def _import_pint():
+    """pint, loaded without Dask. pint 0.25 imports dask.base when Dask is installed, only to recognise Dask
+    arrays, and no quantity here is one (hgrecco/pint#2265; lazy in later pint). So Dask is hidden while pint
+    loads (a None entry in sys.modules makes its import fail), which keeps it out of the commands that do not
+    use it: 0.1 s of each start. In a process that has imported Dask already, pint loads as usual."""
+    hide = "dask" not in sys.modules
+    if hide:
+        sys.modules["dask"] = None
+    try:
+        return importlib.import_module("pint")
+    finally:
+        if hide:
+            del sys.modules["dask"]
+
+
+pint = _import_pint()
 
 MAX_QUANTITY_TEXT = 100    # characters of a quantity or expression string
 
@@ -198,8 +217,9 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
     CasADi expression (an optimiser's symbolic parameter)."""
     unit, example = KINDS[kind]
     kind = "plain number" if kind == "dimensionless" else kind
+    a_kind = f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}"
     if isinstance(raw, bool) or raw is None:
-        raise InputError(f"{where}: expected a {kind} like {example}, got {str(raw).lower() if isinstance(raw, bool) else 'nothing'}"
+        raise InputError(f"{where}: expected {a_kind} like {example}, got {str(raw).lower() if isinstance(raw, bool) else 'nothing'}"
                          + (" (true/false are not numbers)" if isinstance(raw, bool) else ""))
     if isinstance(raw, (int, float)):
         try:
@@ -216,7 +236,7 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
         return evaluate_expression(text[1:].strip(), names or {}, where)
     q = parse_quantity(text) if len(text) <= MAX_QUANTITY_TEXT else None
     if q is None:
-        raise InputError(f"{where}: expected a {kind} like {example}, got '{shorten(raw)}'")
+        raise InputError(f"{where}: expected {a_kind} like {example}, got '{shorten(raw)}'")
     value, u = q
     if not math.isfinite(value):
         raise InputError(f"{where}: expected a finite {kind} like {example}, got '{shorten(raw)}'")
@@ -226,7 +246,7 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
         si = float(registry().Quantity(value, u).to(unit or "dimensionless").magnitude)
     except (pint.errors.DimensionalityError, pint.errors.UndefinedUnitError, ValueError, TypeError,
             AttributeError, AssertionError, OverflowError):
-        raise InputError(f"{where}: expected a {kind} like {example}, got '{shorten(raw)}'") from None
+        raise InputError(f"{where}: expected {a_kind} like {example}, got '{shorten(raw)}'") from None
     if not math.isfinite(si):
         raise InputError(f"{where}: expected a finite {kind} like {example}, got '{shorten(raw)}' (beyond ±1.8e308 in SI)")
     return si

@@ -1,15 +1,15 @@
-"""What a cold `cvtdesign compare` loads: not pyplot (the figure is drawn on an Agg canvas), not Dask's
-scheduler (distributed), not CadQuery or OpenCascade. (pint, the units library, imports dask.base and scipy
-itself; that stays.) One fresh process runs the command with
-`python -X importtime`, whose report on stderr names every module imported by the process and by the
-plotting process it forks. How long it takes is measured in benchmarks/bench_model.py, not here."""
+"""What a cold `cvtdesign compare` loads: not pyplot (the figure is drawn on an Agg canvas), not Dask (pint,
+the units library, would import dask.base if io.units did not hide it), not CadQuery or OpenCascade. One
+fresh process runs the command with `python -X importtime`, whose report on stderr names every module
+imported by the process and by the plotting process it forks. How long it takes is measured in
+benchmarks/bench_model.py, not here."""
 import re
 import subprocess
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-NOT_LOADED = ("distributed", "cadquery", "OCP")     # packages, and pyplot
+NOT_LOADED = ("dask", "distributed", "cadquery", "OCP")     # packages, and pyplot
 SCRIPT = """
 import sys
 from cvtdesign.cli import main
@@ -18,7 +18,7 @@ print("status", status, "parent modules:", " ".join(sorted(sys.modules)))
 """
 
 
-def test_compare_imports_no_pyplot_distributed_or_cadquery(tmp_path):
+def test_compare_imports_no_pyplot_dask_or_cadquery(tmp_path):
     run = subprocess.run([sys.executable, "-X", "importtime", "-c", SCRIPT, str(tmp_path)], cwd=ROOT,
                          capture_output=True, text=True, timeout=300)
     assert run.returncode == 0 and "status 0" in run.stdout, run.stderr[-2000:]

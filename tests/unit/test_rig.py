@@ -96,7 +96,7 @@ BAD_RIG = {
     "unknown effect": (["--effects", "steering_lateral_crep"], r"--effects: unknown effect 'steering_lateral_crep' \(did you mean 'steering_lateral_creep'\?\)"),
     "unknown parameter": (["--set", "steering_lateral_creep.scal=2"], r"--set: effect steering_lateral_creep has no parameter 'scal'"),
     "effect not on": (["--set", "steering_offset.offset=1 deg"], r"--set: steering_offset.offset is set but steering_offset is not among the effects"),
-    "bad unit": (["--effects", "steering_offset", "--set", "steering_offset.offset=1 N"], r"--set: steering_offset.offset: expected a angle like '10 deg', got '1 N'"),
+    "bad unit": (["--effects", "steering_offset", "--set", "steering_offset.offset=1 N"], r"--set: steering_offset.offset: expected an angle like '10 deg', got '1 N'"),
     "bad noise": (["--noise", "sped=0.1"], r"--noise: expected name=value with names speed, torque, axis, got 'sped=0.1' \(did you mean 'speed'\?\)"),
 }
 

@@ -193,7 +193,7 @@ CASES = {
     "bound .inf": (study(design={"d": {"lower": "30 mm", "upper": INF}}), r"design\.d\.upper: expected a finite"),
     "clearance nan": (study(constraints={"clearance": "nan mm"}), r"constraints\.clearance: expected a finite length"),
     "duty-cycle γ in N": (study(objective={"kind": "power_loss", "duty_cycle": [{"gamma": "30 N", "load": "1 N*m"}]}),
-                          r"objective\.duty_cycle\[0\]\.gamma: expected a angle"),
+                          r"objective\.duty_cycle\[0\]\.gamma: expected an angle"),
     "study name that is a path": (study(name="../x"), r"bad_study\.yaml: name: expected a name of letters"),
     "starts: true": (study(multistart={"starts": True}), r"multistart\.starts: expected a number"),
     "sweep value of the wrong kind": (study(batch={"sweep": {"preload": ["100 mm"]}}),
