@@ -33,15 +33,14 @@ def roller_record(layout, roller) -> dict:
 
 def patch_table(name: str, records: dict) -> Table:
     t = Table(f"{name}: contact patches at the preload (Hertz; Kalker's linear theory)",
-              ["roller", "role", "N", "a", "b", "p0", "C11", "C22", "C23", "C33", "μ", "ε_long", "ε_lat",
-               "spin coeff.", "pivot μNℓ"])
+              ["roller", "role", "N", "a", "b", "p0", "C11", "C22", "C23", "C33", "μ", "ε_long [1/N]",
+               "ε_lat [1/N]", "spin coeff. [N·m]", "μNℓ [N·mm]"])
     for n, r in records.items():
         t.add(n, r["role"], engineering(r["N"], "force"), engineering(r["a_mm"] / 1e3, "length"),
               engineering(r["b_mm"] / 1e3, "length"), engineering(r["p0_MPa"] * 1e6, "pressure"),
-              number(r["C11"], 3), number(r["C22"], 3), number(r["C23"], 3), number(r["C33"], 3), number(r["mu"], 3),
-              engineering(r["eps_long_per_N"], "compliance", 3), engineering(r["eps_lat_per_N"], "compliance", 3),
-              f"{number(r['spin_coefficient_Nm'], 3)} N·m",
-              f"{number(r['mu'] * r['N'] * r['pivot_lever_mm'], 3)} N·mm")
+              *(number(r[k], 3) for k in ("C11", "C22", "C23", "C33", "mu", "eps_long_per_N", "eps_lat_per_N",
+                                          "spin_coefficient_Nm")),
+              number(r["mu"] * r["N"] * r["pivot_lever_mm"], 3))
     return t
 
 

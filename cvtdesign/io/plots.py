@@ -513,25 +513,28 @@ def cad_picture(image, caption: str, path):
 
 CONTACT_CURVES = (("curve_longitudinal", "longitudinal creepage ξ [-]", "Fx/(μN) [-]"),
                   ("curve_lateral", "lateral creepage η [-]", "Fy/(μN) [-]"),
-                  ("curve_spin", "spin creepage φ [1/m]", "Fy/(μN) [-]"))
+                  ("curve_spin", "spin creepage φ [1/m]", "Fy/(μN) [-]"),
+                  ("curve_spin_moment", "spin creepage φ [1/m]", "Mz/(μNℓ) [-]"))
 
 
 def contact_figures(name: str, records: dict, folder: Path) -> list[Path]:
     """`cvtdesign contact`'s figures: the creep–force curves of every roller (one panel per creepage, the
-    linear theory's slope dotted) and the contact patches drawn to scale [mm]. Returns the files written."""
+    linear theory's slope dotted), the pure-spin moment against the pivoting moment μNℓ, and the contact
+    patches drawn to scale [mm]. Returns the files written."""
     mpl = _mpl()
-    fig, axes = mpl.subplots(1, 3, figsize=(15, 4.2))
+    fig, axes = mpl.subplots(1, 4, figsize=(19, 4.2))
     for (key, xlabel, ylabel), ax in zip(CONTACT_CURVES, axes):
         for n, r in records.items():
             s, f = np.array(r[key]).T
             line, = ax.plot(s, f, label=f"{n} ({r['role']})")
             ax.plot(s[:8], s[:8] * (f[1] / s[1]), ":", color=line.get_color(), lw=0.8)
         ax.axhline(1.0, color="k", lw=0.8)
-        ax.text(0.02, 1.01, "μN (full slip)", transform=ax.get_yaxis_transform(), fontsize=8, va="bottom")
+        limit = "μNℓ (pivoting)" if key == "curve_spin_moment" else "μN (full slip)"
+        ax.text(0.02, 1.01, limit, transform=ax.get_yaxis_transform(), fontsize=8, va="bottom")
         ax.set(xlabel=xlabel, ylabel=ylabel, ylim=(0, 1.1))
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7)
-    fig.suptitle(f"{name}: creep–force curves at the preload (Kalker's linear theory, saturated by Polach's "
+    fig.suptitle(f"{name}: creep–force curves and the spin moment at the preload (Kalker's linear theory, saturated by Polach's "
                  "method; dotted: linear theory)")
     fig.tight_layout()
     curves_png = folder / "contact_curves.png"
