@@ -4,8 +4,8 @@ import gc
 import multiprocessing
 
 import pytest
-
 from conftest import variant_path
+
 from cvtdesign.cli import main
 
 

@@ -9,12 +9,12 @@ mu N l (core.contact.pivot_lever). Run pytest with -s for the figures.
 """
 from __future__ import annotations
 
-import numpy as np
-import pytest
-
 import contact_reference as ref
 import fastsim as fs  # tests/validation is on sys.path (tests/conftest.py)
+import numpy as np
+import pytest
 from test_contact_published import MM, example_patch
+
 from cvtdesign.core.contact import kalker_coefficients, pivot_lever
 from cvtdesign.core.creep import creep_forces, spin_moment
 
