@@ -37,7 +37,8 @@ import casadi as ca
 import numpy as np
 
 from cvtdesign.core.geometry import roller_pose, steering_angle_guess, steering_data
-from cvtdesign.core.model import compile_model
+from cvtdesign.core.kinematics import ShaftFrame, shaft_frame, vec
+from cvtdesign.core.model import compile_model, failed_contact
 from cvtdesign.design.solution import EnvelopeCheck, check_envelope
 from cvtdesign.design.study_file import (
     StudySpec,
@@ -47,6 +48,7 @@ from cvtdesign.design.study_file import (
 )
 from cvtdesign.io.variant import grid, parameter_value, resolve
 
+CHECK_OUTPUTS = ("status", "alpha", "N", "F_t", "F_a", "mu", "utilisation")   # what check_envelope reads
 IPOPT_OPTIONS = {"tol": 1e-8, "acceptable_tol": 1e-6, "hessian_approximation": "limited-memory",
                  "limited_memory_aug_solver": "extended"}   # few variables, many rows: cheaper than Sherman-Morrison
 
@@ -80,6 +82,7 @@ class Parts:
     phi0: np.ndarray
     gamma_of: np.ndarray      # γ index of each point
     screen: np.ndarray        # the points at the envelope's largest |load|, evaluated first
+    nlp: _NLP = None          # the inputs and the model it was built from (for the functions built on first use)
 
 
 @dataclass
@@ -109,7 +112,7 @@ class Problem:
     solvers: dict = field(default_factory=dict)   # IPOPT solvers and row functions built so far, by key
     fixed: dict = field(default_factory=dict)     # sweep parameters (SI) set for this case
     g_report: np.ndarray = None   # per row: factor from g's units to the report's (P₀ for normal_force: N)
-    vspec: object = None          # the base VariantSpec (to build the numeric layout of a design)
+    vspec: object = None          # the base VariantSpec (the effect parameters of a written variant)
     motor_speed: float = None     # ω1 of the envelope [rad/s]
 
     @property
@@ -120,13 +123,58 @@ class Problem:
             self.solvers["full"] = nlpsol(pt.x, pt.f, pt.g_full, pt.eps, self.spec.max_iter)
         return self.solvers["full"]
 
-    def check(self, design: dict) -> EnvelopeCheck:
-        """The design (SI values of the design variables) on the whole envelope, by the numeric model: the
-        base variant with this design and the case's sweep parameters, compiled and evaluated at every
-        envelope point (see check_envelope)."""
-        layout = resolve(self.vspec, str(self.base_file), overrides=self.fixed | dict(design))
-        return check_envelope(compile_model(layout, effects=self.spec.effects), self.parts.gamma,
-                              self.parts.load, self.motor_speed)
+    def check(self, design: dict, at_nlp_seeds: dict | None = None) -> EnvelopeCheck:
+        """The design (SI values of the design variables) on the whole envelope (`envelope`), counted by
+        check_envelope."""
+        return check_envelope(self.envelope(design, at_nlp_seeds), self.parts.nlp.model.roller_names)
+
+    def envelope(self, design: dict, at_nlp_seeds: dict | None = None) -> dict:
+        """The design's operating points over the whole envelope, as `CompiledModel.evaluate` gives them for
+        the numeric model of the design (the base variant with this design and the case's sweep
+        parameters): `status` (STATUS codes, not_converged where the solve gave no number), `failed_contact`,
+        γ_cmd, load and the raw CHECK_OUTPUTS (contact outputs: rollers × points).
+
+        The same physics without compiling a model per design: the study's model takes the design as an
+        input, and each point's steering solve is seeded, as `evaluate` seeds it, by the scan of this
+        design's own linkage. Where that scan gives the NLP's seeds (the base design's scan) bit for bit,
+        `at_nlp_seeds` (the CHECK_OUTPUTS of this design by `rows_and_points`), if given, are these numbers
+        already: the same Newton solves from the same seeds. Otherwise the points are evaluated here. The
+        functions are built on first use."""
+        pt, model = self.parts, self.parts.nlp.model
+        p = np.array([design[n] for n in self.names], float)
+        if "steering" not in self.solvers:
+            self.solvers["steering"] = _steering_data(pt.nlp)
+        data, signs = self.solvers["steering"]
+        t0, axes, u1, u2, k, c, s = (np.asarray(v, float) for v in data(p))
+        frame = ShaftFrame(u1.ravel(), u2.ravel(), k.item(), c.item(), s.item())
+        phi0, _ = steering_angle_guess(t0.reshape(-1, 3), (axes.reshape(-1, 3), signs), frame, pt.gamma)
+        res = at_nlp_seeds
+        if res is None or not np.array_equal(phi0, pt.phi0):
+            if "envelope" not in self.solvers:
+                self.solvers["envelope"] = model.point_function(CHECK_OUTPUTS).map(pt.gamma.size, "serial")
+            out = self.solvers["envelope"](pt.gamma, self.motor_speed, pt.load, 0.0, phi0, model.param_values, p)
+            res = {k: np.asarray(v) for k, v in zip(CHECK_OUTPUTS, out)}
+        status = np.where(np.isfinite(res["status"][0]), res["status"][0], 1).astype(int)
+        return res | {"status": status, "failed_contact": failed_contact(res, status), "gamma_cmd": pt.gamma,
+                      "load": pt.load}
+
+    def rows_and_points(self, x, eps: float = 0.0) -> tuple[np.ndarray, dict]:
+        """(every row g of the whole formulation at x, as `evaluate` gives it; the CHECK_OUTPUTS at every
+        envelope point) from one Newton solve a point, seeded as the NLP seeds it. The function is built
+        on first use."""
+        pt = self.parts
+        if "rows_and_points" not in self.solvers:
+            outputs = list(dict.fromkeys(_row_outputs(pt.nlp) + list(CHECK_OUTPUTS)))
+            checked = _point_function(pt.nlp, outputs, extra=CHECK_OUTPUTS)[0]
+            out = checked.map(pt.gamma.size, "serial").call(
+                [pt.x, pt.gamma[None, :], pt.load[None, :], pt.phi0[None, :], pt.P0])
+            self.solvers["rows_and_points"] = ca.Function("rows_and_points", [pt.x, pt.eps], [*out, pt.g_design])
+        out = [np.asarray(v) for v in self.solvers["rows_and_points"](x, eps)]
+        point = pt.row_k >= 0
+        g = np.empty(self.g_lb.size)
+        g[point] = out[0][pt.row_r[point], pt.row_k[point]]
+        g[pt.design_index] = out[-1].ravel()
+        return g, dict(zip(CHECK_OUTPUTS, out[1:-1]))
 
 
 def nlpsol(x, f, g, p, max_iter: int) -> ca.Function:
@@ -243,7 +291,7 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
     parts = Parts(nlp.x, nlp.eps, f, g_full, g_design, nlp.P0, point_rows, np.array([b[0] for b in blocks], float),
                   np.array([b[1] for b in blocks], float), pt_index, misfit_row, reach_index, design_index,
                   row_r, row_k, row_scale, nlp.g_pts, nlp.l_pts, nlp.phi0, np.arange(nlp.npts) // nlp.nload,
-                  np.flatnonzero(big))
+                  np.flatnonzero(big), nlp)
     return Problem(spec, nlp.where, base_file, nlp.names, nlp.lower, nlp.upper, nlp.x.shape[0], np.array(rows.lb),
                    np.array(rows.ub), rows.labels, rows.family, evaluate, nlp.epigraph, _start_t(nlp),
                    np.array([nlp.base.parameters[n] for n in nlp.names]), parts, fixed=dict(fixed),
@@ -277,6 +325,19 @@ def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, kind: str)
                 g_pts, l_pts, phi0, nload, margin, allow, pre0, n_min, preload)
 
 
+def _steering_data(nlp: _NLP) -> tuple[ca.Function, np.ndarray]:
+    """(design → the steering data of the layout at that design, fork signs): geometry.steering_data as
+    a function of the design, its outputs t0 (rolling directions at φ = 0), the fork axes (one row per
+    steered roller) and the ShaftFrame's u1, u2, k, c, s."""
+    steered = [r for r in nlp.layout.rollers if r.fork_axis is not None]
+    t0 = [ca.cross(*roller_pose(r, 0.0)).T for r in steered]
+    axes = [vec(r.fork_axis).T for r in steered]
+    frame = shaft_frame(nlp.layout)
+    outs = [ca.vertcat(ca.SX(0, 3), *t0), ca.vertcat(ca.SX(0, 3), *axes), ca.SX(vec(frame.u1)),
+            ca.SX(vec(frame.u2))] + [ca.SX(v) for v in (frame.k, frame.c, frame.s)]
+    return ca.Function("steering_data", [nlp.p], outs), np.array([r.fork_sign for r in steered], float)
+
+
 def _envelope_points(spec: StudySpec, base, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """The envelope (the study's, else the base variant's) as points: γ [rad], load [N m] and a steering
     angle guess φ [rad] per point, γ-major, and the number of loads per γ."""
@@ -290,9 +351,10 @@ def _envelope_points(spec: StudySpec, base, where: str) -> tuple[np.ndarray, np.
     return g_pts, l_pts, phi0, G.shape[1]
 
 
-def _point_function(nlp: _NLP, outputs: list) -> tuple[ca.Function, list]:
-    """(x, γ, load, φ guess, p0) → the rows of one envelope point (and the objective's per-point value),
-    evaluating only the model outputs they need; blocks: (lb, ub, family, label of a point, margin scale)."""
+def _point_function(nlp: _NLP, outputs: list, objective: bool = False, extra: tuple = ()) -> tuple[ca.Function, list]:
+    """(x, γ, load, φ guess, p0) → the rows of one envelope point (then, with `objective`, the objective's
+    per-point value, and the model outputs named in `extra`), evaluating only the model outputs they need;
+    blocks: (lb, ub, family, label of a point, margin scale)."""
     n, rn = len(nlp.names), nlp.model.roller_names
     nc = len(rn)
     xs, gs, ls, ps = ca.MX.sym("x", nlp.x.shape[0]), ca.MX.sym("gamma"), ca.MX.sym("load"), ca.MX.sym("phi0")
@@ -328,9 +390,9 @@ def _point_function(nlp: _NLP, outputs: list) -> tuple[ca.Function, list]:
         rows_.append(out["steer_misfit"])
         blocks.append((-np.inf, 1e-6, "reach_gamma", None, 1e-6))
     res = [ca.vertcat(*rows_) if rows_ else ca.MX(0, 1)]
-    if nlp.obj_name in outputs and nlp.grid_objective:
+    if objective:
         res.append(out[nlp.obj_name] * (180 / np.pi if nlp.obj_name == "alpha" else 1))
-    return ca.Function("point_rows", [xs, gs, ls, ps, p0s], res), blocks
+    return ca.Function("point_rows", [xs, gs, ls, ps, p0s], res + [out[k] for k in extra]), blocks
 
 
 def _envelope_rows(nlp: _NLP, rows: _Rows) -> tuple:
@@ -338,13 +400,12 @@ def _envelope_rows(nlp: _NLP, rows: _Rows) -> tuple:
     γ). Returns (point_rows, blocks, pt_index, reach_index, misfit_row, the objective's per-point values or
     None); the objective's values come from the same Newton solves as the rows."""
     cs = nlp.spec.constraints
-    need = (["alpha"] if nlp.epigraph else []) + ["N"] + \
-        (["F_t", "F_a", "mu"] if nlp.margin is not None else []) + (["steer_misfit"] if cs.reach_gamma else [])
+    need = _row_outputs(nlp)
     point_rows, blocks = _point_function(nlp, need)
     misfit_row = len(blocks) - 1 if cs.reach_gamma else None
     grid_args = [nlp.x, nlp.g_pts[None, :], nlp.l_pts[None, :], nlp.phi0[None, :], nlp.P0]
     if nlp.grid_objective:
-        point_all = _point_function(nlp, list(dict.fromkeys(need + [nlp.obj_name])))[0]
+        point_all = _point_function(nlp, list(dict.fromkeys(need + [nlp.obj_name])), objective=True)[0]
         M, obj_grid = point_all.map(nlp.npts, "serial").call(grid_args)
     else:
         M, obj_grid = point_rows.map(nlp.npts, "serial").call(grid_args)[0], None
@@ -359,6 +420,12 @@ def _envelope_rows(nlp: _NLP, rows: _Rows) -> tuple:
         else:
             pt_index[r] = rows.add(M[r, :].T, lo, hi, fam, [lab(s) for s in pt_label])
     return point_rows, blocks, pt_index, reach_index, misfit_row, obj_grid
+
+
+def _row_outputs(nlp: _NLP) -> list:
+    """The model outputs the point rows need."""
+    return (["alpha"] if nlp.epigraph else []) + ["N"] + (["F_t", "F_a", "mu"] if nlp.margin is not None else []) + \
+        (["steer_misfit"] if nlp.spec.constraints.reach_gamma else [])
 
 
 def _clearance_rows(nlp: _NLP, c: float) -> tuple[list, list]:

@@ -1,9 +1,9 @@
 """What a solve returns: the Solution of one IPOPT run, and its check on the whole envelope.
 
-After IPOPT, the optimum is checked on the whole envelope by the numeric model (`Problem.check`, which
-compiles the layout at the optimum and runs `CompiledModel.evaluate` over every envelope point, counted by
-`check_envelope`): a point that did not converge, that has a contact at N ≤ 0 or a contact at |F| > μN
-fails it, and the solve is then reported as failed (status 'Failed_Envelope_Check' with the counts;
+After IPOPT, the optimum is checked on the whole envelope by the model at the optimum (`Problem.check`:
+every envelope point evaluated as `CompiledModel.evaluate` evaluates the numeric model of the optimum, see
+`Problem.envelope`; counted by `check_envelope`): a point that did not converge, that has a contact at
+N ≤ 0 or a contact at |F| > μN fails it, and the solve is then reported as failed (status 'Failed_Envelope_Check' with the counts;
 `success` False), so no variant file is written for it (`report.write_variant` refuses to).
 """
 from __future__ import annotations
@@ -38,7 +38,7 @@ class Solution:
 
 @dataclass
 class EnvelopeCheck:
-    """A design on the whole envelope by the numeric model: how many points did not converge, lost
+    """A design on the whole envelope by the model at that design: how many points did not converge, lost
     contact (N ≤ 0 at some contact) or slip grossly (N > 0 but |F| > μN at some contact)."""
     points: int
     not_converged: int
@@ -68,12 +68,10 @@ class EnvelopeCheck:
                 "max_abs_alpha_deg": self.max_abs_alpha_deg, "worst": self.worst}
 
 
-def check_envelope(model, gammas, loads, speeds=None) -> EnvelopeCheck:
-    """Evaluate a numeric CompiledModel at the operating points (γ [rad], τ⊥ [N m], broadcastable; speeds
-    [rad/s], default the layout's) and count the points outside the model's physics by the model's own
-    `status` (not converged, lost contact: N ≤ 0, gross slip: |F| > μN), naming the first failure of the
-    most serious kind and the contact behind it."""
-    res = model.evaluate(gammas, loads, speeds)
+def check_envelope(res: dict, roller_names) -> EnvelopeCheck:
+    """Count the operating points of `res` (CompiledModel.evaluate's result, or Problem.envelope's) that
+    are outside the model's physics by the model's own `status` (not converged, lost contact: N ≤ 0, gross
+    slip: |F| > μN), naming the first failure of the most serious kind and the contact behind it."""
     st, contact = res["status"].ravel(), res["failed_contact"].ravel()
     n = st.size
     N, U = np.reshape(res["N"], (-1, n)), np.reshape(res["utilisation"], (-1, n))
@@ -83,7 +81,7 @@ def check_envelope(model, gammas, loads, speeds=None) -> EnvelopeCheck:
     for code, what in ((2, "lost contact (N ≤ 0)"), (3, "gross slip (|F| > μN)"), (1, "not converged")):
         if (st == code).any():
             k = int(np.flatnonzero(st == code)[0])
-            who = f" at {model.roller_names[contact[k]]}" if contact[k] >= 0 else ""
+            who = f" at {roller_names[contact[k]]}" if contact[k] >= 0 else ""
             worst = f"γ={np.degrees(g[k]):+.0f}° τ⊥={l[k]:+.3g}: {what}{who}"
             break
     return EnvelopeCheck(n, int((st == 1).sum()), int((st == 2).sum()), int((st == 3).sum()),

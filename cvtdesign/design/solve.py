@@ -113,11 +113,11 @@ def solve_from(problem: Problem, z0, start_index=0, eps: float = 0.0, warm: Solu
         sol, st, lam = _working_set_solve(problem, work, points, x0, lam_full, eps)
         iters += int(st["iter_count"])
         xs = np.asarray(sol["x"]).ravel()
-        g = np.asarray(problem.evaluate(*([xs, eps] if len(problem.evaluate.name_in()) == 2 else [xs]))[1]).ravel()
+        g, at_seeds = problem.rows_and_points(xs, eps)
         ok = bool(st["success"]) or st["return_status"] == "Solved_To_Acceptable_Level"
         violated = _violated(problem, g, work)
         if not ok or not violated.any():
-            return _solution(problem, sol, st, g, lam, iters, start_index, rounds, points.size)
+            return _solution(problem, sol, st, g, lam, iters, start_index, rounds, points.size, at_seeds)
         # the violated rows join, with every row now near its bound; solve again from here
         near = _near_binding(problem, g, xs[-1] if problem.epigraph else 0.0)
         work = np.union1d(work, np.flatnonzero(violated | near))
@@ -194,9 +194,10 @@ def _violated(problem: Problem, g: np.ndarray, work: np.ndarray) -> np.ndarray:
     return violated
 
 
-def _solution(problem, sol, st, g, lam_g, iterations, start_index, rounds, points) -> Solution:
-    """The Solution of an IPOPT run; a successful one is checked on the whole envelope by the numeric model
-    (Problem.check) and reported as failed ('Failed_Envelope_Check') if any point is outside the physics."""
+def _solution(problem, sol, st, g, lam_g, iterations, start_index, rounds, points, at_seeds=None) -> Solution:
+    """The Solution of an IPOPT run; a successful one is checked on the whole envelope by the model at the
+    optimum (Problem.check; `at_seeds`: its points from Problem.rows_and_points, if evaluated already) and
+    reported as failed ('Failed_Envelope_Check') if any point is outside the physics."""
     n = len(problem.names)
     zs = np.asarray(sol["x"]).ravel()[:n]
     values = problem.lower + (problem.upper - problem.lower) * zs
@@ -205,7 +206,7 @@ def _solution(problem, sol, st, g, lam_g, iterations, start_index, rounds, point
     success = bool(st["success"]) or status == "Solved_To_Acceptable_Level"
     check = None
     if success:
-        check = problem.check(design)
+        check = problem.check(design, at_seeds)
         if not check.ok:
             success, status = False, f"Failed_Envelope_Check: {check.summary()}"
     return Solution(status, success, float(sol["f"]), zs, design, g, lam_g,

@@ -247,13 +247,13 @@ def test_envelope_check_flags_lost_contact_and_traction_row_cannot_pass_it(tmp_p
     converged = resid.ravel() < 1e-8
     lost = converged & (N.min(axis=0) <= 0)
     assert lost.sum() >= 5 and np.all(U.min(axis=0)[lost] < 0)
-    chk = check_envelope(m, G, T)
+    chk = check_envelope(m.evaluate(G, T), m.roller_names)
     assert not chk.ok and chk.points == 27 and chk.lost_contact == lost.sum()
     assert chk.failed == chk.lost_contact + chk.gross_slip + chk.not_converged
     assert "lost contact" in chk.worst and chk.worst.endswith(("S1", "S2"))
     assert f"{chk.failed} of 27 envelope points: {chk.lost_contact} lost contact" in chk.summary()
     G1, T1 = np.meshgrid(np.radians(np.arange(-80, 81, 20.0)), [-1.0, 0.0, 1.0], indexing="ij")
-    ok = check_envelope(m, G1, T1)                              # Kim's envelope: every contact loaded
+    ok = check_envelope(m.evaluate(G1, T1), m.roller_names)     # Kim's envelope: every contact loaded
     assert ok.ok and ok.summary().startswith("0 of 27") and 0 < ok.min_normal_force < 100 and ok.max_utilisation < 1
 
     # the rows of a study over that load, at the base design: wherever N < 0, the traction row is violated
