@@ -15,6 +15,7 @@ import signal
 import threading
 from contextlib import contextmanager, nullcontext
 
+import dask
 from dask.distributed import Client, LocalCluster
 
 from cvtdesign.errors import InputError
@@ -46,13 +47,18 @@ def connect(scheduler: str, timeout: float | None = None):
 def local_cluster(workers: int | None = None):
     """A LocalCluster of `workers` single-threaded worker processes (default: one per core), started with
     SIGINT ignored so that the worker processes inherit that and leave Ctrl-C to this process (a Ctrl-C
-    during those ~1.5 s of start-up is therefore lost: press it again)."""
+    during those ~1.5 s of start-up is therefore lost: press it again).
+
+    Its workers run without Dask's statistical profiler, which samples each worker's stack every 10 ms for the
+    dashboard's profile page: on 2 cores that took 3-5 % of the cases' time (benchmarks/bench_cluster.py).
+    A cluster started by the user keeps the user's settings."""
     check_workers(workers)
     main = threading.current_thread() is threading.main_thread()
     old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
     try:
-        return LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1, processes=True,
-                            dashboard_address=":0", silence_logs=logging.ERROR)
+        with dask.config.set({"distributed.worker.profile.enabled": False}):
+            return LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1, processes=True,
+                                dashboard_address=":0", silence_logs=logging.ERROR)
     finally:
         if main:
             signal.signal(signal.SIGINT, old)

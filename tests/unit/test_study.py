@@ -9,9 +9,11 @@ import socket
 from pathlib import Path
 from types import SimpleNamespace
 
+import dask
 import pandas as pd
 import pytest
 import yaml
+from dask.distributed import Client
 from filelock import FileLock
 
 from cvtdesign.design import cluster
@@ -256,3 +258,12 @@ def test_worker_with_another_cvtdesign_version_is_refused(tmp_path, shared, caps
     one_line(capsys.readouterr().err, f"cvtdesign: error: --scheduler {shared}: a worker cannot run this study's "
              "cases (RuntimeError: worker tcp://", "the client 0.0.0); expected cvtdesign 0.0.0 installed on every worker")
     assert case_files(tmp_path / "s") == []
+
+
+def test_local_workers_run_without_the_statistical_profiler(shared):
+    """cluster.local_cluster's workers do not sample their stacks for the dashboard's profile page (a few % of
+    the cases' time on 2 cores), and this process's Dask settings are left as they were."""
+    with Client(shared) as client:
+        settings = client.run(lambda: dask.config.get("distributed.worker.profile.enabled"))
+    assert len(settings) == 2 and not any(settings.values())
+    assert dask.config.get("distributed.worker.profile.enabled") is True
