@@ -2,7 +2,6 @@
 import json
 from pathlib import Path
 
-import casadi as ca
 import numpy as np
 import pytest
 import yaml
