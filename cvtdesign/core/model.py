@@ -138,7 +138,7 @@ class CompiledModel:
         out = _call(self._maps[id(fn), n], [g, w, l, np.full(n, float(load_kind == "tau_2")), phi0, th, p])
         self._tiered.record(fn, n, time.perf_counter() - t)
         res = dict(zip(self.point.name_out(), out))
-        status = np.where(np.isfinite(res["status"][0]), res["status"][0], 1).astype(int)
+        status = status_codes(res)
         ok = status == 0
         result = {"status": status.reshape(shape), "ok": ok.reshape(shape),
                   "converged": (status != 1).reshape(shape),
@@ -170,6 +170,12 @@ def _call(mapped: ca.Function, args: list) -> list[np.ndarray]:
         buf.set_res(i, memoryview(o))
     run()
     return [o.T for o in outs]
+
+
+def status_codes(res: dict) -> np.ndarray:
+    """Per point, the STATUS code of raw point outputs (`status` row), not_converged where the solve gave no
+    number at all."""
+    return np.where(np.isfinite(res["status"][0]), res["status"][0], 1).astype(int)
 
 
 def failed_contact(res: dict, status: np.ndarray) -> np.ndarray:

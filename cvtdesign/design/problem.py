@@ -38,7 +38,7 @@ import numpy as np
 
 from cvtdesign.core.geometry import roller_pose, steering_angle_guess, steering_data
 from cvtdesign.core.kinematics import ShaftFrame, shaft_frame, vec
-from cvtdesign.core.model import compile_model, failed_contact
+from cvtdesign.core.model import compile_model, failed_contact, status_codes
 from cvtdesign.design.solution import EnvelopeCheck, check_envelope
 from cvtdesign.design.study_file import (
     StudySpec,
@@ -154,7 +154,7 @@ class Problem:
                 self.solvers["envelope"] = model.point_function(CHECK_OUTPUTS).map(pt.gamma.size, "serial")
             out = self.solvers["envelope"](pt.gamma, self.motor_speed, pt.load, 0.0, phi0, model.param_values, p)
             res = {k: np.asarray(v) for k, v in zip(CHECK_OUTPUTS, out)}
-        status = np.where(np.isfinite(res["status"][0]), res["status"][0], 1).astype(int)
+        status = status_codes(res)
         return res | {"status": status, "failed_contact": failed_contact(res, status), "gamma_cmd": pt.gamma,
                       "load": pt.load}
 
