@@ -102,7 +102,7 @@ def spin_force(xi, eta, phi, N, mu, a, b, G, C23):
     return -G * (a * b) ** 1.5 * C23 * phi / (1.0 + eps_m2) ** 2
 
 
-def spin_moment(eta, phi, N, mu, a, b, G, C23, C33, utilisation=0.0):
+def spin_moment(eta, phi, N, mu, a, b, G, C23, C33, utilisation=0.0, lever=None):
     """Mz [N m] on body 1 about the patch normal, from lateral creepage η [-] and spin φ [1/m].
 
     Kalker's linear theory, Mz = G (ab)^(3/2) (C23 η − √(ab) C33 φ) (Kalker 1990, with C32 = −C23, so the
@@ -113,9 +113,10 @@ def spin_moment(eta, phi, N, mu, a, b, G, C23, C33, utilisation=0.0):
     elliptic bound (tests/validation/test_spin_moment.py): pure spin reaches exactly μN ℓ and lies within
     0.11 μN ℓ of FASTSIM's curve; with creepage (u ≤ 0.75, a/b 0.5–2) within 0.18 μN ℓ, where the powers 0,
     1/2 and 1 of (1 − u²) are 0.25, 0.18 and 0.33 off; CONTACT's exact theory on its combined lateral + spin
-    example: 13.8 % beyond its moment."""
+    example: 13.8 % beyond its moment. `lever`: ℓ [m] where the caller has it already (the model scales the
+    preload's ℓ with the patch, a ∝ N^(1/3), rather than solving the elliptic integral at every point)."""
     m_lin = G * (a * b) ** 1.5 * (C23 * eta - ca.sqrt(a * b) * C33 * phi)
-    m_max = mu * N * pivot_lever(a, b) * (1.0 - utilisation * utilisation) ** 0.25
+    m_max = mu * N * (pivot_lever(a, b) if lever is None else lever) * (1.0 - utilisation * utilisation) ** 0.25
     return m_lin * saturation_ratio((math.pi / 4.0) * ca.sqrt(m_lin * m_lin + TINY) / m_max)
 
 

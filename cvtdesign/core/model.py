@@ -249,7 +249,7 @@ class _Hooks:
 def _contact_constants(layout: Layout) -> list[dict]:
     """Per contact, at its preload: the Hertz ellipse (a, b, peak p0), the creep constant ε0 [1/N] (Kim's
     fitted constants when the variant gives them, else Hertz + Kalker C11/C22: core.patch), the normal force
-    n_ref at which ε0 holds, and μ."""
+    n_ref at which ε0 holds, μ, Kalker's coefficients and the pivoting lever ℓ."""
     const = []
     for r in layout.rollers:
         p = patch(layout, r)
@@ -260,7 +260,7 @@ def _contact_constants(layout: Layout) -> list[dict]:
         n_ref = layout.creep_reference_force if kim is not None and layout.creep_reference_force is not None \
             else r.preload
         const.append(dict(a=p["a"], b=p["b"], p0=p["p0"], eps0=eps0, mu=p["mu"], n_ref=n_ref, G=p["G"],
-                          C11=p["C11"], C22=p["C22"], C23=p["C23"], C33=p["C33"]))
+                          C11=p["C11"], C22=p["C22"], C23=p["C23"], C33=p["C33"], lever=p["pivot_lever"]))
     return const
 
 
@@ -393,7 +393,7 @@ def _kalker_rows(layout: Layout, hooks: _Hooks, c: ContactState, const, s_t, s_a
     floor = EPS_RIGID * ca.fabs(u.v_ref)
     e11, e22 = k / (G * a * b * const["C11"]), k / (G * a * b * const["C22"])
     m_spin = spin_moment(-sigma * s_a / v_f, c.spin / v_f, c.N_creep, c.mu, a, b, G, const["C23"] / k,
-                         const["C33"] / k, util)
+                         const["C33"] / k, util, const["lever"] * size)
     rows = [(s_t + (c.V * e11 * amp + floor) * fx) / u.v_ref, (s_a - (c.V * e22 * amp + floor) * fy) / u.v_ref]
     return rows, [util], m_spin
 
