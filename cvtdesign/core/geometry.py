@@ -73,39 +73,42 @@ def kim_gamma_from_phi(phi):
     return np.arctan2(S2 * np.cos(phi) + np.sin(phi), S2 * np.cos(phi) - np.sin(phi))
 
 
-def steering_residuals_numeric(t0s, forks, frame, gammas, phis):
-    """Lateral-constraint misfit t_i(φ)·u(γ) of every steered roller, shape (len(gammas), len(phis), n).
+def linkage_terms(t0s, forks, frame, gammas) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(A, B, C), each (len(gammas), n): the lateral-constraint misfit of steered roller i at γ and φ is
+    t_i(φ)·u(γ) = A cos φ − B sin φ + C (1 − cos φ) (Rodrigues: t_i(φ)·u = t0 · R(−s_i φ) u, rotations
+    preserve dot products).
 
-    t0s: rolling directions at φ = 0 (n, 3); forks: (axis (n, 3), sign (n,)); frame: the layout's
+    t0s: rolling directions at φ = 0 (n, 3); forks: (axis (n, 3), sign s_i (n,)); frame: the layout's
     kinematics.ShaftFrame, whose u(γ) is the commanded axis. A linkage reaches γ where every steered roller
     rolls without lateral slip about u."""
     axes, signs = forks
     u = frame.axis(np.asarray(gammas, float))                                # (G, 3)
-    phis = np.broadcast_to(np.atleast_2d(phis), (len(gammas), np.shape(phis)[-1]))  # (G, P): shared or per γ
-    th = phis[:, :, None] * signs[None, None, :]                             # (G, P, n)
-    # t_i(φ)·u = t0 · R(−sφ) u  (rotation preserves dot products)
-    ku = u @ axes.T                                                          # (G, n)
     kxu = np.cross(axes[None, :, :], u[:, None, :])                          # (G, n, 3)
-    t0u = u @ t0s.T                                                          # (G, n)
-    t0kxu = np.einsum("gnk,nk->gn", kxu, t0s)                                # (G, n)
-    t0k = np.einsum("nk,nk->n", t0s, axes)                                   # (n,)
-    c, s = np.cos(th), np.sin(th)
-    return t0u[:, None, :] * c - t0kxu[:, None, :] * s + (ku * t0k)[:, None, :] * (1 - c)
+    return u @ t0s.T, np.einsum("gnk,nk->gn", kxu, t0s) * signs, (u @ axes.T) * np.einsum("nk,nk->n", t0s, axes)
+
+
+def _misfit_cost(terms, phis) -> np.ndarray:
+    """Σ_i (t_i(φ)·u)², shape (G, P), for steering angles phis [rad]: (P,) shared by every γ or (G, P)."""
+    A, B, C = (t[:, None, :] for t in terms)
+    c, s = np.cos(phis)[..., None], np.sin(phis)[..., None]
+    return np.sum((A * c - B * s + C * (1 - c)) ** 2, axis=-1)
 
 
 def steering_angle_guess(t0s, forks, frame, gammas, n_scan: int = 721) -> tuple[np.ndarray, np.ndarray]:
-    """Steering angle φ ∈ (−90°, 90°] [rad] that best realises each commanded γ [rad], by a scan.
+    """Steering angle φ ∈ (−90°, 90°] [rad] that best realises each commanded γ [rad], by a scan of the
+    misfit (`linkage_terms`).
 
     Returns (φ, worst residual). The compiled model refines φ with Newton; the scan only seeds it and
     tells whether the linkage can reach γ at all."""
     gammas, inverse = np.unique(np.atleast_1d(gammas), return_inverse=True)
+    terms = linkage_terms(t0s, forks, frame, gammas)
     phis = np.linspace(-np.pi / 2, np.pi / 2, n_scan)[1:]
-    cost = np.sum(steering_residuals_numeric(t0s, forks, frame, gammas, phis) ** 2, axis=-1)
+    cost = _misfit_cost(terms, phis)
     best = phis[np.argmin(cost, axis=1)]
     width = phis[1] - phis[0]
     for _ in range(6):  # zoom in around each best angle: 6 passes of 41 points refine it by 20^6
         local = best[:, None] + np.linspace(-width, width, 41)[None, :]
-        cost = np.sum(steering_residuals_numeric(t0s, forks, frame, gammas, local) ** 2, axis=-1)
+        cost = _misfit_cost(terms, local)
         best = local[np.arange(len(gammas)), np.argmin(cost, axis=1)]
         width /= 20
     wrapped = (best + np.pi / 2) % np.pi - np.pi / 2
