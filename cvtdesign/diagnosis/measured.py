@@ -19,6 +19,7 @@ from cvtdesign.errors import InputError
 from cvtdesign.io.measured_csv import read_measured
 
 GAMMA_TOL_DEG = 1e-6     # [deg] commanded angles closer than this are one operating point
+IMPLAUSIBLE_ALPHA_DEG = 20.0   # [deg] a median |α| beyond this is no rolling contact's: the signs are checked
 
 FOLDS = 5                # the diagnosis's cross-validation folds (diagnose.FOLDS)
 
@@ -61,6 +62,7 @@ def from_rows(rows: pd.DataFrame, frame: ShaftFrame, where: str = "data", droppe
     g = np.radians(rows["gamma_cmd_deg"].to_numpy())
     w1, w2 = rows["omega_1"].to_numpy(), rows["omega_2"].to_numpy()
     rows["alpha_deg"] = np.degrees(frame.slip_angle(w1, w2, g))
+    _check_signs(rows["alpha_deg"].to_numpy(), frame, w1, w2, g, where)
     rows["tau_perp"], rows["tau_par"] = frame.load_split(g, rows["tau_1"].to_numpy(), rows["tau_2"].to_numpy())
     rows["efficiency"] = efficiency(rows["tau_1"] * rows["omega_1"], rows["tau_2"] * rows["omega_2"])
     m = Measured(where, rows, "gamma_axis_deg" in rows.columns, dropped or {})
@@ -68,13 +70,38 @@ def from_rows(rows: pd.DataFrame, frame: ShaftFrame, where: str = "data", droppe
     return m
 
 
-def _levels(values, tol):
-    """Cluster sorted 1-D values into levels: a gap larger than `tol` starts a new level."""
+def _check_signs(alpha_deg, frame: ShaftFrame, w1, w2, g, where: str) -> None:
+    """Refuse data whose slip angles are implausible (median |α| beyond IMPLAUSIBLE_ALPHA_DEG) where reversing
+    the sign of ω2 or of γ_cmd makes them plausible: the data then count that quantity positive the other way
+    round from the variant's conventions (docs/measured-data.md, Signs), and a diagnosis would fit a gap
+    that is not there."""
+    typical = float(np.median(np.abs(alpha_deg)))
+    if typical <= IMPLAUSIBLE_ALPHA_DEG:
+        return
+    trials = {("omega_2", "omega_2's sign reversed"): (w1, -w2, g),
+              ("gamma_cmd_deg", "gamma_cmd_deg's sign reversed"): (w1, w2, -g),
+              ("omega_2", "the signs of omega_2 and gamma_cmd_deg reversed"): (w1, -w2, -g)}
+    medians = {k: float(np.median(np.abs(np.degrees(frame.slip_angle(*a))))) for k, a in trials.items()}
+    best = min(medians.values())
+    # where the ideal law is odd in γ (Kim's tan γ), reversing ω2 and reversing γ give the same |α|: both named
+    alike = [k for k, v in medians.items() if v <= best * (1 + 1e-9) + 1e-12]
+    columns = ", ".join(dict.fromkeys(k[0] for k in alike))
+    if best <= min(IMPLAUSIBLE_ALPHA_DEG / 2, typical / 4):
+        raise InputError(f"{where}: {columns}: the rows imply slip angles of {typical:.0f}° (median |α|), beyond any "
+                         f"rolling contact's; with {' or '.join(k[1] for k in alike)} they are {best:.2g}°: "
+                         "expected ω positive about each "
+                         "shaft's drive roller's declared axle and γ as the variant's shaft frame defines it "
+                         "(docs/measured-data.md, Signs)")
+
+
+def _levels(values, tol, relative: bool = False):
+    """Cluster sorted 1-D values into levels: a gap larger than `tol` (with `relative`, than `tol` × the larger
+    magnitude of its two ends) starts a new level."""
     order = np.argsort(values)
     label = np.empty(len(values), int)
     level, last, groups = 0, None, [[]]
     for k in order:
-        if last is not None and values[k] - last > tol:
+        if last is not None and values[k] - last > (tol * max(abs(last), abs(values[k])) if relative else tol):
             level += 1
             groups.append([])
         label[k] = level
@@ -86,15 +113,15 @@ def _levels(values, tol):
 def _group(m: Measured):
     """Operating points: the same commanded γ, load level and motor-speed level. Loads and speeds are
     measured, so replicates differ by the noise: τ⊥ levels are clusters of the measured τ⊥ separated by more
-    than 2.5 % of its range (a rig's load levels are steps, Kim's 0.1-0.2 N m), speed levels clusters of ω1
-    separated by more than 5 % of its largest magnitude."""
+    than 2.5 % of the range of its central 96 % (a rig's load levels are steps, Kim's 0.1-0.2 N m), speed
+    levels clusters of ω1 separated by more than 5 % of their magnitude. Neither tolerance depends on the
+    extremes, so one wild row is a point of its own instead of merging the others."""
     r = m.rows
     gl, glev = _levels(r["gamma_cmd_deg"].to_numpy(), GAMMA_TOL_DEG)
     tp = r["tau_perp"].to_numpy()
-    span = float(np.ptp(tp)) if len(tp) > 1 else 0.0
+    span = float(np.subtract(*np.percentile(tp, [98, 2])))
     ll, llev = _levels(tp, max(0.025 * span, 1e-9))
-    w = r["omega_1"].to_numpy()
-    sl, slev = _levels(w, 0.05 * float(np.max(np.abs(w))))
+    sl, slev = _levels(r["omega_1"].to_numpy(), 0.05, relative=True)
     r["gamma_bin"], r["load_bin"], r["speed_bin"] = gl, ll, sl
     r["point"] = pd.factorize(pd.Series((sl * len(glev) + gl) * (len(llev) + 1) + ll))[0]
     m.gamma_levels, m.load_levels, m.speed_levels = glev, llev, slev

@@ -17,6 +17,9 @@ from cvtdesign.errors import InputError, shorten, suggest
 
 REQUIRED = ("gamma_cmd_deg", "omega_1", "omega_2", "tau_1", "tau_2")
 OPTIONAL = ("gamma_axis_deg",)
+# the largest magnitude a measurement can have: beyond it a cell is a corrupt or mis-scaled value, not a rig's
+PLAUSIBLE = {"omega_1": (1e4, "rad/s", "shaft speed"), "omega_2": (1e4, "rad/s", "shaft speed"),
+             "tau_1": (1e4, "N·m", "shaft torque"), "tau_2": (1e4, "N·m", "shaft torque")}
 
 
 def read_measured(path, gamma_range_deg=None, drop_bad: bool = False) -> tuple[pd.DataFrame, dict]:
@@ -25,8 +28,8 @@ def read_measured(path, gamma_range_deg=None, drop_bad: bool = False) -> tuple[p
     frame: the variant's shaft kinematics (α, τ⊥, τ∥ as kinematics.py defines them); gamma_range_deg:
     (lo, hi) the variant's operating range [deg]. Every problem is one InputError line naming the file, the line (the
     header is line 1) or the column, and what was expected. With `drop_bad`, rows with empty or non-numeric
-    cells (non-finite ones too: 'inf' is not a measurement), a motor shaft at rest or γ outside the range are
-    dropped and counted instead. The file must be UTF-8 text (the line of the first other byte is named)."""
+    cells (non-finite ones too: 'inf' is not a measurement), speeds or torques beyond PLAUSIBLE, a motor shaft at
+    rest or γ outside the range are dropped and counted instead. The file must be UTF-8 text (the line of the first other byte is named)."""
     where = str(path)
     try:
         with open(path, "rb") as f:
@@ -72,6 +75,11 @@ def read_measured(path, gamma_range_deg=None, drop_bad: bool = False) -> tuple[p
         for i in raw.index[v.notna() & ~np.isfinite(v) & bad.eq("")]:
             bad[i] = f"column '{c}': '{shorten(text[i])}' is not a finite number"
             kind[i] = "non-finite cell"
+        if c in PLAUSIBLE:
+            limit, unit, what = PLAUSIBLE[c]
+            for i in raw.index[np.isfinite(v) & (v.abs() > limit) & bad.eq("")]:
+                bad[i] = f"column '{c}': {v[i]:g} {unit} is not a plausible {what} (expected |{c}| ≤ {limit:g} {unit})"
+                kind[i] = "implausible value"
         num[c] = v
     if gamma_range_deg is not None:
         lo, hi = gamma_range_deg

@@ -169,3 +169,71 @@ def test_operating_points_separate_speeds_and_keep_replicates(layout, tmp_path):
     data = measured.load_measured(path, layout)
     assert data.rows["point"].nunique() == 18 and data.replicated
     assert len(data.speed_levels) == 2 and len(data.load_levels) == 3
+
+
+# ------------------------------------------------------------------------------- one wild row, wrong signs
+
+@pytest.fixture(scope="module")
+def kim_rows(layout):
+    """Kim's protocol on the existing CVT, steering creep on (187 rows, one motor speed)."""
+    rows, _ = rig.simulate(layout, KIM, seed=3)
+    return rows
+
+
+def _points(layout, rows, tmp_path):
+    path = tmp_path / "d.csv"
+    path.write_text(rig.to_csv_text(rows))
+    return measured.load_measured(path, layout)
+
+
+@pytest.mark.parametrize("column, value", [("omega_1", 1000.0), ("tau_2", 100.0), ("tau_1", -100.0)])
+def test_one_wild_row_does_not_merge_the_operating_points(layout, kim_rows, tmp_path, column, value):
+    """A single typo row (a speed or torque 100x the others) used to set the level tolerance for the whole
+    dataset (5 % of the largest |ω1|, 2.5 % of τ⊥'s range) and merged Kim's 187 points into 18: the noise
+    estimate became 6° and the diagnosis found no gap. It is now one point of its own."""
+    clean = _points(layout, kim_rows, tmp_path)
+    wild = kim_rows.copy()
+    wild.loc[len(wild)] = wild.iloc[0]
+    wild.loc[len(wild) - 1, column] = value
+    data = _points(layout, wild, tmp_path)
+    assert clean.rows["point"].nunique() == 187
+    assert data.rows["point"].nunique() == 188
+    assert np.array_equal(data.rows["point"].to_numpy()[:-1], clean.rows["point"].to_numpy())
+
+
+@pytest.mark.parametrize("cell", ["1e300", "-2e5"])
+def test_implausible_magnitudes_are_bad_rows(tmp_path, capsys, cell):
+    path = tmp_path / "bad.csv"
+    path.write_text(GOOD.replace("0,10,0.01,0.1,0.5", f"0,{cell},0.01,0.1,0.5"))
+    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert re.search(r"line 3: column 'omega_1': .* rad/s is not a plausible shaft speed \(expected \|omega_1\| ≤ 10000 rad/s\)", err), err
+
+
+@pytest.mark.parametrize("flip, named", [("omega_2", "omega_2's sign reversed"),
+                                         ("gamma_cmd_deg", "gamma_cmd_deg's sign reversed")])
+def test_reversed_sign_convention_is_named(layout, kim_rows, tmp_path, capsys, flip, named):
+    """Data whose ω2 (or γ) counts positive the other way imply slip angles of ~50° everywhere; the diagnosis
+    used to fit them and answer 'unexplained'. The reader now says which sign would make them plausible."""
+    rows = kim_rows.copy()
+    rows[flip] = -rows[flip]
+    path = tmp_path / "d.csv"
+    path.write_text(rig.to_csv_text(rows))
+    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"cvtdesign: error: {path}: ")
+    # Kim's law is odd in γ: reversing ω2 or γ gives the same |α|, so both are named, ω2 first
+    assert "omega_2, gamma_cmd_deg: the rows imply slip angles of" in err
+    assert named in err and "docs/measured-data.md" in err, err
+
+
+def test_one_wild_speed_keeps_the_speed_levels(layout, tmp_path):
+    """Two motor speeds (5 and 20 rad/s) stay two levels with a 1000 rad/s typo row added: the speed
+    tolerance used to be 5 % of the largest |ω1| (50 rad/s), which merged them."""
+    p = rig.Protocol(np.radians([-40.0, 0.0, 40.0]), np.array([-0.5, 0.0, 0.5]), np.array([5.0, 20.0]), "tau_perp", 2)
+    rows, _ = rig.simulate(layout, KIM, protocol=p, noise=rig.Noise().scaled(3), seed=9)
+    rows.loc[len(rows)] = rows.iloc[0]
+    rows.loc[len(rows) - 1, "omega_1"] = 1000.0
+    data = _points(layout, rows, tmp_path)
+    assert len(data.speed_levels) == 3 and data.rows["point"].nunique() == 19
