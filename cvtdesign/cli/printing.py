@@ -128,11 +128,12 @@ def json_text(obj) -> str:
 def left_out_text(counts: dict) -> str:
     """'gross slip at 12 points (D1 ×8, S1 ×4); lost contact at 3 points (S2 ×3)' from model.status_counts."""
     parts = []
-    for key in ("lost_contact", "gross_slip", "not_converged"):
+    for key in ("lost_contact", "gross_slip", "not_converged", "reversed"):
         if counts.get(key):
             at = counts.get(f"{key}_at") or {}
             where = f" ({', '.join(f'{k} ×{v}' for k, v in at.items())})" if at else ""
-            parts.append(f"{key.replace('_', ' ')} at {counts[key]} points{where}")
+            what = "the sphere turning backwards (reversed)" if key == "reversed" else key.replace('_', ' ')
+            parts.append(f"{what} at {counts[key]} points{where}")
     return "; ".join(parts)
 
 

@@ -28,9 +28,11 @@ search), whose implicit derivatives give the optimiser exact gradients. Evaluate
 compiled to C (core.native): the compiled functions solve by the same iteration written out (core.newton),
 which gives the same numbers.
 
-A solution is returned only where the physics holds (`status`): the solve converged, every N_i > 0 (else
-`lost_contact`) and every |F_i| ≤ μ_i N_i (else `gross_slip`, which is also what a saturation law that needs
-|F| → μN means).
+A solution is returned only where the physics holds (`status`): the solve converged, on the root where the
+sphere turns with the commanded axis (else `reversed`: past the envelope the equations can have a second root,
+with the output shaft running backwards, that a rig loaded from rest does not reach), every N_i > 0 (else
+`lost_contact`) and every |F_i| ≤ μ_i N_i (else `gross_slip`, which is also what a saturation law's converged
+solution at |F| ≥ SAT_LIMIT·μN means). A solve that did not converge is `not_converged`.
 """
 from __future__ import annotations
 
@@ -64,7 +66,7 @@ F_SCALE = 10.0        # [N] force scaling of the unknowns
 RES_TOL = 1e-8        # scaled residual above which a point is reported as not converged
 SAT_LIMIT = 0.999     # traction utilisation |F|/(μN) of a saturation law beyond which a point is gross slip
 
-STATUS = ("ok", "not_converged", "lost_contact", "gross_slip")   # the `status` output's codes, in order
+STATUS = ("ok", "not_converged", "lost_contact", "gross_slip", "reversed")   # the `status` output's codes, in order
 CONTACT_OUTPUTS = ("N", "F_t", "F_a", "utilisation", "p_max", "xi", "eta", "spin", "mu", "M_spin")
 POINT_OUTPUTS = ("omega_2", "tau_1", "tau_2", "phi", "gamma_axis", "alpha", "alpha_steering", "alpha_drive",
                  "power_loss", "residual", "status", "Omega_x", "Omega_y", "Omega_z")
@@ -398,16 +400,21 @@ def _kalker_rows(layout: Layout, hooks: _Hooks, c: ContactState, const, s_t, s_a
     return rows, [util], m_spin
 
 
-def _status(resid, per, sat):
-    """STATUS code of a solution: not_converged unless the scaled residual is below RES_TOL (a saturation law
-    pushed to |F| → μN counts as gross slip), then lost_contact if some N ≤ 0, gross_slip if some |F| > μN."""
+def _status(resid, per, sat, forward):
+    """STATUS code of a solution: not_converged unless every scaled residual is finite and below RES_TOL (a
+    NaN entry would pass a plain ∞-norm, whose max skips NaN); then reversed unless `forward` (the sphere's Ω
+    has a positive component along the ideal kinematics' Ω: past the envelope the equations can have a second
+    root, with the sphere turning against the commanded axis and the output shaft running backwards, fast,
+    which a rig loaded from rest does not reach); then lost_contact if some N ≤ 0, gross_slip if some
+    |F| > μN or a saturation law is at |F| ≥ SAT_LIMIT·μN. A solve that did not converge is not_converged
+    whatever its last iterate: continuation in the load converges at some such points far from μN."""
     N = ca.vertcat(*per["N"])
     excess = ca.vertcat(*[ca.sqrt(ft ** 2 + fa ** 2) - mu * n for ft, fa, mu, n in
                           zip(per["F_t"], per["F_a"], per["mu"], per["N"])])
     saturated = ca.mmax(ca.vertcat(0, *sat)) > SAT_LIMIT
-    converged = ca.norm_inf(resid) < RES_TOL
+    converged = ca.logic_and(ca.norm_inf(resid) < RES_TOL, ca.fabs(ca.sum1(resid)) < ca.inf)
     physical = ca.if_else(ca.mmin(N) <= 0, 2, ca.if_else(ca.logic_or(ca.mmax(excess) > 0, saturated), 3, 0))
-    return ca.if_else(converged, physical, ca.if_else(saturated, 3, 1))
+    return ca.if_else(converged, ca.if_else(forward, physical, 4), 1)
 
 
 def _peak_pressure_functions(layout: Layout, const, design):
@@ -460,7 +467,8 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
     resid = ca.vertcat(*slip, moment / (layout.sphere_radius * F_SCALE), *idle, load_res)
     params = ca.vertcat(gamma, w1, load, brake, phi_cmd, theta, design)
     G = ca.Function("residual", [u.x, params], [ca.cse(resid)])
-    x0_fn = ca.Function("x0", [params], [_initial_guess(layout, frame, gamma, w1, phi, u.om_ref)])
+    x0 = _initial_guess(layout, frame, gamma, w1, phi, u.om_ref)
+    x0_fn = ca.Function("x0", [params], [x0])
 
     alpha = frame.slip_angle(w1, u.w2, gamma)
     alpha_s = wrap_axis_angle(frame.axis_angle(u.Om) - gamma)
@@ -468,7 +476,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
         "omega_2": u.w2, "tau_1": tau[1], "tau_2": tau[2], "phi": phi, "gamma_axis": frame.axis_angle(u.Om),
         "alpha": alpha, "alpha_steering": alpha_s, "alpha_drive": wrap_axis_angle(alpha - alpha_s),
         "power_loss": tau[1] * w1 + tau[2] * u.w2, "residual": ca.norm_inf(resid),
-        "status": _status(resid, per, sat), "Omega_x": u.Om[0], "Omega_y": u.Om[1], "Omega_z": u.Om[2],
+        "status": _status(resid, per, sat, ca.dot(u.Om, x0[:3]) > 0), "Omega_x": u.Om[0], "Omega_y": u.Om[1], "Omega_z": u.Om[2],
         "N": ca.vertcat(*per["N"]), "F_t": u.Ft, "F_a": u.Fa, "utilisation": ca.vertcat(*per["utilisation"]),
         "p_max": peak_pressure(ca.vertcat(*per["N"]), p0_all, design), "xi": ca.vertcat(*per["xi"]),
         "eta": ca.vertcat(*per["eta"]), "spin": ca.vertcat(*per["spin"]), "mu": ca.vertcat(*per["mu"]),

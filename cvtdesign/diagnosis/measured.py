@@ -20,6 +20,7 @@ from cvtdesign.io.measured_csv import read_measured
 
 GAMMA_TOL_DEG = 1e-6     # [deg] commanded angles closer than this are one operating point
 IMPLAUSIBLE_ALPHA_DEG = 20.0   # [deg] a median |α| beyond this is no rolling contact's: the signs are checked
+WRONG_POWER_SHARE = 0.75       # rows breaking a passive transmission's energy balance beyond which torque signs are wrong
 
 FOLDS = 5                # the diagnosis's cross-validation folds (diagnose.FOLDS)
 
@@ -62,7 +63,9 @@ def from_rows(rows: pd.DataFrame, frame: ShaftFrame, where: str = "data", droppe
     g = np.radians(rows["gamma_cmd_deg"].to_numpy())
     w1, w2 = rows["omega_1"].to_numpy(), rows["omega_2"].to_numpy()
     rows["alpha_deg"] = np.degrees(frame.slip_angle(w1, w2, g))
-    _check_signs(rows["alpha_deg"].to_numpy(), frame, w1, w2, g, where)
+    if len(rows) >= MIN_POINTS:      # a handful of rows says nothing about conventions
+        _check_signs(rows["alpha_deg"].to_numpy(), frame, w1, w2, g, where)
+        _check_power(w1 * rows["tau_1"].to_numpy(), w2 * rows["tau_2"].to_numpy(), where)
     rows["tau_perp"], rows["tau_par"] = frame.load_split(g, rows["tau_1"].to_numpy(), rows["tau_2"].to_numpy())
     rows["efficiency"] = efficiency(rows["tau_1"] * rows["omega_1"], rows["tau_2"] * rows["omega_2"])
     m = Measured(where, rows, "gamma_axis_deg" in rows.columns, dropped or {})
@@ -92,6 +95,26 @@ def _check_signs(alpha_deg, frame: ShaftFrame, w1, w2, g, where: str) -> None:
                          "expected ω positive about each "
                          "shaft's drive roller's declared axle and γ as the variant's shaft frame defines it "
                          "(docs/measured-data.md, Signs)")
+
+
+def _check_power(p1, p2, where: str) -> None:
+    """Refuse torques whose signs break the energy balance of a passive transmission. The powers into the CVT
+    at its shafts, p_s = τ_s ω_s, have opposite signs (power passes from one shaft to the other) and sum to
+    its losses, ≥ 0; where the load is near zero, the noise gives either sign. So if most rows
+    (WRONG_POWER_SHARE) have both powers of one sign, one torque counts positive the other way round; if
+    most give out more power than they take in, both do (torques exerted by the shafts, not applied to them)."""
+    same_sign = float(np.mean(np.sign(p1) * np.sign(p2) > 0))
+    net_out = float(np.mean(p1 + p2 < 0))
+    expected = ("expected the torques applied to the shafts from outside, positive in the sense of positive ω "
+                "(docs/measured-data.md, Signs)")
+    if same_sign > WRONG_POWER_SHARE:
+        raise InputError(f"{where}: tau_1, tau_2: power enters the CVT at both shafts, or leaves at both, at "
+                         f"{same_sign:.0%} of the rows, where a transmission passes it from one shaft to the other: "
+                         f"one of the two torques counts positive the other way round; {expected}")
+    if net_out > WRONG_POWER_SHARE:
+        raise InputError(f"{where}: tau_1, tau_2: the CVT gives out more power than it takes in (τ1ω1 + τ2ω2 < 0) at "
+                         f"{net_out:.0%} of the rows (median {np.median(p1 + p2):+.3g} W): the torques look like those "
+                         f"the shafts exert, with both signs reversed; {expected}")
 
 
 def _levels(values, tol, relative: bool = False):

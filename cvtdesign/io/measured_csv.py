@@ -60,27 +60,7 @@ def read_measured(path, gamma_range_deg=None, drop_bad: bool = False) -> tuple[p
                              f"(required: {', '.join(REQUIRED)}; found: {', '.join(raw.columns) or 'none'})")
     if raw.empty:
         raise InputError(f"{where}: no data rows under the header")
-    cols = list(REQUIRED) + [c for c in OPTIONAL if c in raw.columns]
-    bad = pd.Series("", index=raw.index)      # the first problem of each row
-    kind = pd.Series("", index=raw.index)     # its category, for the count of dropped rows
-    num = pd.DataFrame(index=raw.index)
-    for c in cols:
-        text = raw[c].str.strip()
-        v = pd.to_numeric(text, errors="coerce").astype(float)
-        for i in raw.index[v.isna() & bad.eq("")]:
-            cell = text[i]
-            empty = cell in ("", "nan", "NaN", "NA")
-            bad[i] = f"column '{c}' is empty" if empty else f"column '{c}': '{shorten(cell)}' is not a number"
-            kind[i] = "empty cell" if empty else "non-numeric cell"
-        for i in raw.index[v.notna() & ~np.isfinite(v) & bad.eq("")]:
-            bad[i] = f"column '{c}': '{shorten(text[i])}' is not a finite number"
-            kind[i] = "non-finite cell"
-        if c in PLAUSIBLE:
-            limit, unit, what = PLAUSIBLE[c]
-            for i in raw.index[np.isfinite(v) & (v.abs() > limit) & bad.eq("")]:
-                bad[i] = f"column '{c}': {v[i]:g} {unit} is not a plausible {what} (expected |{c}| ≤ {limit:g} {unit})"
-                kind[i] = "implausible value"
-        num[c] = v
+    num, bad, kind = _cells(raw, list(REQUIRED) + [c for c in OPTIONAL if c in raw.columns])
     if gamma_range_deg is not None:
         lo, hi = gamma_range_deg
         out = ~num["gamma_cmd_deg"].between(lo - 1e-9, hi + 1e-9) & bad.eq("") & num["gamma_cmd_deg"].notna()
@@ -109,3 +89,27 @@ def read_measured(path, gamma_range_deg=None, drop_bad: bool = False) -> tuple[p
     return rows, dropped
 
 
+def _cells(raw: pd.DataFrame, cols: list) -> tuple[pd.DataFrame, pd.Series, pd.Series]:
+    """(the columns `cols` as numbers, each row's first problem ('' if none), its category): empty,
+    non-numeric and non-finite cells, and speeds or torques beyond PLAUSIBLE."""
+    bad = pd.Series("", index=raw.index)      # the first problem of each row
+    kind = pd.Series("", index=raw.index)     # its category, for the count of dropped rows
+    num = pd.DataFrame(index=raw.index)
+    for c in cols:
+        text = raw[c].str.strip()
+        v = pd.to_numeric(text, errors="coerce").astype(float)
+        for i in raw.index[v.isna() & bad.eq("")]:
+            cell = text[i]
+            empty = cell in ("", "nan", "NaN", "NA")
+            bad[i] = f"column '{c}' is empty" if empty else f"column '{c}': '{shorten(cell)}' is not a number"
+            kind[i] = "empty cell" if empty else "non-numeric cell"
+        for i in raw.index[v.notna() & ~np.isfinite(v) & bad.eq("")]:
+            bad[i] = f"column '{c}': '{shorten(text[i])}' is not a finite number"
+            kind[i] = "non-finite cell"
+        if c in PLAUSIBLE:
+            limit, unit, what = PLAUSIBLE[c]
+            for i in raw.index[np.isfinite(v) & (v.abs() > limit) & bad.eq("")]:
+                bad[i] = f"column '{c}': {v[i]:g} {unit} is not a plausible {what} (expected |{c}| ≤ {limit:g} {unit})"
+                kind[i] = "implausible value"
+        num[c] = v
+    return num, bad, kind

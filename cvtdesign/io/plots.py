@@ -55,7 +55,8 @@ COMPARE_ROWS = (("alpha", "slip angle α [°]", np.degrees),
                 ("efficiency", "efficiency P_out/P_in [-]", lambda x: x))
 LOAD_STYLES = ("-", "--", ":", "-.")
 LOAD_MARKERS = ("o", "s", "^", "v")
-FLAGS = ((1, "+", "grey", "not converged"), (2, "x", "k", "lost contact"), (3, "x", "r", "gross slip"))
+FLAGS = ((1, "+", "grey", "not converged"), (2, "x", "k", "lost contact"), (3, "x", "r", "gross slip"),
+         (4, "v", "m", "reversed (sphere turning backwards)"))
 COMPARE_KEYS = ("gamma_cmd", "load", "status", *(key for key, _, _ in COMPARE_ROWS))   # what compare_figure reads
 # the compare panels' titles sit on the axes' top edge, where matplotlib would place them after measuring the
 # (absent) top ticks: given, that measuring pass (a twentieth of the drawing) is skipped

@@ -119,7 +119,9 @@ def test_heavy_loads_are_physical_or_flagged(effects):
     assert np.isnan(r["alpha"][~ok]).all()
     for i, j in zip(*np.nonzero(r["status"] >= 2)):
         raw, k = raw_point(m, G[i, j], T[i, j]), r["failed_contact"][i, j]
-        if r["status"][i, j] == STATUS.index("lost_contact"):
+        if r["status"][i, j] == STATUS.index("reversed"):     # the output shaft runs against the ideal law
+            assert raw["residual"][0] < 1e-8 and raw["omega_2"][0] * m.frame.ideal_ratio(G[i, j]) < 0
+        elif r["status"][i, j] == STATUS.index("lost_contact"):
             assert raw["N"][k] <= 0 and raw["N"][k] == raw["N"].min()
         elif not raw["residual"][0] > 1e-8:           # converged gross slip: the named contact exceeds μN
             assert np.hypot(raw["F_t"][k], raw["F_a"][k]) > raw["mu"][k] * raw["N"][k]

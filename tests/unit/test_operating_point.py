@@ -7,7 +7,7 @@ import pytest
 
 from cvtdesign.core import native
 from cvtdesign.core.geometry import ideal_gamma, kim_gamma_from_phi
-from cvtdesign.core.model import compile_model
+from cvtdesign.core.model import STATUS, compile_model
 from cvtdesign.io.variant import load_variant
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -48,3 +48,16 @@ def test_brake_torque_load(existing):
     np.testing.assert_allclose(tau_perp, 0.8, rtol=1e-9)
     with pytest.raises(ValueError):
         existing.evaluate(g, 0.8, load_kind="brake")
+
+
+def test_a_root_with_the_sphere_turning_backwards_is_not_a_number(existing):
+    """Past Kim's envelope (existing CVT, γ = −80°, τ⊥ = 2.1 N·m) the Newton solve from ideal kinematics found a
+    second root of the equations: ω2 = +907 rad/s where the ideal law gives −56.7 (power entering at both
+    shafts, 351 W lost), reported `ok` with α = −10.6° (the ±90° wrap of a 169° error). Loading from rest
+    reaches another root (ω2 ≈ −20 rad/s). A root where the sphere turns against the commanded axis is now
+    `reversed` and carries no number; the shipped envelope has none."""
+    res = existing.evaluate(np.radians([-80.0, -80.0]), [2.1, 1.0])
+    assert list(res["status"]) == [STATUS.index("reversed"), STATUS.index("ok")]
+    assert np.isnan(res["alpha"][0]) and np.isnan(res["omega_2"][0]) and np.isfinite(res["omega_2"][1])
+    G, T = np.meshgrid(existing.layout.gamma_grid, existing.layout.load_grid, indexing="ij")
+    assert not np.any(existing.evaluate(G, T)["status"] == STATUS.index("reversed"))

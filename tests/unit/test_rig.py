@@ -237,3 +237,29 @@ def test_one_wild_speed_keeps_the_speed_levels(layout, tmp_path):
     rows.loc[len(rows) - 1, "omega_1"] = 1000.0
     data = _points(layout, rows, tmp_path)
     assert len(data.speed_levels) == 3 and data.rows["point"].nunique() == 19
+
+
+@pytest.mark.parametrize("flip, pattern", [
+    (("tau_1",), r"power enters the CVT at both shafts, or leaves at both, at 9\d% of the rows"),
+    (("tau_2",), r"power enters the CVT at both shafts, or leaves at both, at 9\d% of the rows"),
+    (("tau_1", "tau_2"), r"the CVT gives out more power than it takes in \(τ1ω1 \+ τ2ω2 < 0\) at 9\d% of the rows")])
+def test_reversed_torque_signs_break_the_energy_balance(layout, kim_rows, tmp_path, capsys, flip, pattern):
+    """Torques counted the other way round (both: the torques the shafts exert, as another simulator may
+    write them) used to be diagnosed as an 'unexplained' gap along τ⊥. A passive transmission passes power
+    from one shaft to the other and loses some: the reader now refuses data that break that at most rows."""
+    rows = kim_rows.copy()
+    for c in flip:
+        rows[c] = -rows[c]
+    path = tmp_path / "d.csv"
+    path.write_text(rig.to_csv_text(rows))
+    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"cvtdesign: error: {path}: tau_1, tau_2: ")
+    assert re.search(pattern, err) and "docs/measured-data.md" in err, err
+
+
+def test_the_ideal_cvt_passes_the_energy_check(layout, tmp_path):
+    """Lossless data (the ideal CVT) sit on the energy balance's edge: their losses are noise, of either
+    sign, and nothing is refused."""
+    rows, _ = rig.simulate(layout, (), seed=5)
+    assert len(_points(layout, rows, tmp_path).rows) == len(rows)
