@@ -69,6 +69,16 @@ def _not_a_folder(path: Path) -> Path | None:
     return None
 
 
+def _probe(folder: Path, path: Path, kind: str) -> None:
+    """Refuse a folder that exists but cannot take a new file (read-only, /proc, no space): create an empty
+    hidden file in it and remove it, so the refusal comes before any computation and nothing is left."""
+    try:
+        tmp, _ = _new_temp(folder / ".cvtdesign-probe", kind, "probe")
+    except OutputError as e:
+        raise OutputError(f"{kind} {path}: cannot write: {str(e).rsplit(': ', 1)[-1]}") from None
+    tmp.unlink(missing_ok=True)
+
+
 def _in_roots(folder: Path) -> bool:
     """Whether `folder` is one of the tool's own output folders (OUTPUT_ROOTS below the working directory)."""
     here = Path(os.path.abspath(folder))
@@ -84,6 +94,8 @@ def check_folder(folder, *, kind: str) -> Path:
     if blocker is not None:
         what = "is not a folder" if blocker == folder else f"lies under {blocker}, which is not a folder"
         raise OutputError(f"{kind} {folder}: {what}; expected a folder or a new folder name")
+    if folder.is_dir():
+        _probe(folder, folder, kind)
     return folder
 
 
@@ -131,6 +143,8 @@ def check_target(path, *, kind: str, create: bool = False) -> Path:
                               f"own output folders {', '.join(r + '/' for r in OUTPUT_ROOTS)} are created)")
         if create:
             make_folder(folder, kind=kind)
+    else:
+        _probe(folder, path, kind)
     return path
 
 

@@ -274,3 +274,27 @@ def test_stale_temporary_files_are_recognised(tmp_path):
     assert output.remove_stale_temps(tmp_path) == 1 and leftovers(tmp_path) == [".lock"]
     with pytest.raises(ValueError, match="no column"):
         read_case(tmp_path / "cases" / "c1.parquet")
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc (a folder no file can be made in)")
+@pytest.mark.parametrize("argv", [
+    ["compare", "{existing}", "--out", "{tmp}/o", "--json", "/proc/nope.json"],
+    ["compare", "{existing}", "--out", "{tmp}/o", "--report", "/proc/nope.html"],
+    ["diagnose", "{tmp}/d.csv", "--variant", "{existing}", "--plots", "{tmp}/o", "--json", "/proc/nope.json"]])
+def test_a_folder_that_takes_no_file_is_refused_before_any_work(tmp_path, capsys, argv):
+    """--json into an existing folder where no file can be made (here /proc) used to be found out only at the
+    end: diagnose ran its whole diagnosis and wrote its plots, compare wrote its figure and JSON, then exit 2."""
+    from conftest import variant_path
+    from cvtdesign.cli import main
+    (tmp_path / "d.csv").write_text("gamma_cmd_deg,omega_1,omega_2,tau_1,tau_2\n0,10,0,0,0\n")
+    args = [a.format(existing=variant_path("existing"), tmp=tmp_path) for a in argv]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "/proc/nope." in err and ": cannot write: " in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.csv"]
+
+
+def test_the_writability_probe_leaves_nothing(tmp_path):
+    out = tmp_path / "r.json"
+    assert output.check_target(out, kind="--json") == out and output.check_folder(tmp_path, kind="--out") == tmp_path
+    assert list(tmp_path.iterdir()) == []
