@@ -49,8 +49,17 @@ def load_measured(path, layout, drop_bad: bool = False) -> Measured:
     """Read a measured-data CSV for a variant: α, τ⊥ and τ∥ with its shaft kinematics, γ checked against its
     envelope."""
     g = np.degrees(layout.gamma_grid)
-    rows, dropped = read_measured(path, (float(g.min()), float(g.max())), drop_bad)
+    rows, dropped = read_measured(path, (float(g.min()), float(g.max())), drop_bad, shaft_capacity(layout))
     return from_rows(rows, shaft_frame(layout), str(path), dropped)
+
+
+def shaft_capacity(layout) -> dict:
+    """{tau_1, tau_2}: the torque [N m] each shaft's rollers can pass through their contacts at their preloads,
+    Σ |ρ_i| r_i μ_i P_i (μ_i the larger of the roller's and the sphere's friction coefficients): what a
+    measured torque is checked against (a tenfold margin covers normal forces that grow under load)."""
+    mu_sphere = float(layout.sphere_material.mu)
+    return {f"tau_{s}": sum(abs(float(r.ratio)) * float(r.radius) * max(float(r.material.mu), mu_sphere) * float(r.preload)
+                            for r in layout.rollers if r.shaft == s) for s in (1, 2)}
 
 
 def from_rows(rows: pd.DataFrame, frame: ShaftFrame, where: str = "data", dropped: dict | None = None) -> Measured:

@@ -17,16 +17,19 @@ from cvtdesign.errors import InputError, shorten, suggest
 
 REQUIRED = ("gamma_cmd_deg", "omega_1", "omega_2", "tau_1", "tau_2")
 OPTIONAL = ("gamma_axis_deg",)
+CAPACITY_MARGIN = 10.0   # a measured shaft torque may be at most this many times what its contacts carry at preload
 # the largest magnitude a measurement can have: beyond it a cell is a corrupt or mis-scaled value, not a rig's
 PLAUSIBLE = {"omega_1": (1e4, "rad/s", "shaft speed"), "omega_2": (1e4, "rad/s", "shaft speed"),
              "tau_1": (1e4, "N·m", "shaft torque"), "tau_2": (1e4, "N·m", "shaft torque")}
 
 
-def read_measured(path, gamma_range_deg=None, drop_bad: bool = False) -> tuple[pd.DataFrame, dict]:
+def read_measured(path, gamma_range_deg=None, drop_bad: bool = False, capacity=None) -> tuple[pd.DataFrame, dict]:
     """Read and check a measured-data CSV.
 
     frame: the variant's shaft kinematics (α, τ⊥, τ∥ as kinematics.py defines them); gamma_range_deg:
-    (lo, hi) the variant's operating range [deg]. Every problem is one InputError line naming the file, the line (the
+    (lo, hi) the variant's operating range [deg]; capacity: {tau_1, tau_2} the torques [N m] the variant's
+    contacts can carry on each shaft at their preloads (`shaft_capacity`), of which a measured torque may be at
+    most CAPACITY_MARGIN times. Every problem is one InputError line naming the file, the line (the
     header is line 1) or the column, and what was expected. With `drop_bad`, rows with empty or non-numeric
     cells (non-finite ones too: 'inf' is not a measurement), speeds or torques beyond PLAUSIBLE, a motor shaft at
     rest or γ outside the range are dropped and counted instead. The file must be UTF-8 text (the line of the first other byte is named)."""
@@ -60,7 +63,7 @@ def read_measured(path, gamma_range_deg=None, drop_bad: bool = False) -> tuple[p
                              f"(required: {', '.join(REQUIRED)}; found: {', '.join(raw.columns) or 'none'})")
     if raw.empty:
         raise InputError(f"{where}: no data rows under the header")
-    num, bad, kind = _cells(raw, list(REQUIRED) + [c for c in OPTIONAL if c in raw.columns])
+    num, bad, kind = _cells(raw, list(REQUIRED) + [c for c in OPTIONAL if c in raw.columns], capacity or {})
     if gamma_range_deg is not None:
         lo, hi = gamma_range_deg
         out = ~num["gamma_cmd_deg"].between(lo - 1e-9, hi + 1e-9) & bad.eq("") & num["gamma_cmd_deg"].notna()
@@ -89,9 +92,10 @@ def read_measured(path, gamma_range_deg=None, drop_bad: bool = False) -> tuple[p
     return rows, dropped
 
 
-def _cells(raw: pd.DataFrame, cols: list) -> tuple[pd.DataFrame, pd.Series, pd.Series]:
+def _cells(raw: pd.DataFrame, cols: list, capacity: dict) -> tuple[pd.DataFrame, pd.Series, pd.Series]:
     """(the columns `cols` as numbers, each row's first problem ('' if none), its category): empty,
-    non-numeric and non-finite cells, and speeds or torques beyond PLAUSIBLE."""
+    non-numeric and non-finite cells, speeds or torques beyond PLAUSIBLE, and torques beyond CAPACITY_MARGIN
+    times the shaft's `capacity`."""
     bad = pd.Series("", index=raw.index)      # the first problem of each row
     kind = pd.Series("", index=raw.index)     # its category, for the count of dropped rows
     num = pd.DataFrame(index=raw.index)
@@ -110,6 +114,13 @@ def _cells(raw: pd.DataFrame, cols: list) -> tuple[pd.DataFrame, pd.Series, pd.S
             limit, unit, what = PLAUSIBLE[c]
             for i in raw.index[np.isfinite(v) & (v.abs() > limit) & bad.eq("")]:
                 bad[i] = f"column '{c}': {v[i]:g} {unit} is not a plausible {what} (expected |{c}| ≤ {limit:g} {unit})"
+                kind[i] = "implausible value"
+        if c in capacity:
+            cap = capacity[c]
+            for i in raw.index[np.isfinite(v) & (v.abs() > CAPACITY_MARGIN * cap) & bad.eq("")]:
+                bad[i] = (f"column '{c}': {v[i]:g} N·m is beyond what shaft {c[-1]}'s contacts can carry (Σ μ·P·r = "
+                          f"{cap:.3g} N·m at the preloads; expected at most {CAPACITY_MARGIN:g}× that: N·mm written "
+                          "as N·m?)")
                 kind[i] = "implausible value"
         num[c] = v
     return num, bad, kind

@@ -220,14 +220,14 @@ def test_independent_simulators_moderate_spin_creep_is_named(layout):
 
 
 def test_one_typo_row_leaves_the_verdict(layout, tmp_path):
-    """Replay 1 with one typo row added (τ2 = 100 N·m instead of ~0.2): that row used to set the load-level
+    """Replay 1 with one typo row added (τ1 = 30 N·m instead of ~1): that row used to set the load-level
     tolerance and merge the 187 operating points into 18, so the noise estimate became ~6° and the verdict
     `none`. The row is now an operating point of its own (at gross slip in the model, so left out of the fits)
     and steering_lateral_creep is still named."""
     path = dataset(layout, tmp_path, KIM, seed=11)
     lines = path.read_text().splitlines()
     typo = lines[1].split(",")
-    typo[4] = "100"
+    typo[3] = "30"
     path.write_text("\n".join(lines + [",".join(typo)]) + "\n")
     data = measured.load_measured(path, layout)
     assert data.rows["point"].nunique() == 188

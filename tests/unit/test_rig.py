@@ -186,9 +186,9 @@ def _points(layout, rows, tmp_path):
     return measured.load_measured(path, layout)
 
 
-@pytest.mark.parametrize("column, value", [("omega_1", 1000.0), ("tau_2", 100.0), ("tau_1", -100.0)])
+@pytest.mark.parametrize("column, value", [("tau_1", 30.0), ("tau_1", -30.0)])
 def test_one_wild_row_does_not_merge_the_operating_points(layout, kim_rows, tmp_path, column, value):
-    """A single typo row (a speed or torque 100x the others) used to set the level tolerance for the whole
+    """A single typo row (τ1 = ±30 N·m among loads of ±1) used to set the level tolerance for the whole
     dataset (5 % of the largest |ω1|, 2.5 % of τ⊥'s range) and merged Kim's 187 points into 18: the noise
     estimate became 6° and the diagnosis found no gap. It is now one point of its own."""
     clean = _points(layout, kim_rows, tmp_path)
@@ -263,3 +263,16 @@ def test_the_ideal_cvt_passes_the_energy_check(layout, tmp_path):
     sign, and nothing is refused."""
     rows, _ = rig.simulate(layout, (), seed=5)
     assert len(_points(layout, rows, tmp_path).rows) == len(rows)
+
+
+def test_torques_in_newton_millimetres_are_refused(kim_rows, tmp_path, capsys):
+    """Torques written in N·mm (×1000) used to be read as 1000 N·m loads on a CVT whose contacts carry 3.2 N·m
+    per shaft at preload: noise 17.5°, regions of 60–85° residual, and the verdict 'none'."""
+    rows = kim_rows.copy()
+    rows[["tau_1", "tau_2"]] *= 1000
+    path = tmp_path / "d.csv"
+    path.write_text(rig.to_csv_text(rows))
+    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is beyond what shaft 1's contacts can carry (Σ μ·P·r = 3.2 N·m" in err, err
+    assert "N·mm written as N·m?" in err
