@@ -75,6 +75,7 @@ def read_measured(path, gamma_range_deg=None, drop_bad: bool = False, capacity=N
     for i in raw.index[still]:
         bad[i] = "omega_1 is 0: the motor shaft must turn for a slip angle to exist"
         kind[i] = "motor at rest"
+    _duplicates(num, bad, kind)
     dropped = {}
     if bad.ne("").any():
         if not drop_bad:
@@ -124,3 +125,15 @@ def _cells(raw: pd.DataFrame, cols: list, capacity: dict) -> tuple[pd.DataFrame,
                 kind[i] = "implausible value"
         num[c] = v
     return num, bad, kind
+
+
+def _duplicates(num: pd.DataFrame, bad: pd.Series, kind: pd.Series) -> None:
+    """Mark rows that repeat an earlier row in every cell: a rig's replicates differ by their noise, so an
+    exact copy is the same measurement twice (a file appended to itself), and it would make the noise level
+    the replicates give zero."""
+    first: dict = {}
+    for i, key in zip(num.index, map(tuple, num.to_numpy())):
+        if key in first and bad[i] == "":
+            bad[i] = f"repeats line {first[key] + 2} in every cell; expected each replicate measured anew"
+            kind[i] = "duplicate row"
+        first.setdefault(key, i)

@@ -276,3 +276,15 @@ def test_torques_in_newton_millimetres_are_refused(kim_rows, tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "is beyond what shaft 1's contacts can carry (Σ μ·P·r = 3.2 N·m" in err, err
     assert "N·mm written as N·m?" in err
+
+
+def test_a_file_appended_to_itself_is_refused(kim_rows, layout, tmp_path, capsys):
+    """Rows repeated exactly (every cell) used to pass as replicates: noise 7e-15°, ΔBIC of ±1e26. With
+    --drop-bad the copies are dropped and counted."""
+    path = tmp_path / "d.csv"
+    path.write_text(rig.to_csv_text(pd.concat([kim_rows, kim_rows.iloc[::10]], ignore_index=True)))
+    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
+    err = capsys.readouterr().err
+    assert "line 189: repeats line 2 in every cell; expected each replicate measured anew (18 more bad rows" in err, err
+    data = measured.load_measured(path, layout, drop_bad=True)
+    assert len(data.rows) == len(kim_rows) and data.dropped == {"duplicate row": 19}
