@@ -84,26 +84,27 @@ def from_rows(rows: pd.DataFrame, frame: ShaftFrame, where: str = "data", droppe
 
 def _check_signs(alpha_deg, frame: ShaftFrame, w1, w2, g, where: str) -> None:
     """Refuse data whose slip angles are implausible (median |α| beyond IMPLAUSIBLE_ALPHA_DEG) where reversing
-    the sign of ω2 or of γ_cmd makes them plausible: the data then count that quantity positive the other way
-    round from the variant's conventions (docs/measured-data.md, Signs), and a diagnosis would fit a gap
-    that is not there."""
+    the sign of ω2 or of γ_cmd, or reading γ_cmd as radians, makes them plausible: the data then count that
+    quantity the other way round from the variant's conventions (docs/measured-data.md, Signs), and a
+    diagnosis would fit a gap that is not there."""
     typical = float(np.median(np.abs(alpha_deg)))
     if typical <= IMPLAUSIBLE_ALPHA_DEG:
         return
     trials = {("omega_2", "omega_2's sign reversed"): (w1, -w2, g),
               ("gamma_cmd_deg", "gamma_cmd_deg's sign reversed"): (w1, w2, -g),
-              ("omega_2", "the signs of omega_2 and gamma_cmd_deg reversed"): (w1, -w2, -g)}
+              ("omega_2", "the signs of omega_2 and gamma_cmd_deg reversed"): (w1, -w2, -g),
+              ("gamma_cmd_deg", "gamma_cmd_deg read as radians"): (w1, w2, np.degrees(g))}
     medians = {k: float(np.median(np.abs(np.degrees(frame.slip_angle(*a))))) for k, a in trials.items()}
     best = min(medians.values())
     # where the ideal law is odd in γ (Kim's tan γ), reversing ω2 and reversing γ give the same |α|: both named
     alike = [k for k, v in medians.items() if v <= best * (1 + 1e-9) + 1e-12]
     columns = ", ".join(dict.fromkeys(k[0] for k in alike))
+    expected = "gamma_cmd_deg in degrees" if "radians" in alike[0][1] else \
+        "ω positive about each shaft's drive roller's declared axle and γ as the variant's shaft frame defines it"
     if best <= min(IMPLAUSIBLE_ALPHA_DEG / 2, typical / 4):
         raise InputError(f"{where}: {columns}: the rows imply slip angles of {typical:.0f}° (median |α|), beyond any "
                          f"rolling contact's; with {' or '.join(k[1] for k in alike)} they are {best:.2g}°: "
-                         "expected ω positive about each "
-                         "shaft's drive roller's declared axle and γ as the variant's shaft frame defines it "
-                         "(docs/measured-data.md, Signs)")
+                         f"expected {expected} (docs/measured-data.md)")
 
 
 def _check_power(p1, p2, where: str) -> None:

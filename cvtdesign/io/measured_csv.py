@@ -56,6 +56,9 @@ def read_measured(path, gamma_range_deg=None, drop_bad: bool = False, capacity=N
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as e:
         raise InputError(f"{where}: not a readable CSV file ({' '.join(str(e).split()) or type(e).__name__})") from None
     raw.columns = [str(c).strip() for c in raw.columns]
+    twice = [c for c in REQUIRED + OPTIONAL if f"{c}.1" in raw.columns]     # pandas renames a repeated name
+    if twice:
+        raise InputError(f"{where}: column '{twice[0]}' appears more than once in the header; expected each column once")
     for c in REQUIRED:
         if c not in raw.columns:
             other = [x for x in raw.columns if x not in REQUIRED + OPTIONAL]

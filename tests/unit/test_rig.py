@@ -288,3 +288,19 @@ def test_a_file_appended_to_itself_is_refused(kim_rows, layout, tmp_path, capsys
     assert "line 189: repeats line 2 in every cell; expected each replicate measured anew (18 more bad rows" in err, err
     data = measured.load_measured(path, layout, drop_bad=True)
     assert len(data.rows) == len(kim_rows) and data.dropped == {"duplicate row": 19}
+
+
+def test_gamma_in_radians_and_a_repeated_column_are_named(kim_rows, tmp_path, capsys):
+    """γ_cmd written in radians in the degree column used to be diagnosed (residual 35°, 'unexplained'); a
+    header with omega_2 twice was read with the first of them, silently."""
+    rows = kim_rows.copy()
+    rows["gamma_cmd_deg"] = np.radians(rows["gamma_cmd_deg"])
+    path = tmp_path / "d.csv"
+    path.write_text(rig.to_csv_text(rows))
+    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
+    assert "gamma_cmd_deg: the rows imply slip angles of" in (err := capsys.readouterr().err)
+    assert "with gamma_cmd_deg read as radians they are" in err and "expected gamma_cmd_deg in degrees" in err
+    text = rig.to_csv_text(kim_rows).splitlines()
+    path.write_text("\n".join([text[0] + ",omega_2"] + [t + ",1" for t in text[1:]]) + "\n")
+    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
+    assert "column 'omega_2' appears more than once in the header" in capsys.readouterr().err
