@@ -476,7 +476,8 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
         "omega_2": u.w2, "tau_1": tau[1], "tau_2": tau[2], "phi": phi, "gamma_axis": frame.axis_angle(u.Om),
         "alpha": alpha, "alpha_steering": alpha_s, "alpha_drive": wrap_axis_angle(alpha - alpha_s),
         "power_loss": tau[1] * w1 + tau[2] * u.w2, "residual": ca.norm_inf(resid),
-        "status": _status(resid, per, sat, ca.dot(u.Om, x0[:3]) > 0), "Omega_x": u.Om[0], "Omega_y": u.Om[1], "Omega_z": u.Om[2],
+        "status": _status(resid, per, sat, ca.dot(u.x[0:3], x0[:3]) > 0),   # Ω·Ω_ideal / om_ref² (any sign of ω1)
+        "Omega_x": u.Om[0], "Omega_y": u.Om[1], "Omega_z": u.Om[2],
         "N": ca.vertcat(*per["N"]), "F_t": u.Ft, "F_a": u.Fa, "utilisation": ca.vertcat(*per["utilisation"]),
         "p_max": peak_pressure(ca.vertcat(*per["N"]), p0_all, design), "xi": ca.vertcat(*per["xi"]),
         "eta": ca.vertcat(*per["eta"]), "spin": ca.vertcat(*per["spin"]), "mu": ca.vertcat(*per["mu"]),

@@ -180,6 +180,16 @@ def kim_rows(layout):
     return rows
 
 
+def _refused(rows, tmp_path, capsys) -> str:
+    """Diagnose `rows` written as a CSV: exit 2 with one line on stderr, naming the file; that line."""
+    path = tmp_path / "d.csv"
+    path.write_text(rows if isinstance(rows, str) else rig.to_csv_text(rows))
+    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"cvtdesign: error: {path}: "), err
+    return err
+
+
 def _points(layout, rows, tmp_path):
     path = tmp_path / "d.csv"
     path.write_text(rig.to_csv_text(rows))
@@ -203,11 +213,7 @@ def test_one_wild_row_does_not_merge_the_operating_points(layout, kim_rows, tmp_
 
 @pytest.mark.parametrize("cell", ["1e300", "-2e5"])
 def test_implausible_magnitudes_are_bad_rows(tmp_path, capsys, cell):
-    path = tmp_path / "bad.csv"
-    path.write_text(GOOD.replace("0,10,0.01,0.1,0.5", f"0,{cell},0.01,0.1,0.5"))
-    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "Traceback" not in err
+    err = _refused(GOOD.replace("0,10,0.01,0.1,0.5", f"0,{cell},0.01,0.1,0.5"), tmp_path, capsys)
     assert re.search(r"line 3: column 'omega_1': .* rad/s is not a plausible shaft speed \(expected \|omega_1\| ≤ 10000 rad/s\)", err), err
 
 
@@ -218,11 +224,7 @@ def test_reversed_sign_convention_is_named(layout, kim_rows, tmp_path, capsys, f
     used to fit them and answer 'unexplained'. The reader now says which sign would make them plausible."""
     rows = kim_rows.copy()
     rows[flip] = -rows[flip]
-    path = tmp_path / "d.csv"
-    path.write_text(rig.to_csv_text(rows))
-    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith(f"cvtdesign: error: {path}: ")
+    err = _refused(rows, tmp_path, capsys)
     # Kim's law is odd in γ: reversing ω2 or γ gives the same |α|, so both are named, ω2 first
     assert "omega_2, gamma_cmd_deg: the rows imply slip angles of" in err
     assert named in err and "docs/measured-data.md" in err, err
@@ -250,12 +252,8 @@ def test_reversed_torque_signs_break_the_energy_balance(layout, kim_rows, tmp_pa
     rows = kim_rows.copy()
     for c in flip:
         rows[c] = -rows[c]
-    path = tmp_path / "d.csv"
-    path.write_text(rig.to_csv_text(rows))
-    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith(f"cvtdesign: error: {path}: tau_1, tau_2: ")
-    assert re.search(pattern, err) and "docs/measured-data.md" in err, err
+    err = _refused(rows, tmp_path, capsys)
+    assert ": tau_1, tau_2: " in err and re.search(pattern, err) and "docs/measured-data.md" in err, err
 
 
 def test_the_ideal_cvt_passes_the_energy_check(layout, tmp_path):
@@ -270,21 +268,16 @@ def test_torques_in_newton_millimetres_are_refused(kim_rows, tmp_path, capsys):
     per shaft at preload: noise 17.5°, regions of 60–85° residual, and the verdict 'none'."""
     rows = kim_rows.copy()
     rows[["tau_1", "tau_2"]] *= 1000
-    path = tmp_path / "d.csv"
-    path.write_text(rig.to_csv_text(rows))
-    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "is beyond what shaft 1's contacts can carry (Σ μ·P·r = 3.2 N·m" in err, err
+    err = _refused(rows, tmp_path, capsys)
+    assert "is beyond what shaft 1's contacts can carry (Σ μ·P·r = 3.2 N·m" in err, err
     assert "N·mm written as N·m?" in err
 
 
 def test_a_file_appended_to_itself_is_refused(kim_rows, layout, tmp_path, capsys):
     """Rows repeated exactly (every cell) used to pass as replicates: noise 7e-15°, ΔBIC of ±1e26. With
     --drop-bad the copies are dropped and counted."""
+    err = _refused(pd.concat([kim_rows, kim_rows.iloc[::10]], ignore_index=True), tmp_path, capsys)
     path = tmp_path / "d.csv"
-    path.write_text(rig.to_csv_text(pd.concat([kim_rows, kim_rows.iloc[::10]], ignore_index=True)))
-    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
-    err = capsys.readouterr().err
     assert "line 189: repeats line 2 in every cell; expected each replicate measured anew (18 more bad rows" in err, err
     data = measured.load_measured(path, layout, drop_bad=True)
     assert len(data.rows) == len(kim_rows) and data.dropped == {"duplicate row": 19}
@@ -295,12 +288,9 @@ def test_gamma_in_radians_and_a_repeated_column_are_named(kim_rows, tmp_path, ca
     header with omega_2 twice was read with the first of them, silently."""
     rows = kim_rows.copy()
     rows["gamma_cmd_deg"] = np.radians(rows["gamma_cmd_deg"])
-    path = tmp_path / "d.csv"
-    path.write_text(rig.to_csv_text(rows))
-    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
-    assert "gamma_cmd_deg: the rows imply slip angles of" in (err := capsys.readouterr().err)
+    err = _refused(rows, tmp_path, capsys)
+    assert "gamma_cmd_deg: the rows imply slip angles of" in err
     assert "with gamma_cmd_deg read as radians they are" in err and "expected gamma_cmd_deg in degrees" in err
     text = rig.to_csv_text(kim_rows).splitlines()
-    path.write_text("\n".join([text[0] + ",omega_2"] + [t + ",1" for t in text[1:]]) + "\n")
-    assert main(["diagnose", str(path), "--variant", str(EXISTING)]) == 2
-    assert "column 'omega_2' appears more than once in the header" in capsys.readouterr().err
+    err = _refused("\n".join([text[0] + ",omega_2"] + [t + ",1" for t in text[1:]]) + "\n", tmp_path, capsys)
+    assert "column 'omega_2' appears more than once in the header" in err
