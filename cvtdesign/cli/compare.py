@@ -7,7 +7,7 @@ from pathlib import Path
 from rich.console import Console
 
 from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
-from cvtdesign.core.metrics import envelope, metrics
+from cvtdesign.core.metrics import envelope, ideal_model, metrics
 from cvtdesign.core.model import compile_model
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_file
@@ -45,7 +45,7 @@ def run(args):
                                     for L, res in zip(layouts, results)], figure)
     rows = [metrics(m, res) for m, res in zip(models, results)]
     if len(files) == 1:
-        ideal = compile_model(layouts[-1], effects=())
+        ideal = ideal_model(layouts[-1])
         row = metrics(ideal, envelope(ideal))
         row["name"] = f"ideal ({layouts[-1].name})"
         rows.insert(0, row)

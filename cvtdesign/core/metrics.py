@@ -18,9 +18,18 @@ it over is None, never NaN.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
-from cvtdesign.core.model import CompiledModel, status_counts
+from cvtdesign.core.model import CompiledModel, compile_model, status_counts
+
+
+def ideal_model(layout) -> CompiledModel:
+    """The ideal CVT of a layout: the same rollers and linkage with rigid rolling contacts (Kim's law with no
+    effects: no creep, no losses), whatever the layout's contact law. Kalker's law creeps with no effect
+    on, so `effects=()` alone is not ideal under it (box_kalker.yaml's 'ideal' slipped 4.185°)."""
+    return compile_model(dataclasses.replace(layout, contact_law="kim"), effects=())
 
 
 def envelope(model: CompiledModel, theta=None) -> dict:

@@ -8,7 +8,9 @@ import pytest
 from conftest import shipped_model
 
 from cvtdesign.cli import main
+from cvtdesign.core.metrics import envelope, ideal_model, metrics
 from cvtdesign.core.model import EPS_RIGID
+from cvtdesign.io.variant import load_variant
 
 ROOT = Path(__file__).resolve().parents[2]
 KEYS = {"name", "file", "max_abs_alpha_deg", "rms_alpha_deg", "max_abs_alpha_steering_deg",
@@ -86,3 +88,12 @@ def test_roller_defaults_supply_any_roller_field(make_variant, tmp_path):
     a, b = json.loads((tmp_path / "f.json").read_text())["variants"]
     assert {k: v for k, v in a.items() if k not in ("name", "file")} == \
         {k: v for k, v in b.items() if k not in ("name", "file")}
+
+
+def test_the_ideal_cvt_is_ideal_under_kalkers_law():
+    """Kalker's law creeps with no effect on, so the 'ideal' column of `compare box_kalker.yaml` slipped like
+    the variant (max |α| 4.185°). The ideal CVT is the layout with rigid rolling contacts, whatever its law."""
+    for name in ("box_kalker", "box"):
+        m = ideal_model(load_variant(ROOT / f"variants/{name}.yaml"))
+        row = metrics(m, envelope(m))
+        assert row["max_abs_alpha_deg"] < np.degrees(EPS_RIGID * 50) and row["min_efficiency"] > 1 - 1e-6, name
