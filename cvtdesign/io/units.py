@@ -67,6 +67,46 @@ KINDS = {
     "dimensionless": ("", "'0.8'"),
 }
 
+
+
+class Parameters(dict):
+    """A variant's named parameters, name → SI value, with `written`: name → (the text, its pint
+    dimensionality) of those written with a unit. A field that takes a parameter by a bare reference
+    ('radius: = r_drive') must be of its kind: with only SI numbers left, 'preload: 100 mm' would have made
+    every preload 0.1 N."""
+
+    def __init__(self):
+        super().__init__()
+        self.written: dict = {}
+
+    def record(self, name: str, text) -> None:
+        """Remember the dimensionality of parameter `name` as written (a quantity with a unit, or a bare
+        reference to another parameter); plain numbers and expressions have none to check."""
+        text = str(text).strip()
+        if text.startswith("="):
+            other = text[1:].strip()
+            if other in self.written:
+                self.written[name] = self.written[other]
+            return
+        q = parse_quantity(text) if len(text) <= MAX_QUANTITY_TEXT else None
+        if q is not None and q[1] is not None:
+            self.written[name] = (text, registry().Quantity(1, q[1]).dimensionality)
+
+
+def _check_reference(text: str, kind: str, names, where: str) -> None:
+    """A field written as a bare parameter reference ('= r_drive') takes that parameter only if it was
+    written as a quantity of the field's kind (Parameters)."""
+    name = text[1:].strip()
+    written = getattr(names, "written", {}).get(name)
+    if written is None:
+        return
+    unit, example = KINDS[kind]
+    if written[1] != registry().Quantity(1, unit or "dimensionless").dimensionality:
+        what = "a plain number" if kind == "dimensionless" else f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}"
+        raise InputError(f"{where}: '= {name}' is parameter {name} = '{shorten(written[0])}', not {what}; "
+                         f"expected {what} like {example}")
+
+
 # ------------------------------------------------------------------------------------------ quantities
 
 _NUMBER = re.compile(r"\s*(?P<num>[-+]?(?:(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?|inf(?:inity)?|nan))"
@@ -216,7 +256,7 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
     string holding only a number, e.g. a command-line value) are taken as SI. The result is finite, or a
     CasADi expression (an optimiser's symbolic parameter)."""
     unit, example = KINDS[kind]
-    kind = "plain number" if kind == "dimensionless" else kind
+    field_kind, kind = kind, "plain number" if kind == "dimensionless" else kind
     a_kind = f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}"
     if isinstance(raw, bool) or raw is None:
         raise InputError(f"{where}: expected {a_kind} like {example}, got {str(raw).lower() if isinstance(raw, bool) else 'nothing'}"
@@ -233,6 +273,8 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
         return raw  # already a number-like (e.g. a CasADi symbol substituted by a study)
     text = raw.strip()
     if text.startswith("="):
+        if text[1:].strip().isidentifier():
+            _check_reference(text, field_kind, names, where)
         return evaluate_expression(text[1:].strip(), names or {}, where)
     q = parse_quantity(text) if len(text) <= MAX_QUANTITY_TEXT else None
     if q is None:

@@ -26,7 +26,15 @@ from cvtdesign.core.geometry import named_vector, spherical
 from cvtdesign.core.layout import Layout, Material, Roller
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.schema import RangeSpec, Spherical, VariantSpec
-from cvtdesign.io.units import MAX_QUANTITY_TEXT, check_range, parse_quantity, registry, to_si
+from cvtdesign.io.units import (
+    MAX_QUANTITY_TEXT,
+    Parameters,
+    check_range,
+    evaluate_expression,
+    parse_quantity,
+    registry,
+    to_si,
+)
 from cvtdesign.io.yaml_file import read_spec
 
 SHIPPED = ("existing", "box", "unequal")     # the variants that come with the package (cvtdesign/variants/)
@@ -171,9 +179,10 @@ def grid(r: RangeSpec, kind, where):
 
 def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Layout:
     """Build the SI Layout. `overrides` maps parameter names to values (floats or CasADi symbols)."""
-    names, overrides = {}, overrides or {}
+    names, overrides = Parameters(), overrides or {}
     for k, v in spec.parameters.items():   # in order, so later parameters may use earlier ones
         names[k] = overrides[k] if k in overrides else parameter_value(v, f"{where}: parameters.{k}", names)
+        names.record(k, v)
     mats = _materials(spec, where, names)
     R = quantity(spec.sphere.radius, "sphere_radius", f"{where}: sphere.radius", names, "a positive radius")
     forks = _forks(spec, where, names)
@@ -341,7 +350,7 @@ def parameter_value(v, where, names):
         return to_si(v, "dimensionless", where)
     text = str(v).strip()
     if text.startswith("="):
-        return to_si(text, "dimensionless", where, names)
+        return evaluate_expression(text[1:].strip(), names, where)
     q = parse_quantity(text) if len(text) <= MAX_QUANTITY_TEXT else None
     value = None
     if q is not None:

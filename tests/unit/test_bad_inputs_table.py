@@ -436,6 +436,14 @@ vcase("rollers: {}", "rollers", (("rollers",), {}))
 vcase("unknown roller material", ("rollers.D1.material", "unknown material 'steel'"), (D1 + ("material",), "steel"))
 vcase("unknown sphere material", ("sphere.material", "did you mean 'bowling_ball'"), (("sphere", "material"), "bowlingball"))
 vcase("Poisson ratio 0.7", "urethane_82A.poisson_ratio", (M82 + ("poisson_ratio",), 0.7))
+# a parameter written with a unit of another kind than the field that takes it (it used to become SI silently:
+# 'preload: 100 mm' gave every roller 0.1 N, and compare printed max |α| 0.000)
+vcase("parameter of the wrong kind: preload in mm",
+      ("roller_defaults.preload", "'= preload' is parameter preload = '100 mm', not a force"),
+      (("parameters", "preload"), "100 mm"))
+vcase("parameter of the wrong kind: radius in deg",
+      ("rollers.S1.radius", "'= r_steer' is parameter r_steer = '2.18 deg', not a length"),
+      (("parameters", "r_steer"), "2.18 deg"))
 # effects
 vcase("unknown effect", "effects: unknown effect 'spin_creep'", (("effects",), ["spin_creep"]))
 vcase("misspelt effect", "did you mean 'rolling_resistance'", (("effects",), ["drive_longitudinal_creep", "rolling_resistence"]))
