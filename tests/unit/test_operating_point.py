@@ -61,3 +61,18 @@ def test_a_root_with_the_sphere_turning_backwards_is_not_a_number(existing):
     assert np.isnan(res["alpha"][0]) and np.isnan(res["omega_2"][0]) and np.isfinite(res["omega_2"][1])
     G, T = np.meshgrid(existing.layout.gamma_grid, existing.layout.load_grid, indexing="ij")
     assert not np.any(existing.evaluate(G, T)["status"] == STATUS.index("reversed"))
+
+
+def test_a_solve_that_did_not_converge_is_not_called_gross_slip():
+    """With a saturation law (existing.yaml + normal_force_variation + traction_saturation):
+    - γ = −60°, τ⊥ = 6 N·m ended with ω2 = NaN and a residual whose ∞-norm skipped the NaN: it was counted
+      as converged, and then as gross slip;
+    - γ = −80°, τ⊥ = 1.8 N·m did not converge (residual 0.13) and was called gross slip because the last
+      iterate had a contact near μN; stepping the load up from rest converges there with every contact
+      near half of μN.
+    Both are not_converged now."""
+    L = load_variant(ROOT / "variants/existing.yaml")
+    m = compile_model(L, ("drive_longitudinal_creep", "steering_lateral_creep", "normal_force_variation",
+                          "traction_saturation"))
+    res = m.evaluate(np.radians([-60.0, -80.0]), [6.0, 1.8])
+    assert list(res["status"]) == [STATUS.index("not_converged")] * 2
