@@ -16,6 +16,7 @@ from cvtdesign.diagnosis import measured
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_files
 from cvtdesign.io.report import Note, Table, png_figure
+from cvtdesign.errors import InputError
 from cvtdesign.io.variant import load_variant
 
 
@@ -23,6 +24,9 @@ def run(args):
     layout = load_variant(args.variant)
     base = effects_arg(args.base, layout.effects, "--base")
     candidates = effects_arg(args.candidates, [], "--candidates")
+    if set(candidates) & set(base):
+        raise InputError(f"--candidates: {', '.join(e for e in candidates if e in base)} is already in the base model "
+                         f"({', '.join(base)}); expected effects to add to it")
     data = measured.load_measured(args.data, layout, args.drop_bad)
     console = Console(width=140)
     with progress_bar(console, "diagnosis", str, transient=True) as progress:

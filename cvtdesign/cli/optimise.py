@@ -13,6 +13,7 @@ from cvtdesign.design import solve
 from cvtdesign.design.study_file import load_study
 from cvtdesign.errors import InputError
 from cvtdesign.io.output import make_folder, write_files
+from cvtdesign.io.schema import MAX_COUNT
 from cvtdesign.io.report import Note, Table
 from cvtdesign.io.variant import load_spec, parameter_value
 
@@ -27,8 +28,8 @@ OBJECTIVE = {"worst_alpha": ("worst |α|", degrees), "rms_alpha": ("RMS α", deg
 
 
 def run(args):
-    if args.starts is not None and args.starts < 1:
-        raise InputError(f"--starts: expected a positive number of multistart points, got {args.starts}")
+    if args.starts is not None and not 1 <= args.starts <= MAX_COUNT:
+        raise InputError(f"--starts: expected from 1 to {MAX_COUNT} multistart points, got {args.starts}")
     console = Console(width=120)
     with progress_bar(console, "multistart", lambda sol: f"last: {sol.status}, f = {sol.objective:.5g}",
                       transient=True) as progress:

@@ -8,12 +8,14 @@ from cvtdesign.cli.printing import left_out_text
 from cvtdesign.diagnosis import rig
 from cvtdesign.errors import InputError
 from cvtdesign.io.output import write_file
+from cvtdesign.io.schema import MAX_COUNT
 from cvtdesign.io.variant import load_variant
 
 
 def run(args):
-    if args.replicates is not None and args.replicates < 1:
-        raise InputError(f"--replicates: expected at least 1 replicate of each operating point, got {args.replicates}")
+    if args.replicates is not None and not 1 <= args.replicates <= MAX_COUNT:
+        raise InputError(f"--replicates: expected from 1 to {MAX_COUNT} replicates of each operating point, "
+                         f"got {args.replicates}")
     layout = load_variant(args.variant)
     effects = effects_arg(args.effects, layout.effects, "--effects")
     params = rig.parse_settings(args.set, effects)

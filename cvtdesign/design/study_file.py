@@ -34,7 +34,7 @@ from cvtdesign.core.checks import check_layout
 from cvtdesign.core.effects import check_effects
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.fitted import read_fitted
-from cvtdesign.io.schema import EnvelopeSpec, Name, Num, Strict, VariantSpec, no_bool
+from cvtdesign.io.schema import MAX_COUNT, EnvelopeSpec, Name, Num, Strict, VariantSpec, no_bool
 from cvtdesign.io.units import check_range, dimension_of, kind_name, to_si
 from cvtdesign.io.variant import grid, load_spec, parameter_value, quantity, resolve
 from cvtdesign.io.yaml_file import read_spec
@@ -278,8 +278,8 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
         raise InputError(f"{where}: objective.duty_cycle: every weight is 0; expected at least one positive weight")
     for field_, value, least in (("max_iter", spec.max_iter, 1), ("multistart.starts", spec.multistart.starts, 1),
                                  ("pareto.points", spec.pareto.points, 1)):
-        if value < least:
-            raise InputError(f"{where}: {field_}: expected an integer >= {least}, got {value}")
+        if not least <= value <= MAX_COUNT:
+            raise InputError(f"{where}: {field_}: expected an integer from {least} to {MAX_COUNT}, got {value}")
 
 
 def min_normal_force(raw, preloads: np.ndarray, where: str, names: dict) -> np.ndarray:

@@ -18,7 +18,7 @@ from cvtdesign.core.effects import EFFECTS, check_effects
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.model import compile_model, status_counts
 from cvtdesign.errors import InputError, suggest
-from cvtdesign.io.schema import Num, RangeSpec, Strict, no_bool
+from cvtdesign.io.schema import MAX_COUNT, Num, RangeSpec, Strict, no_bool
 from cvtdesign.io.units import to_si
 from cvtdesign.io.variant import effect_value, grid, quantity
 from cvtdesign.io.yaml_file import read_spec
@@ -79,8 +79,8 @@ def read_protocol(path, layout: Layout) -> Protocol:
         spec.motor_speed if isinstance(spec.motor_speed, list) else [spec.motor_speed], "speed", "motor_speed")
     if np.any(speeds == 0) or np.any(np.abs(speeds) > 1e4):
         raise InputError(f"{where}: motor_speed: expected non-zero speeds of at most 1e4 rad/s")
-    if spec.replicates < 1:
-        raise InputError(f"{where}: replicates: expected at least 1, got {spec.replicates}")
+    if not 1 <= spec.replicates <= MAX_COUNT:
+        raise InputError(f"{where}: replicates: expected from 1 to {MAX_COUNT}, got {spec.replicates}")
     return Protocol(values(spec.gamma, "angle", "gamma"), values(spec.load, "torque", "load"), speeds,
                     spec.load_kind, spec.replicates)
 
@@ -128,8 +128,9 @@ def simulate(layout: Layout, effects, parameters: dict | None = None, protocol: 
     physics stops holding (lost contact, gross slip) or the solve did not converge; a rig cannot measure a
     steady state there)."""
     protocol = protocol or kim_protocol(layout)
-    if not (isinstance(protocol.replicates, (int, np.integer)) and protocol.replicates >= 1):
-        raise InputError(f"replicates: expected at least 1 replicate of each operating point, got {protocol.replicates}")
+    if not (isinstance(protocol.replicates, (int, np.integer)) and 1 <= protocol.replicates <= MAX_COUNT):
+        raise InputError(f"replicates: expected from 1 to {MAX_COUNT} replicates of each operating point, got "
+                         f"{protocol.replicates}")
     if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0):
         raise InputError(f"seed: expected an integer >= 0 for the noise generator, got {seed}")
     model = compile_model(layout.with_effects(effects, parameters))

@@ -57,6 +57,8 @@ def spec_field(meaning: str, default=PydanticUndefined, *, kind: str | None = No
     return Field(default, description=description, json_schema_extra=extra or None)
 
 
+MAX_COUNT = 10_000   # starts, iterations, Pareto points, replicates: more is a typo (1e9 starts filled memory in seconds)
+
 DIRECTION = ("a frame vector name (x, y, z, d1, d2, d3, c1, c2, c3, optionally with '-': '-d1'), a list of three "
              "numbers or '= expressions' (normalised: [1, '= sqrt(3)', 0]) or {polar, azimuth}")
 

@@ -574,6 +574,7 @@ scase("min_normal_force nan", "constraints.min_normal_force", constraints={"min_
 scase("multistart.starts 0", "multistart.starts", multistart={"starts": 0})
 scase("multistart.starts -1", "multistart.starts", multistart={"starts": -1})
 scase("multistart.starts false", "multistart.starts", multistart={"starts": False})
+scase("multistart.starts 1e9", "multistart.starts: expected an integer from 1 to 10000", multistart={"starts": 10 ** 9})
 scase("multistart.starts 2.5", "multistart.starts", multistart={"starts": 2.5})
 scase("multistart.seed -1", "multistart.seed", multistart={"seed": -1})
 scase("pareto.points 0", "pareto.points", pareto={"points": 0})
@@ -597,6 +598,7 @@ for id, expect, args in [
     ("--starts -2", "--starts", ("--starts", "-2")),
     ("--starts abc", "argument --starts: invalid int value: 'abc'", ("--starts", "abc")),
     ("--starts 1.5", "argument --starts", ("--starts", "1.5")),
+    ("--starts 1e9", "--starts: expected from 1 to 10000", ("--starts", "1000000000")),   # filled memory
     ("--json to a directory", ("--json", "is a directory"), ("--json", "{adir}")),
     ("--json under a file", ("--json", "not a folder"), ("--json", "{plain}/o.json")),
     ("--json in a missing folder", ("--json", "no folder"), ("--json", "{tmp}/nowhere/o.json")),
@@ -669,6 +671,7 @@ for id, expect, args in [
     ("--replicates 0", "--replicates", ("--replicates", "0")),    # was ignored (1 replicate written)
     ("--replicates -1", "replicates", ("--replicates", "-1")),
     ("--replicates abc", "argument --replicates: invalid int value", ("--replicates", "abc")),
+    ("--replicates 1e8", "--replicates: expected from 1 to 10000", ("--replicates", "100000000")),   # filled memory
     ("--seed -1", "seed", ("--seed", "-1")),
     ("--seed 1.5", "argument --seed", ("--seed", "1.5")),
 ]:
@@ -755,6 +758,8 @@ D = ("diagnose", "{csv}", "--variant", "{v}")
 for id, expect, args in [
     ("no --variant", ("diagnose", "--variant"), ("diagnose", "{csv}")),
     ("--base unknown effect", ("--base", "did you mean 'drive_longitudinal_creep'"), D + ("--base", "drive_longitudinal_crep")),
+    ("a candidate already in the base", ("--candidates: drive_longitudinal_creep is already in the base model",),
+     D + ("--base", "drive_longitudinal_creep", "--candidates", "drive_longitudinal_creep")),   # tested nothing
     ("--base with an empty item and an unknown one", ("--base", "bogus"), D + ("--base", "drive_longitudinal_creep,,bogus")),
     ("--candidates unknown effect", ("--candidates", "bogus"), D + ("--candidates", "rolling_resistance,bogus")),
     ("--json to a directory", ("--json", "is a directory"), D + ("--json", "{adir}")),

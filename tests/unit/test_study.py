@@ -185,7 +185,7 @@ def test_unreachable_scheduler_refused_within_the_timeout(tmp_path, capsys, monk
     ({"batch": {"sweep": {"r_stear": ["30 mm"]}}}, "batch.sweep.r_stear: the variant box.yaml has no parameter"),
     ({"batch": {"variants": ["box.yaml", "nope.yaml"]}}, "batch.variants: no variant file 'nope.yaml'"),
     ({"batch": {"variants": ["box.yaml", "broken.yaml"]}}, "broken.yaml: materials: missing required field"),
-    ({"max_iter": 0}, "max_iter: expected an integer >= 1, got 0"),
+    ({"max_iter": 0}, "max_iter: expected an integer from 1 to 10000, got 0"),
     ({"effects": ["drive_longitudinal_creep", "bogus_creep"]}, "effects: unknown effect 'bogus_creep'"),
     ({"constraints": {"min_normal_force": "-5 N"}}, "constraints.min_normal_force: expected a positive force"),
 ])

@@ -234,7 +234,7 @@ CASES = {
     "rig --noise < 0": (cli("rig", "{existing}", "--noise", "axis=-0.1 deg", "--out", "{out}/d.csv"),
                         r"--noise: axis: expected a standard deviation >= 0"),
     "rig --seed -1": (cli("rig", "{existing}", "--seed", "-1", "--out", "{out}/d.csv"), r"seed: expected an integer >= 0"),
-    "rig --replicates -1": (cli("rig", "{existing}", "--replicates", "-1", "--out", "{out}/d.csv"), r"replicates: expected at least 1"),
+    "rig --replicates -1": (cli("rig", "{existing}", "--replicates", "-1", "--out", "{out}/d.csv"), r"replicates: expected from 1 to 10000"),
 }
 
 
