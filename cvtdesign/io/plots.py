@@ -348,20 +348,40 @@ def worker(conn, parent_end):
     the process frees anyway; the memory it uses stays the same."""
     gc.disable()
     parent_end.close()      # its copy of the parent's end: without it, a parent that dies would not be noticed
+    failed = None
     try:
         _mpl()
-        name, args = conn.recv()
-    except (EOFError, KeyboardInterrupt):
+    except KeyboardInterrupt:
         return
+    except Exception as e:  # noqa: BLE001 — reported to the parent with its request, unless interrupted
+        if _interrupted(e):
+            return
+        failed = f"{type(e).__name__}: {e}"
     try:
+        name, args = conn.recv()
+        if failed:
+            conn.send(failed)
+            return
         globals()[name](*args)
         conn.send(None)
-    except KeyboardInterrupt:
+    except (EOFError, BrokenPipeError, KeyboardInterrupt):
         return
     except OutputError as e:  # raised again by the parent (Background.wait): one line, exit status 2
         conn.send(e)
-    except Exception as e:  # reported by the parent as one line
-        conn.send(f"{type(e).__name__}: {e}")
+    except Exception as e:  # noqa: BLE001 — reported by the parent as one line, unless interrupted
+        if not _interrupted(e):
+            conn.send(f"{type(e).__name__}: {e}")
+
+
+def _interrupted(e: BaseException) -> bool:
+    """Whether `e` comes of Background.close's interrupt: a KeyboardInterrupt inside C code (an extension
+    module being imported, say) surfaces as another exception caused by it, and its traceback on stderr would
+    follow the parent's one-line error."""
+    while e is not None:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        e = e.__cause__ or e.__context__
+    return False
 
 
 class Background:
