@@ -112,10 +112,11 @@ def _positive(value, where, what="a positive value"):
 # plausible SI range of each dimensional field: (what, kind, lower, upper, lower exclusive, unit a plain number
 # probably meant); see VariantSpec
 PLAUSIBLE = {
-    "sphere_radius": ("sphere radius", "length", 0.0, 2.0, True, "mm"),
-    "roller_radius": ("roller radius", "length", 0.0, 1.0, True, "mm"),
-    "crown_radius": ("crown radius", "length", 0.0, 1.0, True, "mm"),
-    "width": ("roller width", "length", 0.0, 1.0, True, "mm"),
+    # lengths below a tenth of a millimetre are no machine part (a 1e-6 mm roller gave 5947 MPa, unflagged)
+    "sphere_radius": ("sphere radius", "length", 1e-3, 2.0, False, "mm"),
+    "roller_radius": ("roller radius", "length", 1e-4, 1.0, False, "mm"),
+    "crown_radius": ("crown radius", "length", 1e-4, 1.0, False, "mm"),
+    "width": ("roller width", "length", 1e-4, 1.0, False, "mm"),
     "preload": ("preload", "force", 0.0, 1e5, True, None),
     "mount_stiffness": ("mount stiffness", "stiffness", 0.0, 1e10, True, None),
     "youngs_modulus": ("Young's modulus", "pressure", 1e5, 1.2e12, False, "MPa"),
