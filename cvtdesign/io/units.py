@@ -82,15 +82,12 @@ class Parameters(dict):
     def record(self, name: str, text) -> None:
         """Remember the dimensionality of parameter `name` as written (a quantity with a unit, or a bare
         reference to another parameter); plain numbers and expressions have none to check."""
-        text = str(text).strip()
-        if text.startswith("="):
-            other = text[1:].strip()
+        if str(text).strip().startswith("="):
+            other = str(text).strip()[1:].strip()
             if other in self.written:
                 self.written[name] = self.written[other]
-            return
-        q = parse_quantity(text) if len(text) <= MAX_QUANTITY_TEXT else None
-        if q is not None and q[1] is not None:
-            self.written[name] = (text, registry().Quantity(1, q[1]).dimensionality)
+        elif not is_plain_number(text) and dimension_of(text) is not None:
+            self.written[name] = (str(text).strip(), dimension_of(text))
 
 
 def _check_reference(text: str, kind: str, names, where: str) -> None:
