@@ -163,16 +163,16 @@ def check_outputs(args):
     """Refuse an output path that cannot be written before any computation (each write checks again):
     --json, --report and the --out of rig and new are files, --plots and the other commands' --out are folders."""
     if getattr(args, "json", None):
-        check_target(args.json, kind="--json")
+        check_target(args.json, kind="--json", probe=True)
     if getattr(args, "report", None):
-        check_target(args.report, kind="--report")
+        check_target(args.report, kind="--report", probe=True)
     if getattr(args, "plots", None):
-        check_folder(args.plots, kind="--plots")
+        check_folder(args.plots, kind="--plots", probe=True)
     if getattr(args, "out", None):
         if args.command in ("rig", "new"):
-            check_target(args.out, kind="--out")
+            check_target(args.out, kind="--out", probe=True)
         else:
-            check_folder(args.out, kind="--out")
+            check_folder(args.out, kind="--out", probe=True)
 
 
 def main(argv=None) -> int:

@@ -86,15 +86,15 @@ def _in_roots(folder: Path) -> bool:
     return any(here == cwd / r or cwd / r in here.parents for r in OUTPUT_ROOTS)
 
 
-def check_folder(folder, *, kind: str) -> Path:
-    """Refuse an output folder that cannot be one (it exists and is not a folder, or lies under a file);
-    writes nothing. Returns it as a Path."""
+def check_folder(folder, *, kind: str, probe: bool = False) -> Path:
+    """Refuse an output folder that cannot be one (it exists and is not a folder, or lies under a file, or,
+    with `probe`, takes no new file: `_probe`); leaves nothing. Returns it as a Path."""
     folder = Path(folder)
     blocker = _not_a_folder(folder)
     if blocker is not None:
         what = "is not a folder" if blocker == folder else f"lies under {blocker}, which is not a folder"
         raise OutputError(f"{kind} {folder}: {what}; expected a folder or a new folder name")
-    if folder.is_dir():
+    if probe and folder.is_dir():
         _probe(folder, folder, kind)
     return folder
 
@@ -110,10 +110,12 @@ def make_folder(folder, *, kind: str) -> Path:
     return folder
 
 
-def check_target(path, *, kind: str, create: bool = False) -> Path:
+def check_target(path, *, kind: str, create: bool = False, probe: bool = False) -> Path:
     """The file to replace for `path` (a symbolic link to a regular file: the file it points to), after
     refusing a target that is not a regular file or lies under one, or whose folder is missing outside the
-    tool's own output folders (see the module's rules). With `create`, that missing folder is made."""
+    tool's own output folders (see the module's rules), or, with `probe`, whose folder takes no new file
+    (`_probe`: for the checks before any work; a write finds that out by itself). With `create`, that missing
+    folder is made."""
     path = Path(path)
     try:
         st = os.stat(path)
@@ -143,7 +145,7 @@ def check_target(path, *, kind: str, create: bool = False) -> Path:
                               f"own output folders {', '.join(r + '/' for r in OUTPUT_ROOTS)} are created)")
         if create:
             make_folder(folder, kind=kind)
-    else:
+    elif probe:
         _probe(folder, path, kind)
     return path
 

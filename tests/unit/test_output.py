@@ -296,5 +296,6 @@ def test_a_folder_that_takes_no_file_is_refused_before_any_work(tmp_path, capsys
 
 def test_the_writability_probe_leaves_nothing(tmp_path):
     out = tmp_path / "r.json"
-    assert output.check_target(out, kind="--json") == out and output.check_folder(tmp_path, kind="--out") == tmp_path
+    assert output.check_target(out, kind="--json", probe=True) == out
+    assert output.check_folder(tmp_path, kind="--out", probe=True) == tmp_path
     assert list(tmp_path.iterdir()) == []
