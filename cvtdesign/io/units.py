@@ -68,7 +68,6 @@ KINDS = {
 }
 
 
-
 class Parameters(dict):
     """A variant's named parameters, name → SI value, with `written`: name → (the text, its pint
     dimensionality) of those written with a unit. A field that takes a parameter by a bare reference
@@ -90,18 +89,13 @@ class Parameters(dict):
             self.written[name] = (str(text).strip(), dimension_of(text))
 
 
-def _check_reference(text: str, kind: str, names, where: str) -> None:
-    """A field written as a bare parameter reference ('= r_drive') takes that parameter only if it was
-    written as a quantity of the field's kind (Parameters)."""
-    name = text[1:].strip()
+def _check_reference(name: str, unit: str, a_kind: str, example: str, names, where: str) -> None:
+    """A field (of SI `unit`, `a_kind` 'a length') written as a bare parameter reference ('= r_drive') takes
+    that parameter only if it was written as a quantity of the field's kind (Parameters)."""
     written = getattr(names, "written", {}).get(name)
-    if written is None:
-        return
-    unit, example = KINDS[kind]
-    if written[1] != registry().Quantity(1, unit or "dimensionless").dimensionality:
-        what = "a plain number" if kind == "dimensionless" else f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}"
-        raise InputError(f"{where}: '= {name}' is parameter {name} = '{shorten(written[0])}', not {what}; "
-                         f"expected {what} like {example}")
+    if written is not None and written[1] != registry().parse_units(unit).dimensionality:
+        raise InputError(f"{where}: '= {name}' is parameter {name} = '{shorten(written[0])}', not {a_kind}; "
+                         f"expected {a_kind} like {example}")
 
 
 # ------------------------------------------------------------------------------------------ quantities
@@ -253,7 +247,7 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
     string holding only a number, e.g. a command-line value) are taken as SI. The result is finite, or a
     CasADi expression (an optimiser's symbolic parameter)."""
     unit, example = KINDS[kind]
-    field_kind, kind = kind, "plain number" if kind == "dimensionless" else kind
+    kind = "plain number" if kind == "dimensionless" else kind
     a_kind = f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}"
     if isinstance(raw, bool) or raw is None:
         raise InputError(f"{where}: expected {a_kind} like {example}, got {str(raw).lower() if isinstance(raw, bool) else 'nothing'}"
@@ -271,7 +265,7 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
     text = raw.strip()
     if text.startswith("="):
         if text[1:].strip().isidentifier():
-            _check_reference(text, field_kind, names, where)
+            _check_reference(text[1:].strip(), unit, a_kind, example, names, where)
         return evaluate_expression(text[1:].strip(), names or {}, where)
     q = parse_quantity(text) if len(text) <= MAX_QUANTITY_TEXT else None
     if q is None:
