@@ -200,6 +200,16 @@ def _check_bounds(n: str, spec: StudySpec, vspec, where: str) -> tuple[float, fl
     return lo, hi
 
 
+def _check_at_bound(vspec, base_file, overrides: dict, where: str, raw) -> None:
+    """The variant with one design variable at a bound (the others at their base values) must pass the
+    checks the variant file itself gets: a radius bound of -20 mm would let the optimiser try rollers of
+    negative radius. Only the fields are checked; collisions there are the design rows' business."""
+    try:
+        resolve(vspec, str(base_file), overrides=overrides)
+    except InputError as e:
+        raise InputError(f"{where}: at '{shorten(raw)}' the variant is not valid: {e}") from None
+
+
 def problem_inputs(study_path, spec: StudySpec, base_file, fixed: dict | None = None) -> tuple:
     """The checked inputs of a study's NLP for one variant file (a path, or a StudyVariant: then no file is
     read) and sweep point: (variant spec, base layout with the sweep point, free design variables, their
@@ -230,8 +240,13 @@ def problem_inputs(study_path, spec: StudySpec, base_file, fixed: dict | None = 
                              f"{suggest(n, vspec.parameters)} (parameters: {', '.join(vspec.parameters) or 'none'})")
         lo, hi = _check_bounds(n, spec, vspec, where)
         if not lo < hi:
-            raise InputError(f"{where}: design.{n}: inverted bounds (lower {spec.design[n].lower} must be below "
-                             f"upper {spec.design[n].upper})")
+            what, hint = (("equal bounds", "; to fix a parameter, leave it out of design and set it in the variant")
+                          if lo == hi else ("inverted bounds", ""))
+            raise InputError(f"{where}: design.{n}: {what}: expected lower below upper, got lower "
+                             f"{spec.design[n].lower} and upper {spec.design[n].upper}{hint}")
+        for end, value in (("lower", lo), ("upper", hi)):
+            _check_at_bound(vspec, base_file, {**fixed, n: value}, f"{where}: design.{n}.{end}",
+                            getattr(spec.design[n], end))
         lower.append(lo)
         upper.append(hi)
     for n, values in spec.batch.sweep.items():

@@ -542,7 +542,9 @@ scase("design variable without upper", "design.d.upper: missing required field",
 scase("design variable field typo", ("design.d.lowr", "did you mean 'lower'"),
       design={"d": {"lowr": "30 mm", "upper": "90 mm"}})
 scase("inverted bounds", "design.r_drive: inverted bounds", design={"r_drive": {"lower": "60 mm", "upper": "20 mm"}})
-scase("equal bounds", "design.d: inverted bounds", design={"d": {"lower": "30 mm", "upper": "30 mm"}})
+scase("equal bounds", "design.d: equal bounds", design={"d": {"lower": "30 mm", "upper": "30 mm"}})
+scase("negative radius bound", ("design.r_steer.lower: at '-20 mm' the variant is not valid:",
+                                 "rollers.N1.radius: expected a positive radius"), design={"r_steer": {"lower": "-20 mm", "upper": "60 mm"}})
 scase("force bounds on a length", "design.r_steer.lower", design={"r_steer": {"lower": "20 N", "upper": "60 N"}})
 scase("length bounds on a force", "design.preload.lower", design={"preload": {"lower": "40 mm", "upper": "300 mm"}})
 scase("bounds of two dimensions", "design.d", design={"d": {"lower": "30 mm", "upper": "110 N"}})
