@@ -226,7 +226,9 @@ def reference_markdown() -> str:
                 "| --- | --- | --- | --- | --- | --- |"]
         out += [field_row(prefix, n, info, inherited) for n, info in model.model_fields.items()]
         if prefix == "envelope.gamma.":
-            out += ["", "Relabelled shafts may put γ anywhere in ±180° (Kim's own labels: 10°..170°)."]
+            out += ["", ("Relabelled shafts may put γ anywhere in ±180° (Kim's own labels: 10°..170°), except at ±90°: "
+                    "there the sphere's axis is square to the motor's shaft, whose roller cannot turn it, so a "
+                    "grid through ±90° is refused.")]
         out.append("")
     out += ["## `{polar, azimuth}`: a direction by its angles", "",
             " ".join((Spherical.__doc__ or "").split()) + " Any direction field may be written this way.", "",

@@ -333,4 +333,6 @@ def check_range(value, raw, where: str, what: str, kind: str, lo=None, hi=None, 
             hint = f"; did you mean '{number} {guess}'? (plain numbers are SI)"
     elif isinstance(raw, str) and raw.strip().startswith("="):
         hint = "; expressions are evaluated in SI (m, N, Pa, rad)"
-    raise InputError(f"{where}: {_show(value, kind)} is not a plausible {what} (expected {need}){hint}")
+    written = isinstance(raw, str) and not is_plain_number(raw) and not raw.strip().startswith("=")
+    shown = f"'{shorten(raw.strip())}'" if written else _show(value, kind)     # as written, if it has a unit
+    raise InputError(f"{where}: {shown} is not a plausible {what} (expected {need}){hint}")

@@ -147,7 +147,20 @@ def quantity(raw, key: str, where: str, names: dict | None = None, positive: str
     value = to_si(raw, kind, where, names)
     if positive:
         _positive(value, where, positive)
-    return check_range(value, raw, where, what, kind, lo, hi, lo_open=lo_open, guess=guess)
+    value = check_range(value, raw, where, what, kind, lo, hi, lo_open=lo_open, guess=guess)
+    if key == "gamma":
+        _not_singular(value, where)
+    return value
+
+
+def _not_singular(gamma, where: str) -> None:
+    """γ [rad] clear of ±90° (mod 180°): there the sphere's axis is square to the motor's shaft (1), whose
+    roller then cannot turn it, and the ideal ratio k(c + s tan γ) is infinite (docs/conventions.md). Every
+    point there would be left not converged."""
+    if isinstance(gamma, (int, float)) and abs(math.cos(gamma)) < 1e-9:
+        raise InputError(f"{where}: γ = {math.degrees(gamma):g} deg is where the sphere's axis is square to the "
+                         "motor's shaft 1, which then cannot turn it (the ideal ratio is infinite); expected a γ "
+                         "clear of ±90 deg")
 
 
 def effect_value(effect: str, param: str, raw, where: str, names: dict | None = None):
@@ -175,7 +188,11 @@ def grid(r: RangeSpec, kind, where):
     if not (b - a) / s <= MAX_GRID_POINTS - 1:
         raise InputError(f"{where}.step: a step of {s:.3g} gives {(b - a) / s + 1:.3g} points from start to stop; "
                          f"expected at most {MAX_GRID_POINTS} points per envelope axis (a larger step)")
-    return np.linspace(a, b, int(round((b - a) / s)) + 1)
+    points = np.linspace(a, b, int(round((b - a) / s)) + 1)
+    singular = np.flatnonzero(np.abs(np.cos(points)) < 1e-9) if kind == "angle" else []
+    if len(singular):
+        _not_singular(float(points[singular[0]]), f"{where}: point {singular[0]}")
+    return points
 
 
 def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Layout:

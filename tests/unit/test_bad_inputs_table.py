@@ -457,7 +457,11 @@ for eff, par, val in [("steering_offset", "offset", "30 deg"), ("drive_radius_mi
                       ("traction_saturation", "mu_scale", 10), ("rolling_resistance", "offset", "6 mm")]:
     vcase(f"{eff}.{par} = {val} out of range", f"effect_parameters.{eff}.{par}", (EP, {eff: {par: val}}))
 # envelope
-vcase("gamma stop < start", "envelope.gamma: expected start <= stop", (ENV_G + ("stop",), "-90 deg"), (ENV_G + ("start",), "80 deg"))
+vcase("gamma stop < start", "envelope.gamma: expected start <= stop", (ENV_G + ("stop",), "-60 deg"), (ENV_G + ("start",), "80 deg"))
+vcase("gamma stop at 90 deg", ("envelope.gamma.stop: γ = 90 deg is where the sphere's axis is square to the "
+                              "motor's shaft 1", "expected a γ clear of ±90 deg"), (ENV_G + ("stop",), "90 deg"))
+vcase("gamma grid through 90 deg", ("envelope.gamma: point 17: γ = 90 deg", "clear of ±90 deg"),
+      (ENV_G + ("stop",), "170 deg"))
 vcase("gamma step 0", "envelope.gamma: expected start <= stop and step > 0", (ENV_G + ("step",), "0 deg"))
 vcase("load step < 0", "envelope.load: expected start <= stop and step > 0", (ENV_L + ("step",), "-0.1 N*m"))
 vcase("a load grid of 2e7 points", "envelope.load.step", (ENV_L + ("step",), "1e-7 N*m"))
@@ -556,6 +560,8 @@ scase("unknown objective kind", "objective.kind", objective={"kind": "worst_slip
 scase("objective field typo", ("objective.knd", "did you mean 'kind'"), objective={"knd": "worst_alpha"})
 scase("duty-cycle weight < 0", "objective.duty_cycle[0].weight",
       objective={"kind": "power_loss", "duty_cycle": [{"gamma": "30 deg", "load": "1 N*m", "weight": -1}]})
+scase("duty-cycle γ at -90 deg", "objective.duty_cycle[0].gamma: γ = -90 deg is where",
+      objective={"kind": "power_loss", "duty_cycle": [{"gamma": "-90 deg", "load": "1 N*m", "weight": 1}]})
 scase("duty-cycle weights all 0", "objective.duty_cycle: every weight is 0",
       objective={"kind": "power_loss", "duty_cycle": [{"gamma": "30 deg", "load": "1 N*m", "weight": 0}]})
 scase("duty-cycle load in N", "objective.duty_cycle[0].load",
