@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import gc
 import importlib
+import os
 import sys
 from importlib.metadata import version
 
@@ -159,20 +160,37 @@ def _add_contact(p):
     p.add_argument("--plots", help="folder for the creep–force curves and the patch ellipses")
 
 
+INPUTS = ("variant", "variants", "study", "data", "protocol")    # the arguments that name files a command reads
+
+
+def _not_an_input(path: str, kind: str, args) -> None:
+    """An output file must not be one of the command's own inputs (`rig v.yaml --out measured.csv --protocol
+    measured.csv` would replace the file it reads)."""
+    if not os.path.isfile(path):
+        return
+    for name in INPUTS:
+        given = getattr(args, name, None)
+        for f in [given] if isinstance(given, str) else given or []:
+            if os.path.isfile(f) and os.path.samefile(f, path):
+                raise InputError(f"{kind}: {path} is this command's input ({name}); expected another file, so "
+                                 "that the input is not overwritten")
+
+
 def check_outputs(args):
     """Refuse an output path that cannot be written before any computation (each write checks again):
-    --json, --report and the --out of rig and new are files, --plots and the other commands' --out are folders."""
-    if getattr(args, "json", None):
-        check_target(args.json, kind="--json", probe=True)
-    if getattr(args, "report", None):
-        check_target(args.report, kind="--report", probe=True)
+    --json, --report and the --out of rig and new are files, none of them an input of the command; --plots and
+    the other commands' --out are folders."""
+    files = [("--json", getattr(args, "json", None)), ("--report", getattr(args, "report", None))]
+    if args.command in ("rig", "new"):
+        files.append(("--out", getattr(args, "out", None)))
+    elif getattr(args, "out", None):
+        check_folder(args.out, kind="--out", probe=True)
     if getattr(args, "plots", None):
         check_folder(args.plots, kind="--plots", probe=True)
-    if getattr(args, "out", None):
-        if args.command in ("rig", "new"):
-            check_target(args.out, kind="--out", probe=True)
-        else:
-            check_folder(args.out, kind="--out", probe=True)
+    for kind, path in files:
+        if path:
+            check_target(path, kind=kind, probe=True)
+            _not_an_input(path, kind, args)
 
 
 def main(argv=None) -> int:

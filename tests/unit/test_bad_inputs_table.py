@@ -695,6 +695,12 @@ case("rig: --protocol missing", ("nope.yaml", "cannot read file"), cli(*R, "--pr
 case("rig: --protocol is a directory", ("adir", "cannot read file"), cli(*R, "--protocol", "{adir}"),
      "rig", "protocol YAML")
 case("rig: no --out", ("rig", "--out"), cli("rig", "{v}"), "rig", "command line")
+case("rig: --out is the variant", ("--out", "existing.yaml is this command's input (variant)"),
+     cli("rig", "{v}", "--out", "{v}"), "rig", "command line")
+case("diagnose: --json is the data", ("--json", "is this command's input (data)"),
+     cli("diagnose", "{csv}", "--variant", "{v}", "--json", "{csv}"), "diagnose", "command line")
+case("compare: --report is a variant", ("--report", "existing.yaml is this command's input (variants)"),
+     cli("compare", "{v}", "--report", "{v}"), "compare", "command line")
 
 
 def pcase(id, expect, content):
