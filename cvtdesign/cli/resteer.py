@@ -24,7 +24,8 @@ def run(args):
     effects = effects_arg(args.effects, layout.effects, "--effects")
     # the arguments first (a finite load inside the envelope, finite positive ratios), then the data
     load = None if args.load is None else resteer.check_load(layout, to_si(args.load, "torque", "--load"), "--load")
-    ratios = resteer.parse_ratios(args.ratios, "--ratios") if args.ratios else list(resteer.RATIOS)
+    ratios = resteer.check_ratios(layout, resteer.parse_ratios(args.ratios, "--ratios") if args.ratios
+                                  else resteer.RATIOS, "--ratios")
     truth = truth_params = None
     if args.truth_effects is not None:
         truth = effects_arg(args.truth_effects, layout.effects, "--truth-effects")
@@ -46,14 +47,16 @@ def run(args):
     for i, q in enumerate(ratios):
         cells = []
         for m, gs in cmds["methods"].items():
-            c = f"{np.degrees(gs[i]):.2f}°"
-            if table:
+            c = f"{np.degrees(gs[i]):.2f}°" if np.isfinite(gs[i]) else "none"
+            if table and np.isfinite(gs[i]):
                 c += f" / {table[m]['achieved'][i]:.3f} / {table[m]['error_pct'][i]:+.1f}"
             cells.append(c)
         t.add_row(f"{q:g}", *cells)
     if table:
         t.add_row("mean |error| \\[%]", *[f"{table[m]['mean_abs_error_pct']:.2f}" for m in cmds["methods"]])
     console.print(t)
+    if any(not np.isfinite(g) for gs in cmds["methods"].values() for g in gs):
+        console.print("none: no commanded γ inside the envelope gives that ratio under this load (by that method)")
     if cmds["fit"]:
         console.print("fitted: " + ", ".join(f"{n} = {p['value']:.4g} ± {p['std']:.2g}" for n, p in cmds["fit"].items())
                       + f"; lookup at the data's load level {cmds['lookup_load']:+.3g} N·m")

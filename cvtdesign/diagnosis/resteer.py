@@ -47,6 +47,22 @@ def parse_ratios(text: str, where: str = "ratios") -> list[float]:
     return ratios
 
 
+def check_ratios(layout, ratios, where: str = "ratios") -> list[float]:
+    """Requested speed ratios the variant's ideal law reaches inside its envelope's γ range: beyond it no
+    command exists (100 would need γ = 89.4° on Kim's CVT, whose envelope ends at 80°)."""
+    frame = shaft_frame(layout)
+    lo, hi = sorted(frame.k * (frame.c + frame.s * math.tan(g)) for g in (layout.gamma_grid.min(),
+                                                                          layout.gamma_grid.max()))
+    for q in ratios:
+        g = math.degrees(frame.command_for_ratio(q))
+        if not lo <= q <= hi:
+            raise InputError(f"{where}: ω2/ω1 = {q:g} needs γ = {g:.1f} deg by the ideal law, outside the envelope "
+                             f"γ range {np.degrees(layout.gamma_grid.min()):g}..{np.degrees(layout.gamma_grid.max()):g}"
+                             f" deg of {layout.file}; expected "
+                             + (f"ratios up to {hi:.3g}" if lo <= 0 else f"ratios from {lo:.3g} to {hi:.3g}"))
+    return list(ratios)
+
+
 def ratio(model, gammas, load, theta=None) -> np.ndarray:
     """Speed ratio ω2/ω1 of `model` at commanded γ [rad] under lateral load τ⊥ [N m]."""
     g = np.atleast_1d(np.asarray(gammas, float))

@@ -796,6 +796,8 @@ for id, expect, args in [
     ("--ratios 0", "--ratios", ("--ratios", "0")),
     ("--ratios negative", "--ratios", ("--ratios", "0.5,-1")),
     ("--ratios inf", "--ratios", ("--ratios", "1,inf")),
+    ("--ratios beyond the envelope", ("--ratios: ω2/ω1 = 100 needs γ = 89.4 deg by the ideal law",
+                                      "expected ratios up to 5.67"), ("--ratios", "1,100")),
     ("--effects unknown", ("--effects", "bogus"), ("--effects", "bogus")),
     ("--truth-effects unknown", ("--truth-effects", "did you mean 'drive_spin_creep'"), ("--truth-effects", "drive_spin_crep")),
     ("--truth-set malformed", "--truth-set", ("--truth-effects", "drive_spin_creep", "--truth-set", "garbage")),

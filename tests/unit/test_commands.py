@@ -46,6 +46,21 @@ def test_resteer_cli_commands_and_scores(cli, tmp_path):
     assert np.all(np.abs(nominal - ideal) > np.radians(0.5))
 
 
+def test_resteer_ratio_the_loaded_model_cannot_reach(cli, tmp_path):
+    """5.6 is inside the ideal law's reach over Kim's envelope (γ ≤ 80°: up to tan 80° = 5.67), but under
+    −1 N·m the model needs more than 80° for it: the nominal command is 'none', explained under the table,
+    null in the JSON, and is not scored (its achieved ratio and error are null too)."""
+    js = tmp_path / "r.json"
+    rc, out, err = cli("resteer", "--variant", EXISTING, "--load", "-1 N*m", "--ratios", "1,5.6",
+                       "--truth-effects", "drive_longitudinal_creep,steering_lateral_creep", "--json", js)
+    assert rc == 0 and err == "", err
+    assert "none" in out and "nan" not in out and "no commanded γ inside the envelope gives that ratio" in out
+    rep = json.loads(js.read_text())
+    nominal = rep["commands"]["methods"]["nominal"]
+    assert nominal[1] is None and np.isfinite(nominal[0])
+    assert rep["achieved"]["nominal"]["achieved"][1] is None and rep["achieved"]["nominal"]["error_pct"][1] is None
+
+
 def test_resteer_bad_truth_set_is_one_line(cli, tmp_path):
     rc, _, err = cli("resteer", "--variant", EXISTING, "--truth-set", "steering_offset.offset=1 deg",
                      "--json", tmp_path / "r.json")
