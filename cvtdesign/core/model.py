@@ -28,9 +28,9 @@ search), whose implicit derivatives give the optimiser exact gradients. Evaluate
 compiled to C (core.native): the compiled functions solve by the same iteration written out (core.newton),
 which gives the same numbers.
 
-A solution is returned only where the physics holds (`status`): the solve converged, on the root where the
-sphere turns with the commanded axis (else `reversed`: past the envelope the equations can have a second root,
-with the output shaft running backwards, that a rig loaded from rest does not reach), every N_i > 0 (else
+The reported root is the one a rig reaches by loading from rest (`_solve_from_rest`): past the envelope the
+equations can have several. A solution is returned only where the physics holds (`status`): the solve
+converged, on a root where the sphere turns with the commanded axis (else `reversed`), every N_i > 0 (else
 `lost_contact`) and every |F_i| ≤ μ_i N_i (else `gross_slip`, which is also what a saturation law's converged
 solution at |F| ≥ SAT_LIMIT·μN means). A solve that did not converge is `not_converged`.
 """
@@ -64,6 +64,7 @@ from cvtdesign.core.patch import patch
 EPS_RIGID = 1e-9      # [1/N] creep-compliance floor of the directions that are rigid in the model
 F_SCALE = 10.0        # [N] force scaling of the unknowns
 RES_TOL = 1e-8        # scaled residual above which a point is reported as not converged
+LOAD_STEPS = 4        # steps of the continuation in the load from rest (_solve_from_rest)
 SAT_LIMIT = 0.999     # traction utilisation |F|/(μN) of a saturation law beyond which a point is gross slip
 
 STATUS = ("ok", "not_converged", "lost_contact", "gross_slip", "reversed")   # the `status` output's codes, in order
@@ -401,20 +402,24 @@ def _kalker_rows(layout: Layout, hooks: _Hooks, c: ContactState, const, s_t, s_a
 
 
 def _status(resid, per, sat, forward):
-    """STATUS code of a solution: not_converged unless every scaled residual is finite and below RES_TOL (a
-    NaN entry would pass a plain ∞-norm, whose max skips NaN); then reversed unless `forward` (the sphere's Ω
-    has a positive component along the ideal kinematics' Ω: past the envelope the equations can have a second
-    root, with the sphere turning against the commanded axis and the output shaft running backwards, fast,
-    which a rig loaded from rest does not reach); then lost_contact if some N ≤ 0, gross_slip if some
-    |F| > μN or a saturation law is at |F| ≥ SAT_LIMIT·μN. A solve that did not converge is not_converged
-    whatever its last iterate: continuation in the load converges at some such points far from μN."""
+    """STATUS code of a solution: not_converged unless `_converged`; then reversed unless `forward` (the
+    sphere's Ω has a positive component along the ideal kinematics' Ω: a root with the sphere turning against
+    the commanded axis and the output shaft running backwards); then lost_contact if some N ≤ 0, gross_slip if
+    some |F| > μN or a saturation law is at |F| ≥ SAT_LIMIT·μN. A solve that did not converge is
+    not_converged whatever its last iterate (near μN is no proof of gross slip)."""
     N = ca.vertcat(*per["N"])
     excess = ca.vertcat(*[ca.sqrt(ft ** 2 + fa ** 2) - mu * n for ft, fa, mu, n in
                           zip(per["F_t"], per["F_a"], per["mu"], per["N"])])
     saturated = ca.mmax(ca.vertcat(0, *sat)) > SAT_LIMIT
-    converged = ca.logic_and(ca.norm_inf(resid) < RES_TOL, ca.fabs(ca.sum1(resid)) < ca.inf)
+    converged = _converged(resid)
     physical = ca.if_else(ca.mmin(N) <= 0, 2, ca.if_else(ca.logic_or(ca.mmax(excess) > 0, saturated), 3, 0))
     return ca.if_else(converged, ca.if_else(forward, physical, 4), 1)
+
+
+def _converged(resid):
+    """Every scaled residual finite and below RES_TOL (a NaN entry would pass a plain ∞-norm, whose max skips
+    NaN)."""
+    return ca.logic_and(ca.norm_inf(resid) < RES_TOL, ca.fabs(ca.sum1(resid)) < ca.inf)
 
 
 def _peak_pressure_functions(layout: Layout, const, design):
@@ -484,7 +489,8 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
         "M_spin": ca.vertcat(*per["M_spin"]),
     }
     steer_res, misfit = _steering_residual(layout, frame, design)
-    build = _point_builder(outs, u.x, params, G, x0_fn, steer_res, misfit, theta, design)
+    build = _point_builder(outs, u.x, params, G, x0_fn, steer_res, misfit, theta, design,
+                           always_from_rest=layout.contact_law == "kalker")
     every = list(POINT_OUTPUTS) + list(CONTACT_OUTPUTS) + ["steer_misfit"]
     point = build(every)
     return CompiledModel(layout, effects, pnames, pvalues, design, point, [r.name for r in layout.rollers], G,
@@ -495,10 +501,10 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
                          _tiered=Tiered(point, lambda: build(every, "point", True)))
 
 
-def _point_builder(outs, x, params, residual, x0_fn, steer_res, misfit, theta, design):
+def _point_builder(outs, x, params, residual, x0_fn, steer_res, misfit, theta, design, always_from_rest):
     """(names, name, written_out) → a CasADi Function of one operating point: φ from the linkage's inverse
-    kinematics, then the Newton solve, then only the selected outputs' expressions; with the solvers that
-    can be code-generated if written_out (_solvers)."""
+    kinematics, then the solve (_solve_from_rest), then only the selected outputs' expressions; with the
+    solvers that can be code-generated if written_out (_solvers)."""
     solvers = {}
 
     def build(selected, name="point", written_out=False):
@@ -515,10 +521,45 @@ def _point_builder(outs, x, params, residual, x0_fn, steer_res, misfit, theta, d
         res = {}
         if model_names:
             sel = ca.Function("post_sel", [x, params], ca.cse([outs[k] for k in model_names]))
-            res = dict(zip(model_names, sel.call([solver(x0_fn(p_m), p_m), p_m])))
+            x_m = _solve_from_rest(solver, residual, x0_fn, p_m, always_from_rest)
+            res = dict(zip(model_names, sel.call([x_m, p_m])))
         # how far the linkage is from rolling about the commanded axis (0 where it reaches γ)
         res["steer_misfit"] = misfit(phi_m, ca.vertcat(g_m, d_m))
         return ca.Function(name, ins, [res[k] for k in selected], in_names, list(selected))
     return build
 
 
+
+
+def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX, always: bool) -> ca.MX:
+    """The operating point's solution as a rig reaches it: the load applied from rest at the commanded γ.
+
+    Past the envelope the equations can have more than one root. From the ideal kinematics (no forces) the
+    Newton solve can land on any of them, and which one can change with round-off, so with how the layout
+    is written: under Kalker's law one box layout gave α = 2.612° written one way and 2.610° rotated, both
+    converged, where loading from rest gives 2.679° either way. So the load is applied in LOAD_STEPS equal
+    steps, each solve starting from the last converged one (a step that does not converge is passed over).
+    Under Kalker's law this is every point's solution (`always`; inside the shipped envelopes it agrees with
+    the direct solve to 1e-11°), except where the stepped solve does not converge and the direct one does
+    (at γ = 0 on existing_kalker.yaml, where shaft 2's rollers stand still and Kalker's rows are stiff). Under Kim's law the direct solve from the ideal kinematics stands where it
+    converges on the forward root, which is every point inside the envelopes, at no extra cost (the stepped
+    solve is in a branch that runs only where needed). Derivatives are those of the last solve, by the
+    implicit function theorem: its starting point does not change the root it converges to."""
+    x_ideal = x0_fn(p)
+
+    def good(x, q):      # converged, on a forward root (as _status judges them)
+        return ca.logic_and(_converged(residual(x, q)), ca.dot(x[0:3], x_ideal[0:3]) > 0)
+
+    def stepped():
+        x = x_ideal
+        for k in range(1, LOAD_STEPS + 1):
+            q = p if k == LOAD_STEPS else ca.vertcat(p[0:2], p[2] * k / LOAD_STEPS, p[3:])
+            xk = solver(x, q)
+            x = xk if k == LOAD_STEPS else ca.if_else(good(xk, q), xk, x)
+        return x
+
+    direct = solver(x_ideal, p)
+    if always:      # where the stepped solve fails (near γ = 0 under Kalker's law), the direct one if it holds
+        x = stepped()
+        return ca.if_else(good(x, p), x, direct)
+    return ca.if_else(good(direct, p), direct, stepped(), True)

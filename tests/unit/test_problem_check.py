@@ -66,9 +66,9 @@ def test_check_is_the_numeric_model_of_the_design():
 
 
 def test_check_is_the_numeric_model_where_points_fail(tmp_path):
-    """Points that slip grossly or do not converge (box, low preloads, τ⊥ to ±2 N·m) and points that lose
-    contact or reach the reversed root (Kim's existing CVT at τ⊥ = ±4 N·m): the same statuses as the numeric
-    model."""
+    """Points that slip grossly or do not converge (box, low preloads, τ⊥ to ±2 N·m), points that lose
+    contact (Kim's existing CVT at τ⊥ = ±4 N·m) and a reversed root (the same with a saturation law at
+    γ = −60°, τ⊥ = 6 N·m): the same statuses as the numeric model."""
     pr = build_problem(study(tmp_path, "slip", design={"d": {"lower": "30 mm", "upper": "110 mm"},
                                                        "preload": {"lower": "5 N", "upper": "200 N"},
                                                        "r_steer": {"lower": "20 mm", "upper": "60 mm"}},
@@ -81,6 +81,14 @@ def test_check_is_the_numeric_model_where_points_fail(tmp_path):
                              envelope=COARSE | {"load": {"start": "-4 N*m", "stop": "4 N*m", "step": "2 N*m"}}))
     for r_steer in (0.038, 0.02):
         seen |= set(assert_same_points(pr, {"r_steer": r_steer}).tolist())
+    # loaded from rest, Kim's law reaches a reversed root only with a saturation law, far past gross slip
+    pr = build_problem(study(tmp_path, "reversed", base=str(ROOT / "variants/existing.yaml"),
+                             design={"r_steer": {"lower": "20 mm", "upper": "60 mm"}},
+                             effects=["drive_longitudinal_creep", "steering_lateral_creep", "normal_force_variation",
+                                      "traction_saturation"],
+                             envelope={"gamma": {"start": "-60 deg", "stop": "-40 deg", "step": "20 deg"},
+                                       "load": {"start": "-6 N*m", "stop": "6 N*m", "step": "6 N*m"}}))
+    seen |= set(assert_same_points(pr, {"r_steer": 0.038}).tolist())
     assert seen == {0, 1, 2, 3, 4}     # ok, not converged, lost contact, gross slip and reversed all came up
 
 
