@@ -22,11 +22,13 @@ study's folder or the client's working directory.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Literal
 
+import casadi as ca
 import numpy as np
 from pydantic import BeforeValidator, Field, StrictBool
 
@@ -200,14 +202,27 @@ def _check_bounds(n: str, spec: StudySpec, vspec, where: str) -> tuple[float, fl
     return lo, hi
 
 
-def _check_at_bound(vspec, base_file, overrides: dict, where: str, raw) -> None:
-    """The variant with one design variable at a bound (the others at their base values) must pass the
+def _at_bound(vspec, base_file, overrides: dict, where: str, raw):
+    """The layout with one design variable at a bound (the others at their base values), which must pass the
     checks the variant file itself gets: a radius bound of -20 mm would let the optimiser try rollers of
     negative radius. Only the fields are checked; collisions there are the design rows' business."""
     try:
-        resolve(vspec, str(base_file), overrides=overrides)
+        return resolve(vspec, str(base_file), overrides=overrides)
     except InputError as e:
         raise InputError(f"{where}: at '{shorten(raw)}' the variant is not valid: {e}") from None
+
+
+def _contents(obj):
+    """What a resolved layout is made of (numbers, names, nested), without its parameters and source, so
+    that two layouts compare equal when they are the same machine."""
+    if dataclasses.is_dataclass(obj):
+        return [_contents(getattr(obj, f.name)) for f in dataclasses.fields(obj)
+                if f.name not in ("parameters", "spec", "file")]
+    if isinstance(obj, dict):
+        return [(k, _contents(v)) for k, v in obj.items()]
+    if isinstance(obj, (list, tuple)):
+        return [_contents(v) for v in obj]
+    return np.asarray(obj, float).tolist() if isinstance(obj, (np.ndarray, ca.DM)) else obj
 
 
 def problem_inputs(study_path, spec: StudySpec, base_file, fixed: dict | None = None) -> tuple:
@@ -244,9 +259,12 @@ def problem_inputs(study_path, spec: StudySpec, base_file, fixed: dict | None = 
                           if lo == hi else ("inverted bounds", ""))
             raise InputError(f"{where}: design.{n}: {what}: expected lower below upper, got lower "
                              f"{spec.design[n].lower} and upper {spec.design[n].upper}{hint}")
-        for end, value in (("lower", lo), ("upper", hi)):
-            _check_at_bound(vspec, base_file, {**fixed, n: value}, f"{where}: design.{n}.{end}",
-                            getattr(spec.design[n], end))
+        ends = [_at_bound(vspec, base_file, {**fixed, n: value}, f"{where}: design.{n}.{end}",
+                          getattr(spec.design[n], end)) for end, value in (("lower", lo), ("upper", hi))]
+        if _contents(ends[0]) == _contents(ends[1]):
+            raise InputError(f"{where}: design.{n}: no field of the variant {variant.name} uses the parameter '{n}' "
+                             f"(the layout is the same at both bounds); expected a parameter that some field uses, as "
+                             f"'= {n}' or in an expression")
         lower.append(lo)
         upper.append(hi)
     for n, values in spec.batch.sweep.items():
@@ -291,10 +309,16 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
         weights.append(d.weight)
     if weights and not sum(weights) > 0:
         raise InputError(f"{where}: objective.duty_cycle: every weight is 0; expected at least one positive weight")
-    for field_, value, least in (("max_iter", spec.max_iter, 1), ("multistart.starts", spec.multistart.starts, 1),
-                                 ("pareto.points", spec.pareto.points, 1)):
-        if not least <= value <= MAX_COUNT:
-            raise InputError(f"{where}: {field_}: expected an integer from {least} to {MAX_COUNT}, got {value}")
+    check_counts(where, spec)
+
+
+def check_counts(where: str, spec: StudySpec) -> None:
+    """The solver's counts (IPOPT's max_iter, the starts, the Pareto points) from 1 to MAX_COUNT, checked
+    before a study builds its cases (3 million starts took 1.1 GB before this said no)."""
+    for field_, value in (("max_iter", spec.max_iter), ("multistart.starts", spec.multistart.starts),
+                          ("pareto.points", spec.pareto.points)):
+        if not 1 <= value <= MAX_COUNT:
+            raise InputError(f"{where}: {field_}: expected an integer from 1 to {MAX_COUNT}, got {value}")
 
 
 def min_normal_force(raw, preloads: np.ndarray, where: str, names: dict) -> np.ndarray:

@@ -99,6 +99,20 @@ def test_bad_study(tmp_path, capsys, fields, message):
     assert message in err and err.count("\n") == 1
 
 
+def test_a_design_variable_no_field_uses_is_refused(tmp_path, capsys):
+    """A box written out in plain numbers (for example rotated and saved) keeps its parameters but no field
+    uses them: optimising d then reported "optimum d = 69.13 mm" and two "distinct" optima of the same
+    4.166°. The layout is now resolved at both bounds, and the same layout at both is refused."""
+    variant = yaml.safe_load((ROOT / "variants/box.yaml").read_text())
+    variant["parameters"]["spare"] = "10 mm"
+    (tmp_path / "box.yaml").write_text(yaml.safe_dump(variant, allow_unicode=True))
+    path = study(tmp_path, base=str(tmp_path / "box.yaml"), design={"spare": {"lower": "5 mm", "upper": "20 mm"}})
+    assert main(["optimise", str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "design.spare: no field of the variant" in err and "uses the parameter 'spare'" in err
+    assert err.count("\n") == 1 and not (tmp_path / "o").exists()
+
+
 def test_working_set_reaches_the_optimum_of_every_row(tmp_path):
     """IPOPT on a working set of envelope rows (violated rows added, solved again) ends where IPOPT on every
     row at once does, with every row of the whole formulation satisfied; here the traction limit binds at
