@@ -61,10 +61,12 @@ def _unit_of(raw) -> str | None:
     return None
 
 
-def variant_text(problem: Problem, sol: Solution, out_dir: Path, name: str | None = None) -> tuple[Path, str]:
+def variant_text(problem: Problem, sol: Solution, out_dir: Path, name: str | None = None,
+                 study: bool = False) -> tuple[Path, str]:
     """(path, text) of the optimised design as a variant file `compare` reads, with a provenance header
     (name: default '<base variant>_<study>'): the base variant with the optimised design variables, the
-    case's sweep parameters and the study's envelope (when it sets one). Refuses a solution that did not
+    case's sweep parameters, the study's effects and envelope (when it sets them); `study`: written by
+    `cvtdesign study` (named in the header), else by `optimise`. Refuses a solution that did not
     succeed, the envelope check included (no variant file for a design outside the model's physics)."""
     if not sol.success:
         raise ValueError(f"not writing a variant for a failed solve (status {sol.status})")
@@ -74,6 +76,8 @@ def variant_text(problem: Problem, sol: Solution, out_dir: Path, name: str | Non
     # (a study's narrower envelope is what the clearance and reach constraints held for)
     if problem.spec.envelope is not None:
         data["envelope"] = problem.spec.envelope.model_dump(exclude_unset=True)
+    if problem.spec.effects is not None:  # the model the design was optimised with (rolling resistance, ...)
+        data["effects"] = list(problem.spec.effects)
     if problem.spec.calibration:          # the fitted effect parameters the design was optimised with
         data["effect_parameters"] = problem.vspec.effect_parameters
     for n, v in (problem.fixed | sol.design).items():
@@ -86,7 +90,7 @@ def variant_text(problem: Problem, sol: Solution, out_dir: Path, name: str | Non
     name = name or f"{data['name']}_{problem.spec.name}"
     data["description"] = f"{problem.spec.name} optimum of {data['name']}. " + problem.spec.description
     data["name"] = name
-    header = (f"# Optimised by `cvtdesign optimise {problem.study_file}`\n"
+    header = (f"# Optimised by `cvtdesign {'study' if study else 'optimise'} {problem.study_file}`\n"
               f"# study: {problem.spec.name}; objective: {problem.spec.objective.kind} = {sol.objective:.6g}\n"
               f"# date: {datetime.datetime.now().isoformat(timespec='seconds')}; solver: IPOPT, status "
               f"{sol.status}, {sol.iterations} iterations, start {sol.start}\n"

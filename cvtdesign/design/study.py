@@ -44,6 +44,7 @@ import contextlib
 import hashlib
 import itertools
 import json
+import math
 import time
 from dataclasses import dataclass
 from importlib import metadata
@@ -62,7 +63,14 @@ from cvtdesign.design import cluster
 from cvtdesign.design.problem import IPOPT_OPTIONS, build_problem
 from cvtdesign.design.report import variant_text
 from cvtdesign.design.solve import pareto_front, solve_from, starts
-from cvtdesign.design.study_file import StudySpec, StudyVariant, load_study, problem_inputs, study_variant
+from cvtdesign.design.study_file import (
+    StudySpec,
+    StudyVariant,
+    check_counts,
+    load_study,
+    problem_inputs,
+    study_variant,
+)
 from cvtdesign.errors import InputError
 from cvtdesign.io.output import OutputError, make_folder, remove_stale_temps, write_file, write_files
 from cvtdesign.io.units import registry
@@ -72,6 +80,9 @@ from cvtdesign.io.variant import parameter_value
 CASE_COLUMNS = ("case_id", "kind", "variant", "fixed", "start", "point", "status", "success", "objective",
                 "worst_alpha_deg", "power_loss_W", "iterations", "variant_file", "seconds")
 
+
+MAX_CASES = 10_000       # cases of one study (variant files × sweep points × starts): more is a typo (40,000
+                         # cases took minutes to check before any ran)
 
 # statuses that say what happened to the run, not to the design: such a case runs again on the next run
 RUN_FAILURES = ("worker_crashed", "error: ")
@@ -107,9 +118,15 @@ def variant_files(study_file, spec, base) -> list[Path]:
     if not spec.batch.variants:
         return [base]
     files = [Path(study_file).parent / v for v in spec.batch.variants]
+    stems: dict = {}
     for v, f in zip(spec.batch.variants, files):
         if not f.exists():
             raise InputError(f"{study_file}: batch.variants: no variant file '{v}' next to the study")
+        if f.stem in stems and f.resolve() != stems[f.stem][1].resolve():
+            raise InputError(f"{study_file}: batch.variants: '{stems[f.stem][0]}' and '{v}' have the same name "
+                             f"'{f.stem}', which names their cases and result files; expected variant files with "
+                             "different names")
+        stems[f.stem] = (v, f)
     return files
 
 
@@ -117,12 +134,21 @@ def make_cases(study_file, spec=None, base: Path | None = None) -> list[dict]:
     """The study's cases, each a small picklable dict with a stable id (spec, base: the loaded study)."""
     if spec is None:
         spec, base = load_study(study_file)
+    check_counts(str(study_file), spec)
+    for k, vals in spec.batch.sweep.items():
+        if not vals:
+            raise InputError(f"{study_file}: batch.sweep.{k}: no values; expected at least one (or leave it out)")
+    files = variant_files(study_file, spec, base)
+    total = len(files) * math.prod(len(v) for v in spec.batch.sweep.values()) * (spec.multistart.starts + spec.batch.pareto)
+    if total > MAX_CASES:
+        raise InputError(f"{study_file}: batch: {len(files)} variant files × the sweep × {spec.multistart.starts} starts "
+                         f"make {total} cases; expected at most {MAX_CASES}")
     sweep = {k: [parameter_value(v, f"{study_file}: batch.sweep.{k}", {}) for v in vals] for k, vals in spec.batch.sweep.items()}
     combos = [dict(zip(sweep, vals)) for vals in itertools.product(*sweep.values())] or [{}]
     cases = []
-    for vf in variant_files(study_file, spec, base):
-        for fixed in combos:
-            tag = "_".join(f"{k}={v:.6g}" for k, v in fixed.items())
+    for vf in files:
+        for fixed in combos:     # in names a variant file reads back: letters, digits, '_', '.', '+', '-'
+            tag = "_".join(f"{k}{v:.6g}" for k, v in fixed.items())
             stem = vf.stem + (f"_{tag}" if tag else "")
             for k in range(max(spec.multistart.starts, 1)):
                 cases.append({"id": f"{stem}_start{k}", "kind": "start", "variant": str(vf), "fixed": fixed, "start": k})
@@ -209,24 +235,26 @@ def run_case(content: StudyContent, case: dict, out_dir: str) -> dict:
     def design_file(problem, sol, name: str) -> str | None:
         if not sol.success:
             return None
-        path, files[path] = variant_text(problem, sol, vdir, name)
+        path, files[path] = variant_text(problem, sol, vdir, name, study=True)
         return str(path)
 
     if case["kind"] == "start":
         problem = cached_problem(content, variant, case["fixed"])
         sol = solve_from(problem, starts(problem)[case["start"]], case["start"])
-        rows.append(common | {"point": 0, "status": sol.status, "success": sol.success, "objective": sol.objective,
-                              "worst_alpha_deg": sol.check.max_abs_alpha_deg if sol.check else np.nan,
-                              "power_loss_W": sol.objective if spec.objective.kind == "power_loss" else np.nan,
+        held = (lambda v: v) if sol.success else (lambda v: np.nan)    # no figure where the physics failed
+        rows.append(common | {"point": 0, "status": sol.status, "success": sol.success, "objective": held(sol.objective),
+                              "worst_alpha_deg": held(sol.check.max_abs_alpha_deg if sol.check else np.nan),
+                              "power_loss_W": held(sol.objective if spec.objective.kind == "power_loss" else np.nan),
                               "iterations": sol.iterations,
                               "variant_file": design_file(problem, sol, f"{spec.name}_{case['id']}")}
                     | {f"design.{k}": v for k, v in sol.design.items()})
     else:
         for p in pareto_front(content.path, spec, variant, case["fixed"]):
             sol = p["solution"]
+            held = (lambda v: v) if p["success"] else (lambda v: np.nan)
             rows.append(common | {"point": p["index"], "status": p["status"], "success": p["success"],
-                                  "objective": p["power_loss_W"], "worst_alpha_deg": p["worst_alpha_deg"],
-                                  "power_loss_W": p["power_loss_W"], "iterations": sol.iterations,
+                                  "objective": held(p["power_loss_W"]), "worst_alpha_deg": held(p["worst_alpha_deg"]),
+                                  "power_loss_W": held(p["power_loss_W"]), "iterations": sol.iterations,
                                   "variant_file": design_file(p["problem"], sol, f"{spec.name}_{case['id']}{p['index']}")}
                         | {f"design.{k}": v for k, v in p["design"].items()})
     for r in rows:

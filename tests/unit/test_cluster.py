@@ -139,7 +139,7 @@ def test_relative_study_on_a_separate_cluster_equals_a_local_run(tmp_path, monke
     files = read_store(here / "remote")["variant_file"]
     assert all(f.startswith(os.path.join("remote", "variants", "small_")) for f in files)
     text = (here / files.iloc[0]).read_text()
-    assert "# Optimised by `cvtdesign optimise studies/small.yaml`" in text
+    assert "# Optimised by `cvtdesign study studies/small.yaml`" in text
     assert "# base variant: studies/../variants/" in text and "# calibration: ../fits/fit.json" in text
     assert yaml.safe_load(text)["effect_parameters"]["drive_longitudinal_creep"]["scale"] == 1.2
     assert not any(p.suffix == ".yaml" for p in (tmp_path / "cluster").rglob("*"))     # nothing written there

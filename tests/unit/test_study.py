@@ -4,12 +4,14 @@ the store's lock, Ctrl-C, bad settings and bad studies refused before any case r
 Most runs share one LocalCluster (module fixture, passed as --scheduler: a cluster start costs ~1.5 s);
 the interrupted run starts its own, so that the Ctrl-C path closes a cluster of its own."""
 import os
+import re
 import shutil
 import socket
 from pathlib import Path
 from types import SimpleNamespace
 
 import dask
+import numpy as np
 import pandas as pd
 import pytest
 import yaml
@@ -20,7 +22,9 @@ from cvtdesign.design import cluster
 from cvtdesign.design import study as study_mod
 from cvtdesign.cli import main
 from cvtdesign.design.study import make_cases, read_store, run_study
+from cvtdesign.core.model import compile_model
 from cvtdesign.errors import InputError
+from cvtdesign.io.variant import load_variant
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -89,6 +93,8 @@ def test_cases_are_the_product(tmp_path):
     cases = make_cases(small_study(tmp_path))
     assert len(cases) == 6 and len({c["id"] for c in cases}) == 6
     assert {c["fixed"]["r_steer"] for c in cases} == {0.030, 0.038}
+    # ids name the optimum variant files, which the tool must read back (an '=' in them was refused)
+    assert all(re.fullmatch(r"[A-Za-z0-9_.+-]+", c["id"]) for c in cases), [c["id"] for c in cases]
 
 
 def test_finished_store_holds_the_closed_form_optimum(finished):
@@ -188,9 +194,19 @@ def test_unreachable_scheduler_refused_within_the_timeout(tmp_path, capsys, monk
     ({"max_iter": 0}, "max_iter: expected an integer from 1 to 10000, got 0"),
     ({"effects": ["drive_longitudinal_creep", "bogus_creep"]}, "effects: unknown effect 'bogus_creep'"),
     ({"constraints": {"min_normal_force": "-5 N"}}, "constraints.min_normal_force: expected a positive force"),
+    # two files of one name shared their case ids and result files: one design silently replaced the other
+    ({"batch": {"variants": ["box.yaml", "alt/box.yaml"]}},
+     "batch.variants: 'box.yaml' and 'alt/box.yaml' have the same name 'box'"),
+    # counts are checked before the cases are built (3 million starts took 1.1 GB first)
+    ({"multistart": {"starts": 3_000_000}}, "multistart.starts: expected an integer from 1 to 10000, got 3000000"),
+    ({"batch": {"sweep": {"preload": [f"{50 + k} N" for k in range(1000)], "r_steer": ["30 mm"] * 10}}},
+     "make 30000 cases; expected at most 10000"),
+    ({"batch": {"sweep": {"preload": []}}}, "batch.sweep.preload: no values; expected at least one"),
 ])
 def test_bad_study_refused_before_any_case(tmp_path, capsys, no_cluster, fields, message):
     shutil.copy(ROOT / "variants/box.yaml", tmp_path / "box.yaml")
+    (tmp_path / "alt").mkdir()
+    shutil.copy(ROOT / "variants/box.yaml", tmp_path / "alt" / "box.yaml")
     (tmp_path / "broken.yaml").write_text("name: broken\n")
     path = small_study(tmp_path, **fields)
     assert main(["study", str(path), "--out", str(tmp_path / "s")]) == 2
@@ -217,6 +233,8 @@ def test_failed_case_status_is_recorded(tmp_path, shared, capsys):
     assert len(df) == 1 and not df["success"].iloc[0]
     assert df["status"].iloc[0] in ("Infeasible_Problem_Detected", "Restoration_Failed", "Maximum_Iterations_Exceeded")
     assert df["variant_file"].iloc[0] is None
+    # no figure where the physics failed (the working set's objective is not the design's)
+    assert df[["objective", "worst_alpha_deg", "power_loss_W"]].isna().all(axis=None)
 
 
 def test_case_that_ended_in_an_error_runs_again(tmp_path, finished, shared):
@@ -267,3 +285,20 @@ def test_local_workers_run_without_the_statistical_profiler(shared):
         settings = client.run(lambda: dask.config.get("distributed.worker.profile.enabled"))
     assert len(settings) == 2 and not any(settings.values())
     assert dask.config.get("distributed.worker.profile.enabled") is True
+
+
+def test_optimum_variant_files_are_the_model_that_was_optimised(tmp_path, shared):
+    """A study's optimum is written as a variant file that `compare` reads back, with the study's effects
+    (they were left out: a Pareto file of a loss study described a model without rolling resistance, 3.474°
+    where the study had 3.452°) and its sweep point; its worst |α| over the study's envelope is the stored
+    figure."""
+    effects = ["drive_longitudinal_creep", "steering_lateral_creep", "rolling_resistance"]
+    study = small_study(tmp_path, effects=effects, multistart={"starts": 1}, batch={"sweep": {"r_steer": ["30 mm"]}})
+    res = run_study(study, tmp_path / "s", scheduler=shared)
+    row = res["table"].iloc[0]
+    assert row["success"], row["status"]
+    layout = load_variant(row["variant_file"])
+    assert list(layout.effects) == effects and layout.parameters["r_steer"] == pytest.approx(0.030)
+    G, T = np.meshgrid(layout.gamma_grid, layout.load_grid, indexing="ij")
+    alpha = compile_model(layout).evaluate(G, T)["alpha"]
+    assert np.degrees(np.max(np.abs(alpha))) == pytest.approx(row["worst_alpha_deg"], rel=1e-6)
