@@ -10,6 +10,7 @@ from rich.console import Console
 from cvtdesign.cli.arguments import effects_arg
 from cvtdesign.cli.printing import degrees, engineering, json_text, number, progress_bar, report_text, show
 from cvtdesign.core.effects import EFFECTS
+from cvtdesign.core.model import STATUS
 from cvtdesign.diagnosis import diagnose
 from cvtdesign.diagnosis.diagnose import model_efficiency, point_grid, residuals
 from cvtdesign.diagnosis import measured
@@ -93,6 +94,15 @@ def gap_blocks(rep: dict) -> list:
     blocks = [Note(f"gap: RMS α residual {degrees(g['rms_alpha_deg'])} (held out {degrees(g['heldout_rms_alpha_deg'])}), "
                    f"efficiency {number(g['rms_efficiency'])}; spatial structure z = {g['structure_z']:.1f} "
                    f"({'structured' if g['structured'] else 'like noise'})")]
+    failed = rep["base_failed"]
+    if failed["points"]:
+        kinds = [f"{k.replace('_', ' ')} {failed[k]}" + (f" ({', '.join(failed[k + '_at'])})" if failed.get(k + "_at") else "")
+                 for k in STATUS[1:] if failed[k]]
+        where = ", ".join(f"({degrees(p['gamma_cmd_deg'], 3)}, {p['tau_perp_Nm']:+.2f} N·m)" for p in failed["at"][:4])
+        blocks.append(Note(f"the base model has no physical solution at {failed['points']} of "
+                           f"{rep['operating_points']} operating points ({'; '.join(kinds)}), e.g. (γ, τ⊥) = {where}"
+                           f"{', …' if failed['points'] > 4 else ''}: left out of the gap, its regions and the map",
+                           style="bad"))
     if g["regions"]:
         rt = Table("where the α gap stands out (> 3σ per operating point)",
                    ["region", "γ", "τ⊥", "points", "mean residual"])
@@ -153,10 +163,12 @@ def plot_report(rep: dict, out_dir) -> list:
 
     out_dir = Path(out_dir)
     data, base, final = rep["_data"], rep["_base"], rep["_final"]
-    rb, rf = residuals(data, base.fit.pred), residuals(data, final.fit.pred)
-    maps = [(f"α residual, base ({' + '.join(base.effects) or 'ideal'})", point_grid(data, rb["alpha"]))]
+    rb, rf = residuals(data, base.fit.pred), residuals(data, final.fit.pred)     # blank where a model fails
+    maps = [(f"α residual, base ({' + '.join(base.effects) or 'ideal'})",
+             point_grid(data, np.where(base.fit.ok, rb["alpha"], np.nan)))]
     if final is not base:
-        maps.append((f"α residual, with {' + '.join(rep['accepted'])}", point_grid(data, rf["alpha"])))
+        maps.append((f"α residual, with {' + '.join(rep['accepted'])}",
+                     point_grid(data, np.where(final.fit.ok, rf["alpha"], np.nan))))
     f1 = out_dir / "residual_map.png"
     plots.residual_map_figure(data.gamma_levels, data.load_levels, maps, rep["gap"]["regions"][:6], f1)
     r = data.rows

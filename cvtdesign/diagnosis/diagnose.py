@@ -42,7 +42,7 @@ from cvtdesign.core.effects import EFFECTS
 from cvtdesign.core.effects import candidates as effect_candidates
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.metrics import efficiency
-from cvtdesign.core.model import compile_model
+from cvtdesign.core.model import STATUS, compile_model, status_counts
 from cvtdesign.diagnosis.measured import MEASURED_CHANNELS, Measured, merge_points
 
 CHANNELS = ("alpha", "tau_par", "axis")        # [deg], [N m], [deg]
@@ -294,9 +294,24 @@ def fit(P: Predictor, data: Measured, noise: dict, rows=None, x0=None, multistar
             best = sol
     theta = best.x
     z, pred, ok = zfun(theta)
-    J = best.jac
-    std, ident = _uncertainty(J, theta, P.defaults, float(z @ z), z.size)
+    # σ from the points where the model holds: a failed point's FAIL_Z is a penalty, not a misfit
+    held = np.tile(ok[rows], len(chans))
+    std, ident = _uncertainty(best.jac, theta, P.defaults, float(z[held] @ z[held]), int(held.sum()))
     return Fit(P.effects, P.names, theta, std, ident, pred, ok, float(z @ z))
+
+
+def _failed_points(P: Predictor, data: Measured, f: Fit) -> dict:
+    """Where the fitted model has no physical solution (status ≠ ok), by status with the contacts named
+    (model.status_counts), and those points' (γ [deg], τ⊥ [N m]): left out of the gap, its regions and map."""
+    bad = ~f.ok
+    r = data.rows
+    g, t = r["gamma_cmd_deg"].to_numpy()[bad], r["tau_perp"].to_numpy()[bad]
+    counts = {"points": 0} | {k: 0 for k in STATUS[1:]}
+    if bad.any():
+        res = P.model.evaluate(np.radians(g), t, speeds=r["omega_1"].to_numpy()[bad], theta=f.theta)
+        counts = {"points": int(bad.sum())} | {k: v for k, v in status_counts(res, P.model.roller_names).items()
+                                                 if k != "ok"}
+    return counts | {"at": [{"gamma_cmd_deg": float(a), "tau_perp_Nm": float(b)} for a, b in zip(g, t)]}
 
 
 def _uncertainty(J, theta, defaults, chi2, n):
@@ -630,7 +645,9 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
     noise = estimate_noise(P0, data, raw)
     base_score = score(P0, data, noise, fold)
     tick(f"base {'+'.join(base) or '(none)'}")
-    res_fit = residuals(data, base_score.fit.pred)
+    # the base model's gap only where its physics holds: elsewhere its "prediction" is an unconverged or
+    # slipping solve's last iterate (a region of 14.1° at a point the model had in gross slip)
+    res_fit = {c: np.where(base_score.fit.ok, v, np.nan) for c, v in residuals(data, base_score.fit.pred).items()}
     structured = autocorrelation_z(data, zscores(res_fit, noise)[0])
     regs = regions(data, res_fit["alpha"], noise["alpha"])
     accepted, rounds, final, steps = search(models, data, noise, fold, base_score, candidates, tick)
@@ -649,6 +666,7 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
                   for c, v in _row_noise(data, noise).items()} | {"source": "replicates" if raw.replicated else
                                                                     "second differences along load"},
         "base_fit": base_score.fit.params(), "final_fit": final.fit.params(),
+        "base_failed": _failed_points(P0, data, base_score.fit),
         "gap": {"rms_alpha_deg": _rms(res_fit["alpha"], base_score.fit.ok),
                 "heldout_rms_alpha_deg": base_score.rms_alpha, "rms_efficiency": base_score.rms_efficiency,
                 "structure_z": structured, "structured": bool(structured > AUTO_Z),

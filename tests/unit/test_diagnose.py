@@ -13,6 +13,7 @@ from cvtdesign.diagnosis import measured
 from cvtdesign.diagnosis import resteer
 from cvtdesign.diagnosis import rig
 from cvtdesign.cli import main
+from cvtdesign.cli.diagnose import report_blocks
 from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.core.model import compile_model
 from cvtdesign.io.variant import load_variant
@@ -233,3 +234,22 @@ def test_one_typo_row_leaves_the_verdict(layout, tmp_path):
     assert data.rows["point"].nunique() == 188
     rep = diagnose.diagnose(layout, data, ("drive_longitudinal_creep",), ("steering_lateral_creep", "steering_offset"))
     assert rep["verdict"] == "steering_lateral_creep"
+
+
+def test_where_the_base_model_fails_it_is_counted_and_left_out_of_the_gap(layout, tmp_path):
+    """Rig data plus two rows measured in gross slip (γ 50°, τ⊥ −2.5 N·m and γ 60°, +2 N·m), where the base
+    model has no physical solution. They were silent: no count anywhere, regions of 14.1° and −4.5° drawn
+    from the unconverged solve's last iterate, and the base fit's ±1σ 100× too wide (their FAIL_Z penalty
+    entered χ²). Now they are counted and named, and left out of the gap, its regions and σ."""
+    path = dataset(layout, tmp_path, KIM, seed=1)
+    extra = ["50,10.0,5.773503,1.915111,-1.606969,36.0000", "60,10.0,114.300523,-1.732051,1.000000,77.5000"]
+    path.write_text(path.read_text() + "\n".join(extra) + "\n")
+    data = measured.load_measured(path, layout)
+    rep = diagnose.diagnose(layout, data, KIM, ("steering_offset",))
+    failed = rep["base_failed"]
+    assert failed["points"] == 2 and failed["gross_slip"] == 2 and set(failed["gross_slip_at"]) <= {"S1", "S2"}
+    assert sorted((p["gamma_cmd_deg"], round(p["tau_perp_Nm"], 1)) for p in failed["at"]) == [(50.0, -2.5), (60.0, 2.0)]
+    assert rep["gap"]["regions"] == [] and rep["verdict"] == "none"
+    assert all(p["std"] < 0.01 for p in rep["base_fit"].values())      # 0.27 and 0.11 with the penalty in χ²
+    text = "\n".join(str(getattr(b, "text", "")) for b in report_blocks(rep))
+    assert "the base model has no physical solution at 2 of 189 operating points (gross slip 2" in text
