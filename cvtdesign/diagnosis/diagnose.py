@@ -146,8 +146,11 @@ def noise_levels(data: Measured, resid: dict) -> dict:
             pool = np.concatenate([samples[levels[j]] for j in range(max(0, k - 1), min(len(levels), k + 2))])
             sig[gl] = _mad_std(pool)
         s = np.array([sig[g] for g in gb])
-        if not np.all(np.isfinite(s)):
-            s = np.where(np.isfinite(s), s, _mad_std(res))
+        if not np.all(np.isfinite(s)):   # a γ level with too few samples near it: the pooled estimate
+            # (over every replicate's deviation; never the scatter of the values themselves, which is the
+            # whole signal: 4.3° for α where replicates at other γ gave 0.1°)
+            pooled = np.concatenate(list(samples.values())) if data.replicated else res
+            s = np.where(np.isfinite(s), s, _mad_std(pooled))
         out[ch] = np.maximum(s, 1e-9 * np.nanmax(s) + 1e-15)
     return out
 

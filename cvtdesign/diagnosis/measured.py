@@ -143,20 +143,56 @@ def _levels(values, tol, relative: bool = False):
     return label, np.array([np.mean(g) for g in groups])
 
 
+def _compact_levels(values, tol: float, ratio: float = 3.0):
+    """Levels of 1-D measured values (labels, level means). A level is a run of sorted values that is
+    compact: its width within `tol` and at most 1/`ratio` of the gaps that separate it from the values either
+    side. Runs that are not are split at their widest gap, from the whole range down. So replicates of one
+    commanded load (spread by noise, far from the next load) form a level, and loads a fine step apart or
+    swept continuously stay apart (a plain gap threshold chained 0.04 N·m steps into one level, and merged
+    random loads 0.13 N·m apart as "replicates")."""
+    values = np.asarray(values, float)
+    order = np.argsort(values, kind="stable")
+    v = values[order]
+    gaps = np.diff(v)
+    outer = np.r_[np.inf, gaps, np.inf]          # outer[i]: the gap before sorted value i; outer[i + 1] after it
+    label, means, stack = np.empty(len(v), int), [], [(0, len(v) - 1)]
+    while stack:
+        a, b = stack.pop()
+        width = v[b] - v[a]
+        if a == b or (width <= tol and ratio * width <= min(outer[a], outer[b + 1])):
+            label[order[a:b + 1]] = len(means)
+            means.append(v[a:b + 1].mean())
+            continue
+        k = a + int(np.argmax(gaps[a:b]))
+        stack += [(k + 1, b), (a, k)]
+    rank = np.argsort(np.argsort(means))          # levels numbered in increasing value
+    return rank[label], np.sort(means)
+
+
 def _group(m: Measured):
-    """Operating points: the same commanded γ, load level and motor-speed level. Loads and speeds are
-    measured, so replicates differ by the noise: τ⊥ levels are clusters of the measured τ⊥ separated by more
-    than 2.5 % of the range of its central 96 % (a rig's load levels are steps, Kim's 0.1-0.2 N m), speed
-    levels clusters of ω1 separated by more than 5 % of their magnitude. Neither tolerance depends on the
-    extremes, so one wild row is a point of its own instead of merging the others."""
+    """Operating points: replicates of one commanded γ, load and motor-speed level. Loads and speeds are
+    measured, so replicates differ by the noise. Speed levels are clusters of ω1 separated by more than 5 %
+    of their magnitude. At each γ and speed level, a point is a compact level of the measured τ⊥
+    (_compact_levels, no wider than 5 % of the range of the central 96 % of τ⊥); the load levels shared by
+    every γ (the grid of the residual map) are the compact levels of the points' mean τ⊥. Unless at least
+    half the rows have a replicate, none is taken for one: 11 random loads at each γ met by chance in pairs up
+    to 0.1 N·m apart, and their scatter made a noise estimate 7× too large. No tolerance
+    depends on the extremes, so one wild row is a point of its own instead of merging the others."""
     r = m.rows
     gl, glev = _levels(r["gamma_cmd_deg"].to_numpy(), GAMMA_TOL_DEG)
-    tp = r["tau_perp"].to_numpy()
-    span = float(np.subtract(*np.percentile(tp, [98, 2])))
-    ll, llev = _levels(tp, max(0.025 * span, 1e-9))
     sl, slev = _levels(r["omega_1"].to_numpy(), 0.05, relative=True)
-    r["gamma_bin"], r["load_bin"], r["speed_bin"] = gl, ll, sl
-    r["point"] = pd.factorize(pd.Series((sl * len(glev) + gl) * (len(llev) + 1) + ll))[0]
+    tp = r["tau_perp"].to_numpy()
+    tol = max(0.05 * float(np.subtract(*np.percentile(tp, [98, 2]))), 1e-9)
+    point, loads = np.empty(len(tp), int), []
+    for idx in pd.Series(np.arange(len(tp))).groupby([sl, gl]).indices.values():
+        label, means = _compact_levels(tp[idx], tol)
+        point[idx] = len(loads) + label
+        loads.extend(means)
+    if np.sum(np.bincount(point)[point] > 1) < 0.5 * len(tp):   # replicates are the rule or there are none:
+        point, loads = np.arange(len(tp)), tp                   # loads drawn at random meet by chance
+    load_of_point, llev = _compact_levels(np.array(loads), tol, ratio=1.0)
+    r["gamma_bin"], r["load_bin"], r["speed_bin"] = gl, load_of_point[point], sl
+    r["point"] = pd.factorize(pd.Series(point))[0]
     m.gamma_levels, m.load_levels, m.speed_levels = glev, llev, slev
 
 

@@ -171,6 +171,38 @@ def test_operating_points_separate_speeds_and_keep_replicates(layout, tmp_path):
     assert len(data.speed_levels) == 2 and len(data.load_levels) == 3
 
 
+def test_a_fine_load_step_keeps_every_load_apart(layout, tmp_path):
+    """Loads 0.04 N·m apart (with 3 replicates each, and without): a gap threshold of 2.5 % of the range
+    chained them into 9 "operating points" of 459 rows, and diagnose refused the file. Every point now holds
+    one commanded load, and without replicates every row is its own point."""
+    loads = np.round(np.arange(-1.0, 1.0001, 0.04), 10)
+    for replicates in (1, 3):
+        p = rig.Protocol(np.radians([-60.0, -20.0, 20.0, 60.0]), loads, np.array([10.0]), "tau_perp", replicates)
+        rows, _ = rig.simulate(layout, KIM, protocol=p, seed=5)
+        path = tmp_path / f"fine{replicates}.csv"
+        path.write_text(rig.to_csv_text(rows))
+        r = measured.load_measured(path, layout).rows
+        spread = r.groupby("point")["tau_perp"].agg(lambda t: t.max() - t.min())
+        assert spread.max() < 0.02 and r["point"].nunique() >= 4 * len(loads) * (1 if replicates == 1 else 0.8)
+        if replicates == 1:
+            assert r["point"].nunique() == len(r)
+
+
+def test_random_loads_are_not_taken_for_replicates(layout, tmp_path):
+    """11 random loads at each γ (as another simulator or a sweeping rig writes them): loads that meet by
+    chance were merged as replicates, up to 0.13 N·m apart, and their scatter made a noise of 3.2° (0.06° of
+    noise in the data). No row is a replicate now, and the noise comes from second differences."""
+    rng = np.random.default_rng(3)
+    frames = []
+    for g in range(-80, 81, 10):
+        p = rig.Protocol(np.radians([float(g)]), np.sort(rng.uniform(-1, 1, 11)), np.array([10.0]), "tau_perp", 1)
+        frames.append(rig.simulate(layout, KIM, protocol=p, seed=g + 100)[0])
+    path = tmp_path / "random.csv"
+    path.write_text(rig.to_csv_text(pd.concat(frames, ignore_index=True)))
+    data = measured.load_measured(path, layout)
+    assert data.rows["point"].nunique() == len(data.rows) == 187 and not data.replicated
+
+
 # ------------------------------------------------------------------------------- one wild row, wrong signs
 
 @pytest.fixture(scope="module")
