@@ -24,6 +24,11 @@ class InputError(ValueError):
         return text
 
 
+class RunError(RuntimeError):
+    """A run that could not finish through no fault of the input (a cluster's scheduler lost): one line,
+    saying what is kept; the command line prints it and exits with status 1."""
+
+
 def suggest(word: str, options) -> str:
     """' (did you mean 'x'?)' for the option nearest to a misspelt word, or ''."""
     close = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)

@@ -8,7 +8,7 @@ import os
 import sys
 from importlib.metadata import version
 
-from cvtdesign.errors import InputError
+from cvtdesign.errors import InputError, RunError
 from cvtdesign.io.output import check_folder, check_target
 
 
@@ -214,6 +214,9 @@ def main(argv=None) -> int:
     except InputError as e:
         print(f"cvtdesign: error: {e}", file=sys.stderr)
         return 2
+    except RunError as e:
+        print(f"cvtdesign: {e}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt as e:   # study.Interrupted says how much is kept
         print(f"cvtdesign: {str(e) or 'interrupted'}", file=sys.stderr)
         return 130

@@ -9,6 +9,7 @@ silenced (`quiet_logs`), instead of every worker printing its own traceback.
 """
 from __future__ import annotations
 
+import asyncio
 import logging
 import os
 import signal
@@ -17,6 +18,7 @@ from contextlib import contextmanager, nullcontext
 
 import dask
 from dask.distributed import Client, LocalCluster
+from distributed.core import rpc
 
 from cvtdesign.errors import InputError
 
@@ -32,16 +34,37 @@ def check_workers(workers) -> None:
 
 
 def connect(scheduler: str, timeout: float | None = None):
-    """A Client on an existing scheduler; one InputError line if none answers within `timeout` seconds."""
+    """A Client on an existing scheduler; one InputError line if none answers within `timeout` seconds, or
+    what answers is not a Dask scheduler (`_identify`)."""
     timeout = CONNECT_TIMEOUT if timeout is None else timeout
-    try:
-        return Client(scheduler, timeout=timeout)
-    except (OSError, TimeoutError):
-        why = f"no Dask scheduler answered within {timeout:g} s"
-    except (ValueError, TypeError) as e:
-        why = f"not a scheduler address ({e})"
+    why = _identify(scheduler, timeout)
+    if why is None:
+        try:
+            return Client(scheduler, timeout=timeout)
+        except (OSError, TimeoutError):
+            why = f"no Dask scheduler answered within {timeout:g} s"
     raise InputError(f"--scheduler {scheduler}: {why}; expected the address of a running scheduler, "
                      "e.g. tcp://host:8786")
+
+
+def _identify(scheduler: str, timeout: float) -> str | None:
+    """Why `scheduler` is not a Dask scheduler that answers within `timeout` s, or None if it is. Asked with
+    Dask's own `identity` call under a hard deadline: a Client waits forever on a port where something
+    silent listens, and fails with a traceback on one that answers in another protocol."""
+    async def identity():
+        async with rpc(scheduler, timeout=timeout) as r:
+            return await r.identity()
+
+    try:
+        info = asyncio.run(asyncio.wait_for(identity(), timeout))
+    except (OSError, TimeoutError, asyncio.TimeoutError):
+        return f"no Dask scheduler answered within {timeout:g} s"
+    except (ValueError, TypeError) as e:
+        return f"not a scheduler address ({e})"
+    except Exception as e:      # another protocol's reply, read as Dask's: any error at all
+        return f"what answers there is not a Dask scheduler ({type(e).__name__})"
+    kind = info.get("type") if isinstance(info, dict) else None
+    return None if kind == "Scheduler" else f"what answers there is a Dask {kind or 'peer'}, not a scheduler"
 
 
 def local_cluster(workers: int | None = None):

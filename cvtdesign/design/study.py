@@ -46,6 +46,7 @@ import itertools
 import json
 import math
 import time
+from concurrent.futures import CancelledError
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -71,7 +72,7 @@ from cvtdesign.design.study_file import (
     problem_inputs,
     study_variant,
 )
-from cvtdesign.errors import InputError
+from cvtdesign.errors import InputError, RunError
 from cvtdesign.io.output import OutputError, make_folder, remove_stale_temps, write_file, write_files
 from cvtdesign.io.units import registry
 from cvtdesign.io.variant import parameter_value
@@ -467,12 +468,16 @@ def _run_cases(content: StudyContent, todo: list[dict], out_dir: Path, where: tu
                                  retries=0, pure=False, priority=prio,
                                  **({} if w is None else {"workers": [w], "allow_other_workers": True})): c
                    for c, w, prio in plan(todo, names, content.spec.pareto.points)}
+        lost = 0
         for fut in as_completed(futures):
             case = futures[fut]
             files = {}
             try:
                 result = fut.result()
                 rows, files = result["rows"], result["files"]
+            except CancelledError:  # the scheduler (or the connection to it) is gone: the case did not run
+                lost += 1
+                continue
             except KilledWorker:
                 rows = failure_rows(case, "worker_crashed")
             except Exception as e:  # recorded in the store, never swallowed
@@ -480,6 +485,9 @@ def _run_cases(content: StudyContent, todo: list[dict], out_dir: Path, where: tu
             write_case(out_dir, case["id"], rows, files)
             written.append(case["id"])
             progress(rows[0])
+        if lost:
+            raise RunError(f"the cluster lost {lost} of {len(todo)} cases (its scheduler stopped or became "
+                           f"unreachable); {len(written)} finished and are kept in {out_dir}; run again to resume")
         return t0 - t_start, time.perf_counter() - t0
 
 

@@ -3,10 +3,12 @@ the store's lock, Ctrl-C, bad settings and bad studies refused before any case r
 
 Most runs share one LocalCluster (module fixture, passed as --scheduler: a cluster start costs ~1.5 s);
 the interrupted run starts its own, so that the Ctrl-C path closes a cluster of its own."""
+import contextlib
 import os
 import re
 import shutil
 import socket
+import threading
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -27,6 +29,7 @@ from cvtdesign.errors import InputError
 from cvtdesign.io.variant import load_variant
 
 ROOT = Path(__file__).resolve().parents[2]
+CONNECT = cluster.connect
 
 
 def small_study(folder, name="small.yaml", **extra):
@@ -186,6 +189,38 @@ def test_unreachable_scheduler_refused_within_the_timeout(tmp_path, capsys, monk
     assert case_files(tmp_path / "s") == []
 
 
+@pytest.mark.parametrize("reply, message", [
+    (None, "no Dask scheduler answered within 1 s"),            # it accepts and says nothing: a Client waited forever
+    (b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n",  # a web server: a 47-line traceback (3 EiB)
+     "what answers there is not a Dask scheduler"),
+])
+def test_a_port_that_is_not_a_dask_scheduler_is_refused(tmp_path, capsys, monkeypatch, no_cluster, reply, message):
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(4)
+    port, held = server.getsockname()[1], []
+
+    def serve():
+        with contextlib.suppress(OSError):
+            while True:
+                conn, _ = server.accept()
+                held.append(conn)
+                if reply:
+                    conn.sendall(reply)
+    threading.Thread(target=serve, daemon=True).start()
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", 1.0)
+    monkeypatch.setattr(cluster, "connect", CONNECT)     # the real one (no_cluster refuses it)
+    try:
+        assert main(["study", str(small_study(tmp_path)), "--out", str(tmp_path / "s"),
+                     "--scheduler", f"tcp://127.0.0.1:{port}"]) == 2
+    finally:
+        server.close()
+        for c in held:
+            c.close()
+    one_line(capsys.readouterr().err, f"--scheduler tcp://127.0.0.1:{port}: {message}")
+    assert not (tmp_path / "s").exists()
+
+
 @pytest.mark.parametrize("fields, message", [
     ({"design": {"d": {"lower": "110 mm", "upper": "30 mm"}}}, "design.d: inverted bounds"),
     ({"batch": {"sweep": {"r_stear": ["30 mm"]}}}, "batch.sweep.r_stear: the variant box.yaml has no parameter"),
@@ -302,3 +337,26 @@ def test_optimum_variant_files_are_the_model_that_was_optimised(tmp_path, shared
     G, T = np.meshgrid(layout.gamma_grid, layout.load_grid, indexing="ij")
     alpha = compile_model(layout).evaluate(G, T)["alpha"]
     assert np.degrees(np.max(np.abs(alpha))) == pytest.approx(row["worst_alpha_deg"], rel=1e-6)
+
+
+def test_a_lost_scheduler_ends_the_run_with_one_line_and_keeps_what_finished(tmp_path, shared, capsys, monkeypatch):
+    """Killing the scheduler mid-study printed distributed's traceback, stored 46 cases as
+    'error: FutureCancelledError: …' (46 rows of the status table) and exited 0 with a 'best optimum' from
+    2 of 48 starts. Cancelled cases are not stored now: one line says how many finished and are kept,
+    exit 1, and a second run runs only the rest."""
+    real = study_mod.as_completed
+
+    def losing(futures):          # the scheduler goes away after two cases: the rest are cancelled
+        for k, fut in enumerate(real(futures)):
+            if k >= 2:
+                fut.cancel()
+            yield fut
+    monkeypatch.setattr(study_mod, "as_completed", losing)
+    study = small_study(tmp_path)
+    assert main(["study", str(study), "--out", str(tmp_path / "s"), "--scheduler", shared]) == 1
+    err = capsys.readouterr().err
+    one_line(err, "cvtdesign: the cluster lost 4 of 6 cases", "2 finished and are kept in", "run again to resume")
+    assert len(case_files(tmp_path / "s")) == 2
+    monkeypatch.setattr(study_mod, "as_completed", real)
+    res = run_study(study, tmp_path / "s", scheduler=shared)
+    assert res["skipped"] == 2 and res["ran"] == 4 and res["table"]["success"].all()
