@@ -32,7 +32,7 @@ def run(args):
         truth_params = rig.parse_settings(args.truth_set, truth, "--truth-set")
     data = measured.load_measured(args.data, layout, args.drop_bad) if args.data else None
     if load is None:
-        load = float(data.load_levels.max()) if data is not None else float(layout.load_grid.max())
+        load = resteer.default_load(layout, data)
     cmds = resteer.commands(layout, effects, load, ratios, data)
     console = Console(width=120)
     table = None
@@ -49,14 +49,20 @@ def run(args):
         for m, gs in cmds["methods"].items():
             c = f"{np.degrees(gs[i]):.2f}°" if np.isfinite(gs[i]) else "none"
             if table and np.isfinite(gs[i]):
-                c += f" / {table[m]['achieved'][i]:.3f} / {table[m]['error_pct'][i]:+.1f}"
+                got = table[m]["achieved"][i]
+                c += f" / {got:.3f} / {table[m]['error_pct'][i]:+.1f}" if np.isfinite(got) else " / no solution"
             cells.append(c)
         t.add_row(f"{q:g}", *cells)
     if table:
-        t.add_row("mean |error| \\[%]", *[f"{table[m]['mean_abs_error_pct']:.2f}" for m in cmds["methods"]])
+        t.add_row("mean |error| \\[%]", *[f"{e:.2f}" if np.isfinite(e := table[m]["mean_abs_error_pct"]) else "—"
+                                          for m in cmds["methods"]])
     console.print(t)
     if any(not np.isfinite(g) for gs in cmds["methods"].values() for g in gs):
         console.print("none: no commanded γ inside the envelope gives that ratio under this load (by that method)")
+    if table and any(np.isfinite(g) and not np.isfinite(q) for m, gs in cmds["methods"].items()
+                     for g, q in zip(gs, table[m]["achieved"])):
+        console.print("no solution: the CVT (the rig's model) has no physical solution at that command and load "
+                      "(gross slip, lost contact or no convergence), so the command is not scored")
     if cmds["fit"]:
         console.print("fitted: " + ", ".join(f"{n} = {p['value']:.4g} ± {p['std']:.2g}" for n, p in cmds["fit"].items())
                       + f"; lookup at the data's load level {cmds['lookup_load']:+.3g} N·m")

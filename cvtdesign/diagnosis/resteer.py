@@ -47,6 +47,19 @@ def parse_ratios(text: str, where: str = "ratios") -> list[float]:
     return ratios
 
 
+def default_load(layout, data) -> float:
+    """τ⊥ [N m] of a resteering request that names none: the data's highest load level inside the variant's
+    envelope load range (the model is validated there), else the envelope's highest load."""
+    lo, hi = float(np.min(layout.load_grid)), float(np.max(layout.load_grid))
+    if data is None:
+        return hi
+    inside = data.load_levels[(data.load_levels >= lo - 1e-9) & (data.load_levels <= hi + 1e-9)]
+    if inside.size == 0:
+        raise InputError(f"{data.file}: every load level of the data lies outside the envelope load range "
+                         f"{lo:g}..{hi:g} N·m of {layout.file}; expected --load inside that range")
+    return float(inside.max())
+
+
 def check_ratios(layout, ratios, where: str = "ratios") -> list[float]:
     """Requested speed ratios the variant's ideal law reaches inside its envelope's γ range: beyond it no
     command exists (100 would need γ = 89.4° on Kim's CVT, whose envelope ends at 80°)."""
@@ -138,6 +151,7 @@ def achieved(truth_model, cmds: dict) -> dict:
             q[ok] = ratio(truth_model, gs[ok], cmds["load"])
         req = np.asarray(cmds["ratios"], float)
         err = 100 * (req - q) / req
+        scored = np.isfinite(err)       # NaN where no command, or where the CVT has no physical solution
         table[m] = {"gamma_cmd_deg": np.degrees(gs).tolist(), "achieved": q.tolist(), "error_pct": err.tolist(),
-                    "mean_abs_error_pct": float(np.nanmean(np.abs(err)))}
+                    "mean_abs_error_pct": float(np.mean(np.abs(err[scored]))) if scored.any() else float("nan")}
     return table

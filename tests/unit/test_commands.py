@@ -160,3 +160,20 @@ def test_selfcheck_summary_of_a_failed_dataset(cli, monkeypatch, tmp_path):
     monkeypatch.setattr(selfcheck, "run", lambda *a, **k: [failed])
     rc, out, err = cli("selfcheck", "--quick", "--json", tmp_path / "s.json")
     assert rc == 1 and "error: ValueError: boom" in out
+
+
+def test_resteer_takes_its_default_load_inside_the_envelope():
+    """Without --load, resteering used the data's highest load level, even 2.5 N·m on Kim's CVT (envelope
+    ±1 N·m), where the CVT slips grossly: every achieved cell read 'nan / +nan'. It now takes the highest
+    level inside the envelope, and refuses data with none there."""
+    from types import SimpleNamespace
+
+    from cvtdesign.diagnosis import resteer
+    from cvtdesign.errors import InputError
+    from cvtdesign.io.variant import load_variant
+    layout = load_variant(EXISTING)
+    levels = np.round(np.arange(-2.5, 2.5001, 0.25), 10)
+    assert resteer.default_load(layout, SimpleNamespace(load_levels=levels, file="d.csv")) == 1.0
+    assert resteer.default_load(layout, None) == pytest.approx(1.0)
+    with pytest.raises(InputError, match=r"d.csv: every load level of the data lies outside the envelope load range"):
+        resteer.default_load(layout, SimpleNamespace(load_levels=np.array([2.0, 2.5]), file="d.csv"))
