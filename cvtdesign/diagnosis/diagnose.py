@@ -578,8 +578,8 @@ def _signature(base: Score, cand: Score, noise) -> np.ndarray:
 def search(models: Models, data: Measured, noise: dict, fold, base: Score, candidates, tick) -> tuple:
     """Greedy forward search: each remaining candidate added to the current model and scored held out; the
     best one is accepted when its held-out gain is significant (Wilcoxon p below P_ACCEPT/candidates), above
-    MIN_GAIN, lowers the BIC, and the candidate fails at no more than MAX_FAIL of the points (where the rig
-    measured a steady state). Returns (accepted effects, rounds, the final score, the score after each
+    MIN_GAIN, lowers the BIC, the candidate fails at no more than MAX_FAIL of the points (where the rig
+    measured a steady state), and no channel gets clearly worse (_worsens_a_channel). Returns (accepted effects, rounds, the final score, the score after each
     accepted effect)."""
     nch = len(_channels(data))
     current, accepted, rounds, steps = base, [], [], []
@@ -591,7 +591,8 @@ def search(models: Models, data: Measured, noise: dict, fold, base: Score, candi
             sc = score(P, data, noise, fold, x0=_x0(P, current.fit))
             c = compare(current, sc, nch, data)
             rows.append({"effect": e, "score": sc, "cmp": c, "significant": bool(
-                c.p < P_ACCEPT / len(remaining) and c.gain > MIN_GAIN and c.dbic < 0 and sc.failed <= MAX_FAIL)})
+                c.p < P_ACCEPT / len(remaining) and c.gain > MIN_GAIN and c.dbic < 0 and sc.failed <= MAX_FAIL
+                and not _worsens_a_channel(current, sc))})
             tick(f"round {len(rounds) + 1}: {e}")
         rows.sort(key=lambda r: (not r["significant"], -r["cmp"].gain))
         rounds.append(rows)
@@ -602,6 +603,18 @@ def search(models: Models, data: Measured, noise: dict, fold, base: Score, candi
         steps.append(current)
         remaining.remove(rows[0]["effect"])
     return accepted, rounds, current, steps
+
+
+def _worsens_a_channel(before: Score, after: Score, factor: float = 2.0) -> bool:
+    """Whether `after` fits some channel clearly worse held out than `before`: its mean squared z there more
+    than `factor` times before and above `factor` (noise is 1), on the points both predict. A gain in one
+    channel bought with another is no explanation: a 1° offset of the axis encoder alone (outside the
+    vocabulary) made steering_offset "accepted" on the axis while α got 10× worse."""
+    both = before.ok & after.ok
+    if not both.any():
+        return False
+    msz_before, msz_after = (np.mean(s.z[:, both] ** 2, axis=1) for s in (before, after))
+    return bool(np.any((msz_after > factor * msz_before) & (msz_after > factor)))
 
 
 def _structure(data: Measured, z: np.ndarray) -> float:

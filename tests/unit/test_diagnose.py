@@ -253,3 +253,17 @@ def test_where_the_base_model_fails_it_is_counted_and_left_out_of_the_gap(layout
     assert all(p["std"] < 0.01 for p in rep["base_fit"].values())      # 0.27 and 0.11 with the penalty in χ²
     text = "\n".join(str(getattr(b, "text", "")) for b in report_blocks(rep))
     assert "the base model has no physical solution at 2 of 189 operating points (gross slip 2" in text
+
+
+def test_a_candidate_that_fits_one_channel_by_spoiling_another_is_not_accepted(layout, tmp_path):
+    """A 1° offset of the axis encoder alone (outside the vocabulary): steering_offset fitted 0.5° and was
+    'accepted' on the axis channel while the held-out RMS α went from 0.055° to 0.55°. A gain in one channel
+    bought with another is no explanation: not accepted, and the verdict is `unexplained`."""
+    path = dataset(layout, tmp_path, KIM, seed=4)
+    rows = pd.read_csv(path)
+    rows["gamma_axis_deg"] += 1.0
+    rows.to_csv(path, index=False)
+    rep = diagnose.diagnose(layout, measured.load_measured(path, layout), KIM, ("steering_offset",))
+    offset = next(r for r in rep["ranking"] if r["effect"] == "steering_offset")
+    assert rep["accepted"] == [] and rep["verdict"] == "unexplained"
+    assert offset["heldout_rms_after"] > 5 * offset["heldout_rms_before"]      # what accepting it would cost
