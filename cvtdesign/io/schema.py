@@ -100,7 +100,8 @@ class RollerSpec(Strict):
         "`ratio` times its speed; steering: an idler on a fork (steering.forks) that sets the sphere's axis")
     contact: Union[str, list[Num], Spherical] = spec_field(
         f"where the roller touches the sphere, at φ = 0: the outward contact normal n as {DIRECTION}; or the "
-        "contact point as a list of three lengths ('44.9 mm' or '= expr', m), which must lie on the sphere")
+        "contact point as a list of three lengths ('44.9 mm'; with one such, '= expr' in m for the others), "
+        "which must lie on the sphere")
     axle: Union[str, list[Num], Spherical] = spec_field(
         f"the roller's positive spin axis a at φ = 0, perpendicular to the contact normal, as {DIRECTION}; "
         "it rolls along n × a, and its shaft's speed and torque count positive about it")

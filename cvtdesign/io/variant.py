@@ -75,17 +75,19 @@ def vector(spec, where, names, point=False):
 
 
 def _contact(spec, where, names, R):
-    """The unit contact normal of a roller's `contact` (see RollerSpec): a direction as `vector` reads it,
-    or a point of three lengths, which must lie on the sphere of radius R (checked when both are numbers;
-    an optimiser's symbolic parameters skip the check)."""
+    """The unit contact normal of a roller's `contact` (see RollerSpec): a direction as `vector` reads it
+    (plain numbers and '= expressions'), or a point when an entry is a length with its unit ('44.9 mm'; the
+    others lengths too, or '= expressions' in m), which must lie on the sphere of radius R (checked when
+    both are numbers; an optimiser's symbolic parameters skip the check). A list of expressions alone is a
+    direction: as a point on the sphere it would give the same normal."""
     if not isinstance(spec, list):
         return vector(spec, where, names, point=True)
-    quantity = [isinstance(c, str) for c in spec]
-    if not any(quantity):
+    length = [isinstance(c, str) and not c.strip().startswith("=") for c in spec]
+    if not any(length):
         return vector(spec, where, names, point=True)
-    if not all(quantity):
-        raise InputError(f"{where}: mixes plain numbers and quantities ({', '.join(map(str, spec))}); give three "
-                         "plain numbers (a direction) or three lengths like '44.9 mm' (a point on the sphere)")
+    if not all(isinstance(c, str) for c in spec):
+        raise InputError(f"{where}: mixes plain numbers and lengths ({', '.join(map(str, spec))}); give a direction "
+                         "(plain numbers or '= expressions') or a point of three lengths like '44.9 mm'")
     if len(spec) != 3:
         raise InputError(f"{where}: expected a point of 3 lengths, got {len(spec)}")
     p = [to_si(c, "length", f"{where}[{i}]", names) for i, c in enumerate(spec)]

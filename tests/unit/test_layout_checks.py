@@ -212,8 +212,23 @@ def test_contact_mixing_numbers_and_quantities(tmp_path):
     d = variant()
     d["rollers"]["D1"]["contact"] = ["-44.9 mm", "44.9 mm", 0]
     _, msg = refusal(tmp_path, d)
-    assert re.search(r": rollers\.D1\.contact: mixes plain numbers and quantities \(-44\.9 mm, 44\.9 mm, 0\); give three "
-                     r"plain numbers \(a direction\) or three lengths", msg), msg
+    assert re.search(r": rollers\.D1\.contact: mixes plain numbers and lengths \(-44\.9 mm, 44\.9 mm, 0\); give a "
+                     r"direction \(plain numbers or '= expressions'\) or a point of three lengths", msg), msg
+
+
+def test_contact_of_numbers_and_expressions_is_a_direction(tmp_path):
+    """The reference says a direction may be three numbers or '= expressions': [-1, '= 1', 0] was refused
+    ("mixes plain numbers and quantities") and three expressions were read as a point in metres ("the contact
+    point is 1000 mm from the sphere centre"). Both are D1's contact direction -d1 + d2 now."""
+    for contact in ([-1, "= 1", 0], ["= -sqrt(0.5)", "= sqrt(0.5)", "= 0"]):
+        d = variant()
+        d["rollers"]["D1"]["contact"] = contact
+        d["rollers"]["D1"]["axle"] = [1, 1, 0]
+        path = tmp_path / "v.yaml"
+        path.write_text(yaml.safe_dump(d))
+        layout = load_variant(path, check=False)
+        normal = next(r.normal for r in layout.rollers if r.name == "D1")
+        np.testing.assert_allclose(np.asarray(normal, float).ravel(), [-np.sqrt(0.5), np.sqrt(0.5), 0], atol=1e-15)
 
 
 def test_contact_point_wrong_unit_or_size(tmp_path):
