@@ -45,8 +45,10 @@ def run(args):
     phi = steering_angle(layout, gamma)
     console = Console(width=160)
     console.print(f"ideal law: {frame.law_text()}")
+    ratio = float(frame.ideal_ratio(gamma))
+    ratio = 0.0 if abs(ratio) < 1e-12 * frame.k else ratio     # round-off of a rotated layout's frame (8.7e-18)
     console.print(f"at commanded γ = {args.gamma:g}°: steering angle φ = {np.degrees(phi):.3f}°, ideal "
-                  f"ω2/ω1 = {float(frame.ideal_ratio(gamma)):.4g}")
+                  f"ω2/ω1 = {ratio:.4g}")
     console.print(roller_table(layout))
     figure = make_folder(args.out, kind="--out") / f"{layout.name}_layout.png"
     plots.layout_figure(layout, phi, gamma, figure)
