@@ -175,9 +175,13 @@ def _free_in(spec: StudySpec, name: str, base_file: Path, study_path) -> bool:
     if only is None:
         return True
     files = [Path(study_path).parent / v for v in only]
+    batch = {(Path(study_path).parent / v).resolve() for v in spec.batch.variants} if spec.batch.variants else None
     for v, f in zip(only, files):
-        if not f.exists():
+        if not f.is_file():
             raise InputError(f"{study_path}: design.{name}.variants: no variant file '{v}' next to the study")
+        if batch is not None and f.resolve() not in batch:     # it would stay fixed without a word
+            raise InputError(f"{study_path}: design.{name}.variants: '{v}' is not one of batch.variants; "
+                             "expected variant files the study runs")
     return any(f.resolve() == Path(base_file).resolve() for f in files)
 
 

@@ -237,6 +237,9 @@ def test_a_port_that_is_not_a_dask_scheduler_is_refused(tmp_path, capsys, monkey
     ({"batch": {"sweep": {"preload": [f"{50 + k} N" for k in range(1000)], "r_steer": ["30 mm"] * 10}}},
      "make 30000 cases; expected at most 10000"),
     ({"batch": {"sweep": {"preload": []}}}, "batch.sweep.preload: no values; expected at least one"),
+    # a design variable free only in a file the study does not run stayed fixed without a word
+    ({"design": {"d": {"lower": "30 mm", "upper": "110 mm", "variants": ["alt/box.yaml"]}},
+      "batch": {"variants": ["box.yaml"]}}, "design.d.variants: 'alt/box.yaml' is not one of batch.variants"),
 ])
 def test_bad_study_refused_before_any_case(tmp_path, capsys, no_cluster, fields, message):
     shutil.copy(ROOT / "variants/box.yaml", tmp_path / "box.yaml")
