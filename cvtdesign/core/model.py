@@ -545,21 +545,23 @@ def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX
     converges on the forward root, which is every point inside the envelopes, at no extra cost (the stepped
     solve is in a branch that runs only where needed). Derivatives are those of the last solve, by the
     implicit function theorem: its starting point does not change the root it converges to."""
-    x_ideal = x0_fn(p)
-
     def good(x, q):      # converged, on a forward root (as _status judges them)
-        return ca.logic_and(_converged(residual(x, q)), ca.dot(x[0:3], x_ideal[0:3]) > 0)
+        return ca.logic_and(_converged(residual(x, q)), ca.dot(x[0:3], x0_fn(q)[0:3]) > 0)
 
-    def stepped():
-        x = x_ideal
+    def stepped(q):
+        x = x0_fn(q)
         for k in range(1, LOAD_STEPS + 1):
-            q = p if k == LOAD_STEPS else ca.vertcat(p[0:2], p[2] * k / LOAD_STEPS, p[3:])
-            xk = solver(x, q)
-            x = xk if k == LOAD_STEPS else ca.if_else(good(xk, q), xk, x)
+            qk = q if k == LOAD_STEPS else ca.vertcat(q[0:2], q[2] * k / LOAD_STEPS, q[3:])
+            xk = solver(x, qk)
+            x = xk if k == LOAD_STEPS else ca.if_else(good(xk, qk), xk, x)
         return x
 
-    direct = solver(x_ideal, p)
+    direct = solver(x0_fn(p), p)
     if always:      # where the stepped solve fails (near γ = 0 under Kalker's law), the direct one if it holds
-        x = stepped()
+        x = stepped(p)
         return ca.if_else(good(x, p), x, direct)
-    return ca.if_else(good(direct, p), direct, stepped(), True)
+    # the branch as a function of the direct solution: `if_else` alone would build its branches from the
+    # graph's inputs and so solve the direct problem a second time inside the switch
+    d, q = ca.MX.sym("direct", direct.sparsity()), ca.MX.sym("params", p.sparsity())
+    pick = ca.Function("from_rest", [d, q], [ca.if_else(good(d, q), d, stepped(q), True)])
+    return pick(direct, p)
