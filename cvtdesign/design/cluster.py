@@ -25,8 +25,11 @@ from cvtdesign.errors import InputError
 CONNECT_TIMEOUT = 5.0   # seconds to wait for an existing scheduler to answer
 
 
-def check_workers(workers) -> None:
-    """`--workers`: None (one per core) or a positive integer."""
+def check_workers(workers, scheduler: str | None = None) -> None:
+    """`--workers`: None (one per core) or a positive integer; `--scheduler`: None or an address (an empty
+    one quietly started a local cluster)."""
+    if scheduler is not None and not scheduler.strip():
+        raise InputError("--scheduler: expected the address of a running scheduler, e.g. tcp://host:8786, got ''")
     if workers is None:
         return
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
@@ -110,7 +113,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None):
     """A dask.distributed Client: on `scheduler` if given, else on a LocalCluster started (and closed) here.
     On Ctrl-C (KeyboardInterrupt) the client and cluster are closed with distributed's logging silenced,
     and the KeyboardInterrupt goes on to the caller."""
-    check_workers(workers)
+    check_workers(workers, scheduler)
     cluster = None
     if scheduler:
         client = connect(scheduler)

@@ -416,7 +416,7 @@ def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: i
     follows the cases; `notice(text)` gets one-line notices (a corrupt case file run again). Bad input
     (the study, `workers`, a scheduler that does not answer, a store held by another run) is an
     InputError before any case runs; Ctrl-C raises `Interrupted` once the cluster is closed."""
-    cluster.check_workers(workers)
+    cluster.check_workers(workers, scheduler)
     spec, base = load_study(study_file)
     cases = make_cases(study_file, spec, base)
     content = study_content(study_file, spec, base, cases)
