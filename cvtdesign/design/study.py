@@ -69,6 +69,7 @@ from cvtdesign.design.study_file import (
     StudyVariant,
     check_counts,
     load_study,
+    next_to,
     problem_inputs,
     study_variant,
 )
@@ -118,11 +119,9 @@ def study_hash(study_file: Path, spec, base: Path) -> str:
 def variant_files(study_file, spec, base) -> list[Path]:
     if not spec.batch.variants:
         return [base]
-    files = [Path(study_file).parent / v for v in spec.batch.variants]
+    files = [next_to(study_file, "batch.variants", v) for v in spec.batch.variants]
     stems: dict = {}
     for v, f in zip(spec.batch.variants, files):
-        if not f.exists():
-            raise InputError(f"{study_file}: batch.variants: no variant file '{v}' next to the study")
         if f.stem in stems and f.resolve() != stems[f.stem][1].resolve():
             raise InputError(f"{study_file}: batch.variants: '{stems[f.stem][0]}' and '{v}' have the same name "
                              f"'{f.stem}', which names their cases and result files; expected variant files with "

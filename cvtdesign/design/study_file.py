@@ -120,12 +120,21 @@ class StudySpec(Strict):
 
 
 def load_study(path) -> tuple[StudySpec, Path]:
-    where = str(path)
     spec = read_spec(path, StudySpec, "name, base, design, objective")
-    base = (Path(path).parent / spec.base)
-    if not base.exists():
-        raise InputError(f"{where}: base: no variant file '{spec.base}' next to the study")
-    return spec, base
+    return spec, next_to(path, "base", spec.base)
+
+
+def next_to(study_path, field: str, name: str, what: str = "variant file") -> Path:
+    """The file `name` that the study's `field` names, relative to the study file; one InputError line naming
+    both when there is none or it is a folder (the file's own 'cannot read' named neither)."""
+    f = Path(study_path).parent / name
+    if f.is_dir():
+        raise InputError(f"{study_path}: {field}: '{name}' is a folder; expected a {what}")
+    if not f.is_file():
+        raise InputError(f"{study_path}: {field}: no {what} '{name}' next to the study")
+    if f.resolve() == Path(study_path).resolve():
+        raise InputError(f"{study_path}: {field}: '{name}' is the study itself; expected a {what}")
+    return f
 
 
 @dataclass(frozen=True)
@@ -159,7 +168,7 @@ def study_variant(study_path, spec: StudySpec, base_file) -> StudyVariant:
         return base_file
     vspec = load_spec(base_file)
     if spec.calibration:
-        fitted = read_fitted(Path(study_path).parent / spec.calibration)
+        fitted = read_fitted(next_to(study_path, "calibration", spec.calibration, "diagnosis report"))
         merged = {e: dict(ps) for e, ps in vspec.effect_parameters.items()}
         for e, ps in fitted.items():
             merged.setdefault(e, {}).update(ps)
@@ -174,11 +183,9 @@ def _free_in(spec: StudySpec, name: str, base_file: Path, study_path) -> bool:
     only = spec.design[name].variants
     if only is None:
         return True
-    files = [Path(study_path).parent / v for v in only]
+    files = [next_to(study_path, f"design.{name}.variants", v) for v in only]
     batch = {(Path(study_path).parent / v).resolve() for v in spec.batch.variants} if spec.batch.variants else None
     for v, f in zip(only, files):
-        if not f.is_file():
-            raise InputError(f"{study_path}: design.{name}.variants: no variant file '{v}' next to the study")
         if batch is not None and f.resolve() not in batch:     # it would stay fixed without a word
             raise InputError(f"{study_path}: design.{name}.variants: '{v}' is not one of batch.variants; "
                              "expected variant files the study runs")

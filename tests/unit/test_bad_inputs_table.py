@@ -536,8 +536,12 @@ scase("missing name", "name: missing required field", name=DEL)
 scase("missing base", "base: missing required field", base=DEL)
 scase("missing design", "design: missing required field", design=DEL)
 scase("base file that does not exist", "base: no variant file 'nope.yaml'", base="nope.yaml")
-case("optimise: base is a folder", ("studies", "cannot read file (Is a directory)"), optimise(base="."),
+case("optimise: base is a folder", ("bad_study.yaml: base: '.' is a folder; expected a variant file",), optimise(base="."),
      "optimise", "study YAML")
+case("optimise: base is the study itself", ("bad_study.yaml: base: 'bad_study.yaml' is the study itself",),
+     optimise(base="bad_study.yaml"), "optimise", "study YAML")
+case("optimise: calibration is a folder", ("bad_study.yaml: calibration: '.' is a folder; expected a diagnosis report",),
+     optimise(calibration="."), "optimise", "study YAML")
 case("optimise: base variant with an unknown field", ("bad.yaml", "rollers.D1.radus: unknown field"),
      with_variant("optimise", (D1 + ("radius",), DEL), (D1 + ("radus",), "40 mm")), "optimise", "study YAML")
 scase("unknown design variable", ("design.dd", "did you mean 'd'"), design={"dd": {"lower": "30 mm", "upper": "90 mm"}})
