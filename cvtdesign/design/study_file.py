@@ -254,7 +254,13 @@ def problem_inputs(study_path, spec: StudySpec, base_file, fixed: dict | None = 
                              f"{suggest(n, vspec.parameters)}")
         if n in spec.design:
             raise InputError(f"{where}: batch.sweep.{n}: '{n}' is a design variable; sweep fixed parameters only")
-    base = resolve(vspec, str(base_file), overrides=fixed)
+    try:
+        base = resolve(vspec, str(base_file), overrides=fixed)
+    except InputError as e:
+        if not fixed:
+            raise
+        point = ", ".join(f"{n} = {v:.6g}" for n, v in fixed.items())
+        raise InputError(f"{where}: batch.sweep: at {point} (SI) the variant is not valid: {e}") from None
     check_layout(base)
     names = list(variant.free)
     if not names:

@@ -599,6 +599,9 @@ scase("unknown sweep parameter", ("batch.sweep.preloud", "did you mean 'preload'
 scase("sweep of a design variable", "batch.sweep.d", command="study", batch={"sweep": {"d": ["50 mm"]}})
 scase("sweep value nan", "batch.sweep.preload", command="study", batch={"sweep": {"preload": ["nan N"]}})
 scase("sweep value in mm", "batch.sweep.preload[0]", command="study", batch={"sweep": {"preload": ["100 mm"]}})
+scase("sweep value negative", ("bad_study.yaml: batch.sweep: at preload = -80 (SI) the variant is not valid:",
+                               "roller_defaults.preload: expected a positive value"),
+      command="study", batch={"sweep": {"preload": ["-80 N"]}})
 scase("batch variant missing", "nope.yaml", command="study", batch={"variants": ["../variants/nope.yaml"]})
 scase("batch.pareto 'yes'", "batch.pareto", command="study", batch={"pareto": "yes"})
 case("study: missing study file", ("nope.yaml", "cannot read file"), cli("study", "{in}/nope.yaml", "--out", "{out}/s"),
