@@ -155,6 +155,17 @@ def noise_levels(data: Measured, resid: dict) -> dict:
     return out
 
 
+def _noise_source(points: Measured, raw: Measured) -> str:
+    """Where the noise estimate comes from (noise_levels): replicates, second differences along the load, or,
+    where no γ level has 3 loads, the residuals' own scatter, which holds any gap as well."""
+    if raw.replicated:
+        return "replicates"
+    loads = points.rows.groupby(["gamma_bin", "speed_bin"]).size()
+    if (loads >= 3).any():
+        return "second differences along load"
+    return "scatter of the residuals, an upper bound: no replicates, and no γ with 3 loads"
+
+
 def _second_differences(r, res, idx) -> np.ndarray:
     """(v[k] − 2 v[k+1] + v[k+2])/√6 of the residuals along the load, per motor-speed level, at rows idx."""
     parts = []
@@ -679,8 +690,7 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
         "verdict": name, "accepted": accepted, "partial": partial, "base": list(base), "candidates": candidates,
         "rows": int(len(raw.rows)), "operating_points": int(len(data.rows)), "dropped_rows": data.dropped,
         "noise": {c: {"rms": _rms(v), "min": float(np.min(v)), "max": float(np.max(v)), "unit": UNITS[c]}
-                  for c, v in _row_noise(data, noise).items()} | {"source": "replicates" if raw.replicated else
-                                                                    "second differences along load"},
+                  for c, v in _row_noise(data, noise).items()} | {"source": _noise_source(data, raw)},
         "base_fit": base_score.fit.params(), "final_fit": final.fit.params(),
         "base_failed": _failed_points(P0, data, base_score.fit),
         "gap": {"rms_alpha_deg": _rms(res_fit["alpha"], base_score.fit.ok),

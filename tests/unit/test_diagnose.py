@@ -267,3 +267,17 @@ def test_a_candidate_that_fits_one_channel_by_spoiling_another_is_not_accepted(l
     offset = next(r for r in rep["ranking"] if r["effect"] == "steering_offset")
     assert rep["accepted"] == [] and rep["verdict"] == "unexplained"
     assert offset["heldout_rms_after"] > 5 * offset["heldout_rms_before"]      # what accepting it would cost
+
+
+def test_the_noise_source_is_named_as_it_was_estimated(layout, tmp_path):
+    """Every row at its own γ (as a simulator sampling γ at random writes it): no replicates and no load
+    sweep, so the noise is the residuals' own scatter, an upper bound. It was labelled "second differences
+    along load"."""
+    rng = np.random.default_rng(8)
+    frames = [rig.simulate(layout, KIM, protocol=rig.Protocol(np.radians([g]), np.array([t]), np.array([10.0]),
+                                                              "tau_perp", 1), seed=k)[0]
+              for k, (g, t) in enumerate(zip(rng.uniform(-75, 75, 40), rng.uniform(-1, 1, 40)))]
+    path = tmp_path / "random.csv"
+    path.write_text(rig.to_csv_text(pd.concat(frames, ignore_index=True)))
+    rep = diagnose.diagnose(layout, measured.load_measured(path, layout), KIM, ("steering_offset",))
+    assert rep["noise"]["source"].startswith("scatter of the residuals, an upper bound")
