@@ -529,8 +529,6 @@ def _point_builder(outs, x, params, residual, x0_fn, steer_res, misfit, theta, d
     return build
 
 
-
-
 def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX, always: bool) -> ca.MX:
     """The operating point's solution as a rig reaches it: the load applied from rest at the commanded γ.
 
@@ -541,9 +539,10 @@ def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX
     steps, each solve starting from the last converged one (a step that does not converge is passed over).
     Under Kalker's law this is every point's solution (`always`; inside the shipped envelopes it agrees with
     the direct solve to 1e-11°), except where the stepped solve does not converge and the direct one does
-    (at γ = 0 on existing_kalker.yaml, where shaft 2's rollers stand still and Kalker's rows are stiff). Under Kim's law the direct solve from the ideal kinematics stands where it
-    converges on the forward root, which is every point inside the envelopes, at no extra cost (the stepped
-    solve is in a branch that runs only where needed). Derivatives are those of the last solve, by the
+    (at γ = 0 on existing_kalker.yaml, where shaft 2's rollers stand still and Kalker's rows are stiff).
+    Under Kim's law the direct solve from the ideal kinematics stands where it converges on the forward root,
+    which is every point inside the envelopes, at the cost of checking that (the stepped solve is in a branch
+    that runs only where needed). Derivatives are those of the last solve, by the
     implicit function theorem: its starting point does not change the root it converges to."""
     def good(x, q):      # converged, on a forward root (as _status judges them)
         return ca.logic_and(_converged(residual(x, q)), ca.dot(x[0:3], x0_fn(q)[0:3]) > 0)

@@ -241,25 +241,32 @@ def run_case(content: StudyContent, case: dict, out_dir: str) -> dict:
     if case["kind"] == "start":
         problem = cached_problem(content, variant, case["fixed"])
         sol = solve_from(problem, starts(problem)[case["start"]], case["start"])
-        held = (lambda v: v) if sol.success else (lambda v: np.nan)    # no figure where the physics failed
-        rows.append(common | {"point": 0, "status": sol.status, "success": sol.success, "objective": held(sol.objective),
-                              "worst_alpha_deg": held(sol.check.max_abs_alpha_deg if sol.check else np.nan),
-                              "power_loss_W": held(sol.objective if spec.objective.kind == "power_loss" else np.nan),
+        ok = sol.success
+        rows.append(common | {"point": 0, "status": sol.status, "success": ok, "objective": _held(ok, sol.objective),
+                              "worst_alpha_deg": _held(ok, sol.check.max_abs_alpha_deg if sol.check else np.nan),
+                              "power_loss_W": _held(ok, sol.objective if spec.objective.kind == "power_loss" else np.nan),
                               "iterations": sol.iterations,
                               "variant_file": design_file(problem, sol, f"{spec.name}_{case['id']}")}
                     | {f"design.{k}": v for k, v in sol.design.items()})
     else:
         for p in pareto_front(content.path, spec, variant, case["fixed"]):
             sol = p["solution"]
-            held = (lambda v: v) if p["success"] else (lambda v: np.nan)
-            rows.append(common | {"point": p["index"], "status": p["status"], "success": p["success"],
-                                  "objective": held(p["power_loss_W"]), "worst_alpha_deg": held(p["worst_alpha_deg"]),
-                                  "power_loss_W": held(p["power_loss_W"]), "iterations": sol.iterations,
+            ok = p["success"]
+            rows.append(common | {"point": p["index"], "status": p["status"], "success": ok,
+                                  "objective": _held(ok, p["power_loss_W"]),
+                                  "worst_alpha_deg": _held(ok, p["worst_alpha_deg"]),
+                                  "power_loss_W": _held(ok, p["power_loss_W"]), "iterations": sol.iterations,
                                   "variant_file": design_file(p["problem"], sol, f"{spec.name}_{case['id']}{p['index']}")}
                         | {f"design.{k}": v for k, v in p["design"].items()})
     for r in rows:
         r["seconds"] = time.perf_counter() - t0
     return {"rows": rows, "files": files}
+
+
+def _held(success: bool, value):
+    """A case's figure, stored only where the physics held: a failed case's objective is the working set's,
+    not the design's (NaN in the store)."""
+    return value if success else np.nan
 
 
 def plan(cases: list[dict], workers: list[str], pareto_points: int = 8) -> list[tuple[dict, str | None, int]]:
