@@ -590,8 +590,8 @@ def search(models: Models, data: Measured, noise: dict, fold, base: Score, candi
     """Greedy forward search: each remaining candidate added to the current model and scored held out; the
     best one is accepted when its held-out gain is significant (Wilcoxon p below P_ACCEPT/candidates), above
     MIN_GAIN, lowers the BIC, the candidate fails at no more than MAX_FAIL of the points (where the rig
-    measured a steady state), and no channel gets clearly worse (_worsens_a_channel). Returns (accepted effects, rounds, the final score, the score after each
-    accepted effect)."""
+    measured a steady state), and no channel gets clearly worse (_worsens_a_channel). Returns (accepted
+    effects, rounds, the final score, the score after each accepted effect)."""
     nch = len(_channels(data))
     current, accepted, rounds, steps = base, [], [], []
     remaining = list(candidates)

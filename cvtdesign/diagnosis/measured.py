@@ -176,8 +176,8 @@ def _group(m: Measured):
     (_compact_levels, no wider than 5 % of the range of the central 96 % of τ⊥); the load levels shared by
     every γ (the grid of the residual map) are the compact levels of the points' mean τ⊥. Unless at least
     half the rows have a replicate, none is taken for one: 11 random loads at each γ met by chance in pairs up
-    to 0.1 N·m apart, and their scatter made a noise estimate 7× too large. No tolerance
-    depends on the extremes, so one wild row is a point of its own instead of merging the others."""
+    to 0.1 N·m apart, and their scatter made a noise estimate 7× too large. No tolerance depends on the
+    extremes, so one wild row is a point of its own instead of merging the others."""
     r = m.rows
     gl, glev = _levels(r["gamma_cmd_deg"].to_numpy(), GAMMA_TOL_DEG)
     sl, slev = _levels(r["omega_1"].to_numpy(), 0.05, relative=True)
