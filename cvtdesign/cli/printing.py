@@ -128,11 +128,13 @@ def json_text(obj) -> str:
 def left_out_text(counts: dict) -> str:
     """'gross slip at 12 points (D1 ×8, S1 ×4); lost contact at 3 points (S2 ×3)' from model.status_counts."""
     parts = []
-    for key in ("lost_contact", "gross_slip", "not_converged", "reversed"):
+    named = {"reversed": "the sphere turning backwards (reversed)",
+             "multiple_roots": "two roots, the state depending on the load's history (multiple roots)"}
+    for key in ("lost_contact", "gross_slip", "not_converged", "reversed", "multiple_roots"):
         if counts.get(key):
             at = counts.get(f"{key}_at") or {}
             where = f" ({', '.join(f'{k} ×{v}' for k, v in at.items())})" if at else ""
-            what = "the sphere turning backwards (reversed)" if key == "reversed" else key.replace('_', ' ')
+            what = named.get(key, key.replace('_', ' '))
             parts.append(f"{what} at {counts[key]} points{where}")
     return "; ".join(parts)
 

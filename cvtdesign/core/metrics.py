@@ -11,9 +11,9 @@ Figures (all over the variant's envelope, Kim's protocol by default: γ −80°.
  * max_traction_utilisation: max |F|/(μN) over all contacts; max_hertz_pressure_MPa: max Hertz peak pressure.
 
 The ideal law, γ and α are the layout's own (kinematics.py). Every figure is taken over the points where the
-physics holds; the points that lost contact, slip grossly, did not converge or reached a root with the sphere
-turning backwards are counted (`lost_contact`, `gross_slip`, `not_converged`, `reversed`, with the contacts
-behind the first two) and left out. A figure with no point to take
+physics holds; the points that lost contact, slip grossly, did not converge, reached a root with the sphere
+turning backwards or have two roots are counted (`lost_contact`, `gross_slip`, `not_converged`, `reversed`,
+`multiple_roots`, with the contacts behind the first two) and left out. A figure with no point to take
 it over is None, never NaN.
 """
 from __future__ import annotations

@@ -28,9 +28,10 @@ search), whose implicit derivatives give the optimiser exact gradients. Evaluate
 compiled to C (core.native): the compiled functions solve by the same iteration written out (core.newton),
 which gives the same numbers.
 
-The reported root is the one a rig reaches by loading from rest (`_solve_from_rest`): past the envelope the
-equations can have several. A solution is returned only where the physics holds (`status`): the solve
-converged, on a root where the sphere turns with the commanded axis (else `reversed`), every N_i > 0 (else
+Past the envelope the equations can have several roots (`_solve_from_rest`): where a point has two, the
+state depends on the load's history and the point is `multiple_roots`. A solution is returned only where
+the physics holds (`status`): the solve converged, to the point's only root, on a root where the sphere
+turns with the commanded axis (else `reversed`), every N_i > 0 (else
 `lost_contact`) and every |F_i| ≤ μ_i N_i (else `gross_slip`, which is also what a saturation law's converged
 solution at |F| ≥ SAT_LIMIT·μN means). A solve that did not converge is `not_converged`.
 """
@@ -67,7 +68,8 @@ RES_TOL = 1e-8        # scaled residual above which a point is reported as not c
 LOAD_STEPS = 4        # steps of the continuation in the load from rest (_solve_from_rest)
 SAT_LIMIT = 0.999     # traction utilisation |F|/(μN) of a saturation law beyond which a point is gross slip
 
-STATUS = ("ok", "not_converged", "lost_contact", "gross_slip", "reversed")   # the `status` output's codes, in order
+STATUS = ("ok", "not_converged", "lost_contact", "gross_slip", "reversed", "multiple_roots")   # `status` codes, in order
+ROOT_TOL = 1e-6       # scaled unknowns' largest difference beyond which two converged solutions are two roots
 CONTACT_OUTPUTS = ("N", "F_t", "F_a", "utilisation", "p_max", "xi", "eta", "spin", "mu", "M_spin")
 POINT_OUTPUTS = ("omega_2", "tau_1", "tau_2", "phi", "gamma_axis", "alpha", "alpha_steering", "alpha_drive",
                  "power_loss", "residual", "status", "Omega_x", "Omega_y", "Omega_z")
@@ -521,29 +523,32 @@ def _point_builder(outs, x, params, residual, x0_fn, steer_res, misfit, theta, d
         res = {}
         if model_names:
             sel = ca.Function("post_sel", [x, params], ca.cse([outs[k] for k in model_names]))
-            x_m = _solve_from_rest(solver, residual, x0_fn, p_m, always_from_rest)
+            x_m, several = _solve_from_rest(solver, residual, x0_fn, p_m, always_from_rest)
             res = dict(zip(model_names, sel.call([x_m, p_m])))
+            if "status" in res:
+                res["status"] = ca.if_else(several, STATUS.index("multiple_roots"), res["status"])
         # how far the linkage is from rolling about the commanded axis (0 where it reaches γ)
         res["steer_misfit"] = misfit(phi_m, ca.vertcat(g_m, d_m))
         return ca.Function(name, ins, [res[k] for k in selected], in_names, list(selected))
     return build
 
 
-def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX, always: bool) -> ca.MX:
-    """The operating point's solution as a rig reaches it: the load applied from rest at the commanded γ.
+def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX, always: bool):
+    """(x, several): the operating point's solution, and whether the equations hold another one there.
 
-    Past the envelope the equations can have more than one root. From the ideal kinematics (no forces) the
-    Newton solve can land on any of them, and which one can change with round-off, so with how the layout
-    is written: under Kalker's law one box layout gave α = 2.612° written one way and 2.610° rotated, both
-    converged, where loading from rest gives 2.679° either way. So the load is applied in LOAD_STEPS equal
-    steps, each solve starting from the last converged one (a step that does not converge is passed over).
-    Under Kalker's law this is every point's solution (`always`; inside the shipped envelopes it agrees with
-    the direct solve to 1e-11°), except where the stepped solve does not converge and the direct one does
-    (at γ = 0 on existing_kalker.yaml, where shaft 2's rollers stand still and Kalker's rows are stiff).
-    Under Kim's law the direct solve from the ideal kinematics stands where it converges on the forward root,
-    which is every point inside the envelopes, at the cost of checking that (the stepped solve is in a branch
-    that runs only where needed). Derivatives are those of the last solve, by the
-    implicit function theorem: its starting point does not change the root it converges to."""
+    Past the envelope the equations can have more than one root, and the Newton solve from the ideal
+    kinematics (no forces) can land on either, depending on round-off: an asymmetric box under Kalker's law
+    gave α = 2.612° written one way and 2.610° rotated, both converged, where loading from rest gives 2.679°.
+    The state then depends on how the load came, which no steady-state model can tell, so such a point
+    carries no number (`multiple_roots`). Under Kalker's law every point is also solved as a rig reaches
+    it, the load applied from rest in LOAD_STEPS equal steps, each solve starting from the last converged
+    one; where both solutions hold and differ (by more than ROOT_TOL in the scaled unknowns), the point is
+    `multiple_roots`; where they agree, or only one holds, that one is the solution. (The stepped solution
+    alone is no answer: near a fold, four steps land on whichever root they reach, and its α jumped by
+    0.6° between loads one ulp apart.) Under Kim's law the roots inside the envelopes are unique, and the
+    stepped solve only replaces a direct one that fails or turns backwards (a branch that runs only there:
+    existing.yaml at (−80°, 2.1 N·m), `reversed` from the ideal kinematics, is ω2 = −20.2 rad/s from rest).
+    Derivatives are those of the solve whose root is returned, by the implicit function theorem."""
     def good(x, q):      # converged, on a forward root (as _status judges them)
         return ca.logic_and(_converged(residual(x, q)), ca.dot(x[0:3], x0_fn(q)[0:3]) > 0)
 
@@ -556,11 +561,13 @@ def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX
         return x
 
     direct = solver(x0_fn(p), p)
-    if always:      # where the stepped solve fails (near γ = 0 under Kalker's law), the direct one if it holds
-        x = stepped(p)
-        return ca.if_else(good(x, p), x, direct)
+    if always:
+        rest = stepped(p)
+        ok_d, ok_r = good(direct, p), good(rest, p)
+        several = ca.logic_and(ca.logic_and(ok_d, ok_r), ca.norm_inf(direct - rest) > ROOT_TOL)
+        return ca.if_else(ok_d, direct, rest), several
     # the branch as a function of the direct solution: `if_else` alone would build its branches from the
     # graph's inputs and so solve the direct problem a second time inside the switch
     d, q = ca.MX.sym("direct", direct.sparsity()), ca.MX.sym("params", p.sparsity())
     pick = ca.Function("from_rest", [d, q], [ca.if_else(good(d, q), d, stepped(q), True)])
-    return pick(direct, p)
+    return pick(direct, p), ca.MX(0)

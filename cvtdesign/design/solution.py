@@ -40,12 +40,14 @@ class Solution:
 class EnvelopeCheck:
     """A design on the whole envelope by the model at that design: how many points did not converge, lost
     contact (N ≤ 0 at some contact), slip grossly (N > 0 but |F| > μN at some contact) or solved to a root
-    with the sphere turning backwards (`reversed`)."""
+    with the sphere turning backwards (`reversed`), or has two roots, so that its state depends on the load's
+    history (`multiple_roots`)."""
     points: int
     not_converged: int
     lost_contact: int
     gross_slip: int
     reversed: int
+    multiple_roots: int
     min_normal_force: float    # [N] smallest N over the points that pass (NaN: none passes)
     max_utilisation: float     # largest |F|/(μN) over the points that pass
     worst: str = ""            # a failing point of the most serious kind, why, and at which contact
@@ -53,7 +55,7 @@ class EnvelopeCheck:
 
     @property
     def failed(self) -> int:
-        return self.not_converged + self.lost_contact + self.gross_slip + self.reversed
+        return self.not_converged + self.lost_contact + self.gross_slip + self.reversed + self.multiple_roots
 
     @property
     def ok(self) -> bool:
@@ -62,11 +64,14 @@ class EnvelopeCheck:
     def summary(self) -> str:
         return (f"{self.failed} of {self.points} envelope points: {self.lost_contact} lost contact (N ≤ 0), "
                 f"{self.gross_slip} gross slip (|F| > μN), {self.not_converged} not converged"
-                + (f", {self.reversed} reversed (sphere turning backwards)" if self.reversed else ""))
+                + (f", {self.reversed} reversed (sphere turning backwards)" if self.reversed else "")
+                + (f", {self.multiple_roots} with two roots (state depends on the load's history)"
+                   if self.multiple_roots else ""))
 
     def as_dict(self) -> dict:
         return {"points": self.points, "failed": self.failed, "not_converged": self.not_converged,
                 "lost_contact": self.lost_contact, "gross_slip": self.gross_slip, "reversed": self.reversed,
+                "multiple_roots": self.multiple_roots,
                 "min_normal_force_N": self.min_normal_force, "max_utilisation": self.max_utilisation,
                 "max_abs_alpha_deg": self.max_abs_alpha_deg, "worst": self.worst}
 
@@ -74,7 +79,7 @@ class EnvelopeCheck:
 def check_envelope(res: dict, roller_names) -> EnvelopeCheck:
     """Count the operating points of `res` (CompiledModel.evaluate's result, or Problem.envelope's) that
     are outside the model's physics by the model's own `status` (not converged, lost contact: N ≤ 0, gross
-    slip: |F| > μN, reversed), naming the first failure of the most serious kind and the contact behind it."""
+    slip: |F| > μN, reversed, multiple roots), naming the first failure of the most serious kind and the contact behind it."""
     st, contact = res["status"].ravel(), res["failed_contact"].ravel()
     n = st.size
     N, U = np.reshape(res["N"], (-1, n)), np.reshape(res["utilisation"], (-1, n))
@@ -82,13 +87,14 @@ def check_envelope(res: dict, roller_names) -> EnvelopeCheck:
     g, l = (np.broadcast_to(a, res["status"].shape).ravel() for a in (res["gamma_cmd"], res["load"]))
     worst = ""
     for code, what in ((2, "lost contact (N ≤ 0)"), (3, "gross slip (|F| > μN)"), (4, "reversed (the sphere turns "
-                       "against the commanded axis)"), (1, "not converged")):
+                       "against the commanded axis)"), (5, "two roots (the state depends on the load's history)"),
+                       (1, "not converged")):
         if (st == code).any():
             k = int(np.flatnonzero(st == code)[0])
             who = f" at {roller_names[contact[k]]}" if contact[k] >= 0 else ""
             worst = f"γ={np.degrees(g[k]):+.0f}° τ⊥={l[k]:+.3g}: {what}{who}"
             break
-    return EnvelopeCheck(n, int((st == 1).sum()), int((st == 2).sum()), int((st == 3).sum()), int((st == 4).sum()),
+    return EnvelopeCheck(n, *(int((st == code).sum()) for code in (1, 2, 3, 4, 5)),
                          float(np.min(N[:, ok])) if ok.any() else float("nan"),
                          float(np.max(U[:, ok])) if ok.any() else float("nan"), worst,
                          float(np.degrees(np.max(np.abs(np.ravel(res["alpha"])[ok])))) if ok.any() else float("nan"))

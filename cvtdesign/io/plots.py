@@ -56,7 +56,7 @@ COMPARE_ROWS = (("alpha", "slip angle α [°]", np.degrees),
 LOAD_STYLES = ("-", "--", ":", "-.")
 LOAD_MARKERS = ("o", "s", "^", "v")
 FLAGS = ((1, "+", "grey", "not converged"), (2, "x", "k", "lost contact"), (3, "x", "r", "gross slip"),
-         (4, "v", "m", "reversed (sphere turning backwards)"))
+         (4, "v", "m", "reversed (sphere turning backwards)"), (5, "d", "c", "two roots (history-dependent)"))
 COMPARE_KEYS = ("gamma_cmd", "load", "status", *(key for key, _, _ in COMPARE_ROWS))   # what compare_figure reads
 # the compare panels' titles sit on the axes' top edge, where matplotlib would place them after measuring the
 # (absent) top ticks: given, that measuring pass (a twentieth of the drawing) is skipped

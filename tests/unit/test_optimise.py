@@ -264,7 +264,7 @@ def test_envelope_check_flags_lost_contact_and_traction_row_cannot_pass_it(tmp_p
     assert lost.sum() >= 5 and np.all(U.min(axis=0)[lost] < 0)
     chk = check_envelope(res, m.roller_names)
     assert not chk.ok and chk.points == 27 and chk.lost_contact == lost.sum()
-    assert chk.failed == chk.lost_contact + chk.gross_slip + chk.not_converged + chk.reversed
+    assert chk.failed == chk.lost_contact + chk.gross_slip + chk.not_converged + chk.reversed + chk.multiple_roots
     assert "lost contact" in chk.worst and chk.worst.endswith(("S1", "S2"))
     assert f"{chk.failed} of 27 envelope points: {chk.lost_contact} lost contact" in chk.summary()
     G1, T1 = np.meshgrid(np.radians(np.arange(-80, 81, 20.0)), [-1.0, 0.0, 1.0], indexing="ij")
