@@ -143,7 +143,7 @@ def _levels(values, tol, relative: bool = False):
     return label, np.array([np.mean(g) for g in groups])
 
 
-def _compact_levels(values, tol: float, ratio: float = 3.0):
+def _compact_levels(values, tol: float, ratio: float = 2.0):
     """Levels of 1-D measured values (labels, level means). A level is a run of sorted values that is
     compact: its width within `tol` and at most 1/`ratio` of the gaps that separate it from the values either
     side. Runs that are not are split at their widest gap, from the whole range down. So replicates of one
@@ -173,8 +173,9 @@ def _group(m: Measured):
     """Operating points: replicates of one commanded γ, load and motor-speed level. Loads and speeds are
     measured, so replicates differ by the noise. Speed levels are clusters of ω1 separated by more than 5 %
     of their magnitude. At each γ and speed level, a point is a compact level of the measured τ⊥
-    (_compact_levels, no wider than 5 % of the range of the central 96 % of τ⊥); the load levels shared by
-    every γ (the grid of the residual map) are the compact levels of the points' mean τ⊥. Unless at least
+    (_compact_levels, no wider than 5 % of the range, or the size, of the central 96 % of τ⊥); the load
+    levels shared by every γ (the grid of the residual map) chain the points' mean τ⊥ closer than half the
+    median of the smallest load step at each γ. Unless at least
     half the rows have a replicate, none is taken for one: 11 random loads at each γ met by chance in pairs up
     to 0.1 N·m apart, and their scatter made a noise estimate 7× too large. No tolerance depends on the
     extremes, so one wild row is a point of its own instead of merging the others."""
@@ -182,15 +183,19 @@ def _group(m: Measured):
     gl, glev = _levels(r["gamma_cmd_deg"].to_numpy(), GAMMA_TOL_DEG)
     sl, slev = _levels(r["omega_1"].to_numpy(), 0.05, relative=True)
     tp = r["tau_perp"].to_numpy()
-    tol = max(0.05 * float(np.subtract(*np.percentile(tp, [98, 2]))), 1e-9)
-    point, loads = np.empty(len(tp), int), []
+    lo, hi = np.percentile(tp, [2, 98])      # a single commanded load: its range is the noise, its size is not
+    tol = max(0.05 * max(hi - lo, abs(lo), abs(hi)), 1e-9)
+    point, loads, steps = np.empty(len(tp), int), [], []
     for idx in pd.Series(np.arange(len(tp))).groupby([sl, gl]).indices.values():
         label, means = _compact_levels(tp[idx], tol)
         point[idx] = len(loads) + label
         loads.extend(means)
+        if len(means) > 1:
+            steps.append(np.min(np.diff(means)))
     if np.sum(np.bincount(point)[point] > 1) < 0.5 * len(tp):   # replicates are the rule or there are none:
         point, loads = np.arange(len(tp)), tp                   # loads drawn at random meet by chance
-    load_of_point, llev = _compact_levels(np.array(loads), tol, ratio=1.0)
+    # the levels every γ shares: the points' mean loads chained closer than half the typical load step
+    load_of_point, llev = _levels(np.array(loads), 0.5 * float(np.median(steps)) if steps else tol)
     r["gamma_bin"], r["load_bin"], r["speed_bin"] = gl, load_of_point[point], sl
     r["point"] = pd.factorize(pd.Series(point))[0]
     m.gamma_levels, m.load_levels, m.speed_levels = glev, llev, slev

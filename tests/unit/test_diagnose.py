@@ -281,3 +281,18 @@ def test_the_noise_source_is_named_as_it_was_estimated(layout, tmp_path):
     path.write_text(rig.to_csv_text(pd.concat(frames, ignore_index=True)))
     rep = diagnose.diagnose(layout, measured.load_measured(path, layout), KIM, ("steering_offset",))
     assert rep["noise"]["source"].startswith("scatter of the residuals, an upper bound")
+
+
+def test_noisy_replicates_keep_their_load_levels_and_the_verdict(layout, tmp_path):
+    """Two replicates a point with 6× the default torque noise (0.03 N·m): the first compact-level rule split
+    replicate pairs wider than a third of the next gap, broke the load grid into 126 levels, read the gap as
+    noise (structure z = 1.1) and said `unexplained` where the old rule said steering_lateral_creep. The
+    shared load levels follow the protocol's 11 again (a level's single rows can sit 3σ = 0.09 N·m off it, so
+    one may split in two), the gap is structured and the verdict is right."""
+    p = rig.Protocol(np.radians(np.arange(-80.0, 81.0, 10.0)), np.round(np.arange(-1.0, 1.01, 0.2), 10),
+                     np.array([10.0]), "tau_perp", 2)
+    path = dataset(layout, tmp_path, KIM, seed=4, protocol=p, noise=rig.parse_noise("torque=0.03 N*m"))
+    data = measured.load_measured(path, layout)
+    assert len(data.load_levels) in (11, 12) and data.replicated
+    rep = diagnose.diagnose(layout, data, ("drive_longitudinal_creep",), ("steering_lateral_creep", "steering_offset"))
+    assert rep["verdict"] == "steering_lateral_creep" and rep["gap"]["structured"]
