@@ -160,7 +160,7 @@ def _add_contact(p):
     p.add_argument("--plots", help="folder for the creep–force curves and the patch ellipses")
 
 
-INPUTS = ("variant", "variants", "study", "data", "protocol")    # the arguments that name files a command reads
+INPUTS = ("variant", "variants", "study", "data", "protocol", "calibration")   # arguments naming files a command reads
 
 
 def _not_an_input(path: str, kind: str, args) -> None:

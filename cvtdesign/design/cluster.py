@@ -19,6 +19,7 @@ from contextlib import contextmanager, nullcontext
 import dask
 from dask.distributed import Client, LocalCluster
 from distributed.core import rpc
+from distributed.security import Security
 
 from cvtdesign.errors import InputError
 
@@ -54,8 +55,8 @@ def _identify(scheduler: str, timeout: float) -> str | None:
     """Why `scheduler` is not a Dask scheduler that answers within `timeout` s, or None if it is. Asked with
     Dask's own `identity` call under a hard deadline: a Client waits forever on a port where something
     silent listens, and fails with a traceback on one that answers in another protocol."""
-    async def identity():
-        async with rpc(scheduler, timeout=timeout) as r:
+    async def identity():      # with the TLS settings of Dask's configuration, as a Client would use them
+        async with rpc(scheduler, timeout=timeout, connection_args=Security().get_connection_args("client")) as r:
             return await r.identity()
 
     try:

@@ -703,6 +703,9 @@ case("rig: --protocol missing", ("nope.yaml", "cannot read file"), cli(*R, "--pr
 case("rig: --protocol is a directory", ("adir", "cannot read file"), cli(*R, "--protocol", "{adir}"),
      "rig", "protocol YAML")
 case("rig: no --out", ("rig", "--out"), cli("rig", "{v}"), "rig", "command line")
+case("optimise: --json is the calibration", ("--json", "is this command's input (calibration)"),
+     cli("optimise", "{tmp}/work/studies/box_placement.yaml", "--calibration", "{plain}", "--json", "{plain}"),
+     "optimise", "command line")
 case("rig: --out is the variant", ("--out", "existing.yaml is this command's input (variant)"),
      cli("rig", "{v}", "--out", "{v}"), "rig", "command line")
 case("diagnose: --json is the data", ("--json", "is this command's input (data)"),

@@ -175,5 +175,8 @@ def test_resteer_takes_its_default_load_inside_the_envelope():
     levels = np.round(np.arange(-2.5, 2.5001, 0.25), 10)
     assert resteer.default_load(layout, SimpleNamespace(load_levels=levels, file="d.csv")) == 1.0
     assert resteer.default_load(layout, None) == pytest.approx(1.0)
+    # the top level's mean a little past the envelope by noise is still the top level, not the next one down
+    noisy = SimpleNamespace(load_levels=np.array([-1.0007, -0.8, 0.0, 0.8, 1.0019]), file="d.csv")
+    assert resteer.default_load(layout, noisy) == 1.0019
     with pytest.raises(InputError, match=r"d.csv: every load level of the data lies outside the envelope load range"):
         resteer.default_load(layout, SimpleNamespace(load_levels=np.array([2.0, 2.5]), file="d.csv"))
