@@ -219,8 +219,8 @@ def evaluate_expression(text: str, names: dict, where: str):
                 return names[node.id]
             if node.id in _CONSTS:
                 return _CONSTS[node.id]
-            raise InputError(f"{where}: unknown name '{shorten(node.id)}' in expression (parameters: "
-                             f"{', '.join(names) or 'none'})")
+            raise InputError(f"{where}: unknown name '{shorten(node.id)}' in expression (the parameters this "
+                             f"field can use: {', '.join(names) or 'none'})")
         if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _FUNCS
                 and not node.keywords and len(node.args) == _ARITY[node.func.id]):
             args = [ev(a, depth) for a in node.args]

@@ -462,6 +462,9 @@ vcase("gamma stop at 90 deg", ("envelope.gamma.stop: γ = 90 deg is where the sp
                               "motor's shaft 1", "expected a γ clear of ±90 deg"), (ENV_G + ("stop",), "90 deg"))
 vcase("gamma grid through 90 deg", ("envelope.gamma: point 17: γ = 90 deg", "clear of ±90 deg"),
       (ENV_G + ("stop",), "170 deg"))
+vcase("motor speed expression over a parameter", ("envelope.motor_speed: unknown name 'R' in expression",
+                                                  "the parameters this field can use: none"),
+      (("envelope", "motor_speed"), "= 2*R"))
 vcase("gamma step 0", "envelope.gamma: expected start <= stop and step > 0", (ENV_G + ("step",), "0 deg"))
 vcase("load step < 0", "envelope.load: expected start <= stop and step > 0", (ENV_L + ("step",), "-0.1 N*m"))
 vcase("a load grid of 2e7 points", "envelope.load.step", (ENV_L + ("step",), "1e-7 N*m"))
