@@ -67,8 +67,7 @@ def check_ratios(layout, ratios, where: str = "ratios") -> list[float]:
     """Requested speed ratios the variant's ideal law reaches inside its envelope's γ range: beyond it no
     command exists (100 would need γ = 89.4° on Kim's CVT, whose envelope ends at 80°)."""
     frame = shaft_frame(layout)
-    lo, hi = sorted(frame.k * (frame.c + frame.s * math.tan(g)) for g in (layout.gamma_grid.min(),
-                                                                          layout.gamma_grid.max()))
+    lo, hi = sorted(float(frame.ideal_ratio(g)) for g in (layout.gamma_grid.min(), layout.gamma_grid.max()))
     for q in ratios:
         g = math.degrees(frame.command_for_ratio(q))
         if not lo <= q <= hi:
