@@ -1,7 +1,7 @@
 """Command-line arguments that several commands share."""
 from __future__ import annotations
 
-from cvtdesign.core.effects import check_effects
+from cvtdesign.core.effects import check_names
 
 
 def effects_arg(text, default, where):
@@ -10,4 +10,4 @@ def effects_arg(text, default, where):
         return tuple(default)
     if text.strip().lower() in ("", "none"):
         return ()
-    return check_effects([e.strip() for e in text.split(",") if e.strip()], where)
+    return check_names([e.strip() for e in text.split(",") if e.strip()], where)

@@ -2,8 +2,8 @@
 
 For each roller: the Hertz ellipse (a along the rolling direction, b across), its peak pressure, Kalker's
 coefficients C11, C22, C23, C33, μ, linear theory's creep constants, and the creep–force curves of the
-saturating law (core.creep: Kalker's linear theory saturated by Polach's method) for longitudinal, lateral
-and spin creepage, with the pure-spin moment curve. The variant's own creep law is not used here: this is the contact physics the layout's
+`kalker` law (core.contact.surface: Kalker's simplified theory FASTSIM with the Hertz traction bound) for
+longitudinal, lateral and spin creepage, with the pure-spin moment curve. The variant's own creep law is not used here: this is the contact physics the layout's
 radii, crowns, materials and preloads give.
 """
 from __future__ import annotations
@@ -11,7 +11,7 @@ from __future__ import annotations
 from rich.console import Console
 
 from cvtdesign.cli.printing import engineering, json_text, number, show
-from cvtdesign.core.patch import curves, patch
+from cvtdesign.core.contact.patch import curves, patch
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_file
 from cvtdesign.io.report import Note, Table

@@ -49,7 +49,6 @@ class Effect:
     doc: str
     params: dict = field(default_factory=dict)
     hooks: dict[str, Callable] = field(default_factory=dict)
-    in_kalker: str = ""    # why contact.law kalker already contains this effect ('': it does not, it adds to it)
 
 
 @dataclass
@@ -69,6 +68,7 @@ class ContactState:
     mu: object            # friction coefficient [-]
     Ft: object            # tangential force on the sphere along t [N]
     Fa: object            # along a [N]
+    constants: dict = field(default_factory=dict)   # the contact law's constants of this patch (core.contact.laws)
 
 
 def smooth_abs(x, eps):
@@ -138,12 +138,12 @@ EFFECTS = {e.name: e for e in [
            "line-contact creep/spin model (Brokowski eqs 14-19): slip velocity = (b/(μN))·|Ω·n|·F.",
            {"scale": Param(1.0, "dimensionless", "multiplier on b/(μN) with b the lateral Hertz half-width "
                                                    "(not Gillespie's measured width)", 0.0, 200.0)},
-           {"compliance": _drive_spin}, "spin creepage acts through Kalker's C23"),
+           {"compliance": _drive_spin}),
     Effect("normal_force_variation",
            "Creep compliances, spin creep, rolling resistance and saturation follow the normal forces of the "
            "sphere's force balance on its compliant mounts (Hertz patch: ε ∝ N^(-2/3)) instead of the preload.",
            {"exponent": Param(2.0 / 3.0, "dimensionless", "ε ∝ N^(-exponent); Hertz + Kalker gives 2/3", 0.0, 3.0)},
-           {"creep_normal": _normal_force_variation}, "the Hertz patch follows the force-balanced N"),
+           {"creep_normal": _normal_force_variation}),
     Effect("rolling_resistance",
            "Hysteresis: each contact's pressure centre sits `offset` ahead of the contact point, a resisting "
            "moment offset·N on sphere and roller (Brokowski sec. 4.4.2).",
@@ -163,27 +163,18 @@ EFFECTS = {e.name: e for e in [
            "Creep force levels off towards μN: creepage = ε·F·atanh(u)/u with u = |F|/(μN) (inverse of "
            "F = μN·tanh(creepage/(ε μN))).",
            {"mu_scale": Param(1.0, "dimensionless", "multiplier on the materials' friction coefficient", 0.05, 5.0)},
-           {"friction": lambda mu, p: mu * p["mu_scale"], "saturation": _traction_saturation},
-           "Polach's method saturates every contact towards μN"),
+           {"friction": lambda mu, p: mu * p["mu_scale"], "saturation": _traction_saturation}),
 ]}
 
 
-def check_effects(names, where: str, law: str = "kim") -> tuple:
+def check_names(names, where: str) -> tuple:
     """The names, checked against the vocabulary: an unknown one is an InputError naming `where`, with the
-    near name (or the list of names when none is near); under contact law kalker, so is an effect that the
-    law already contains (Effect.in_kalker)."""
+    near name (or the list of names when none is near). core.contact.laws.check_effects adds the law's check."""
     for e in names:
         if e not in EFFECTS:
             hint = suggest(e, EFFECTS) or f" (effects: {', '.join(EFFECTS)})"
             raise InputError(f"{where}: unknown effect '{e}'{hint}")
-        if law == "kalker" and EFFECTS[e].in_kalker:
-            raise InputError(f"{where}: {e} is part of contact.law kalker ({EFFECTS[e].in_kalker}); leave it out")
     return tuple(names)
-
-
-def candidates(law: str) -> list[str]:
-    """The effects that can be added to a model with this contact law (the diagnosis's candidates)."""
-    return [e for e, eff in EFFECTS.items() if not (law == "kalker" and eff.in_kalker)]
 
 
 def parameter_vector(effects, overrides: dict | None = None):

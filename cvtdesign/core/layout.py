@@ -54,7 +54,7 @@ class Layout:
     load_grid: np.ndarray          # [N m]
     motor_speed: float             # [rad/s]
     parameters: dict = field(default_factory=dict)
-    contact_law: str = "kim"       # 'kim' (fitted constants + effects) or 'kalker' (Hertz + Kalker + Polach)
+    contact_law: str = "kim"       # a core.contact.laws.LAWS name: 'kim' (fitted constants) or 'kalker'
     calibration: dict = field(default_factory=lambda: {"drive": 1.0, "steering": 1.0})   # kalker compliance factors
     spec: object = None            # the io.schema.VariantSpec it was read from
 

@@ -8,14 +8,14 @@ SPHERE from roller i (components F_t along t_i, F_a along a_i), N_i normal force
 Equations (derived from the vectors; the effects' terms come from effects.py, by hook):
  * slip velocity of sphere over roller at the contact: s_i = R·Ω × n_i − r_i·ω_i·t_i
    (no slip: r_i ω_i = −R Ω·a_i, so shaft s turns at ω_s = g_s·Ω, kinematics.py);
- * creep law, dissipative (F·s ≤ 0), by the variant's contact law:
-   - kim: s_t + c_t·F_t = 0, s_a + c_a·F_a = 0, with the compliances c the effects contribute (`compliance`,
-     scaled by `saturation`) plus a floor EPS_RIGID·V_ref on every direction (rigid in Kim's sense where no
-     effect adds compliance; it keeps the statically indeterminate system regular);
-   - kalker: Kalker's linear theory in every direction, creep and spin (C11, C22, C23, C33), on the Hertz patch
-     at N_i, saturated by Polach's method and scaled by the calibration (core.creep, `_kalker_rows`);
+ * creep law, dissipative (F·s ≤ 0), by the variant's contact law (core.contact.laws): two rows per contact
+   relating s_i, the spin Ω·n_i and F_i, and the spin moment Mz_i the patch puts on the sphere:
+   - kim: s_t + c_t·F_t = 0, s_a + c_a·F_a = 0, with the compliances c the effects contribute, rigid where no
+     effect adds compliance; no spin moment;
+   - kalker: the Hertz patch at N_i, creep and spin combined by FASTSIM's creep-force surface
+     (core.contact.surface), scaled by the calibration;
  * sphere moment balance: Σ R n_i × F_i + Σ Mz_i n_i − Σ M_i a_i = 0 (M_i: `resistance` moments on the
-   rollers; Mz_i the contact's spin moment, kalker law only: C23 and C33, saturated, core.creep.spin_moment);
+   rollers);
  * sphere force balance on preloaded compliant mounts: N_i = P_i + k_i n_i·δ, Σ (F_i − N_i n_i) = 0, solved
    for the sphere's displacement δ in closed form (a 3×3 solve), so the normal-force distribution of an
    over-constrained layout comes from compliance;
@@ -43,7 +43,9 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from cvtdesign.core.effects import EFFECTS, ContactState, check_effects, parameter_vector, smooth_abs
+from cvtdesign.core.contact.laws import check_effects, contact_law
+from cvtdesign.core.deferred import DeferredCalls
+from cvtdesign.core.effects import EFFECTS, ContactState, parameter_vector, smooth_abs
 from cvtdesign.core.geometry import (
     ideal_gamma,
     roller_pose,
@@ -59,10 +61,7 @@ from cvtdesign.core.kinematics import (
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.native import Tiered, compiled
 from cvtdesign.core.newton import newton_solver
-from cvtdesign.core.creep import saturation_amplification, spin_force, spin_moment
-from cvtdesign.core.patch import patch
 
-EPS_RIGID = 1e-9      # [1/N] creep-compliance floor of the directions that are rigid in the model
 F_SCALE = 10.0        # [N] force scaling of the unknowns
 RES_TOL = 1e-8        # scaled residual above which a point is reported as not converged
 LOAD_STEPS = 4        # steps of the continuation in the load from rest (_solve_from_rest)
@@ -70,7 +69,9 @@ SAT_LIMIT = 0.999     # traction utilisation |F|/(μN) of a saturation law beyon
 
 STATUS = ("ok", "not_converged", "lost_contact", "gross_slip", "reversed", "multiple_roots")   # `status` codes, in order
 ROOT_TOL = 1e-6       # scaled unknowns' largest difference beyond which two converged solutions are two roots
-CONTACT_OUTPUTS = ("N", "F_t", "F_a", "utilisation", "p_max", "xi", "eta", "spin", "mu", "M_spin")
+UTIL_CHECK = 0.5      # traction utilisation above which a law with several roots also solves from rest
+CONTACT_OUTPUTS = ("N", "F_t", "F_a", "utilisation", "p_max", "xi", "eta", "spin", "mu", "M_spin", "loss", "a", "b",
+                   "G", "C11", "C22", "C23", "roll_sign")
 POINT_OUTPUTS = ("omega_2", "tau_1", "tau_2", "phi", "gamma_axis", "alpha", "alpha_steering", "alpha_drive",
                  "power_loss", "residual", "status", "Omega_x", "Omega_y", "Omega_z")
 
@@ -111,7 +112,8 @@ class CompiledModel:
     def native_point(self, derivatives: bool = False) -> ca.Function | None:
         """`point` compiled to C (from the cache, else compiled now; with `derivatives`, the library also
         holds its forward and reverse derivatives), or None where there is no working C compiler."""
-        return compiled(self._point_builder(list(self.point.name_out()), written_out=True), derivatives)
+        return compiled(self._point_builder(list(self.point.name_out()), written_out="derivatives" if derivatives
+                                            else True), derivatives)
 
     def steering_guess(self, gammas):
         return steering_angle_guess(*steering_data(self.layout), np.asarray(gammas, float))
@@ -221,13 +223,15 @@ def _steering_residual(layout: Layout, frame: ShaftFrame, design: ca.SX):
     return f, misfit
 
 
-def _solvers(residual: ca.Function, steer_residual: ca.Function, written_out: bool):
+def _solvers(residual: ca.Function, jacobian: ca.Function, steer_residual: ca.Function, written_out: bool,
+             derivatives: bool = False):
     """The model's and the steering angle's Newton solvers: CasADi's rootfinders, or (written_out) the same
-    iteration in nodes that can be code-generated (core.newton)."""
+    iteration in nodes that can be code-generated (core.newton), differentiable if `derivatives`."""
     tol = {"cvt": (1e-12, 1e-12, 40), "steer": (1e-14, 1e-12, 30)}   # abstol, abstolStep, max_iter
     fns = {"cvt": residual, "steer": steer_residual}
     if written_out:
-        return tuple(newton_solver(k, fns[k], *tol[k]) for k in ("cvt", "steer"))
+        return (newton_solver("cvt", residual, *tol["cvt"], derivatives, jacobian),
+                newton_solver("steer", steer_residual, *tol["steer"], derivatives))
     return tuple(ca.rootfinder(k, "newton", fns[k], {"abstol": tol[k][0], "abstolStep": tol[k][1], "max_iter": tol[k][2],
                                                     "error_on_fail": False, "show_eval_warnings": False})
                  for k in ("cvt", "steer"))
@@ -249,24 +253,6 @@ class _Hooks:
 
     def collect(self, hook, *context) -> list:
         return [eff.hooks[hook](*context, p) for eff, p in self.items if hook in eff.hooks]
-
-
-def _contact_constants(layout: Layout) -> list[dict]:
-    """Per contact, at its preload: the Hertz ellipse (a, b, peak p0), the creep constant ε0 [1/N] (Kim's
-    fitted constants when the variant gives them, else Hertz + Kalker C11/C22: core.patch), the normal force
-    n_ref at which ε0 holds, μ, Kalker's coefficients and the pivoting lever ℓ."""
-    const = []
-    for r in layout.rollers:
-        p = patch(layout, r)
-        drive = r.role != "steering"
-        kim = layout.creep_drive if drive else layout.creep_steering
-        eps0 = kim if kim is not None else (p["eps_long"] if drive else p["eps_lat"])
-        # Kim's constants were fitted at a reference force (100 N); Hertz + Kalker ones hold at the preload
-        n_ref = layout.creep_reference_force if kim is not None and layout.creep_reference_force is not None \
-            else r.preload
-        const.append(dict(a=p["a"], b=p["b"], p0=p["p0"], eps0=eps0, mu=p["mu"], n_ref=n_ref, G=p["G"],
-                          C11=p["C11"], C22=p["C22"], C23=p["C23"], C33=p["C33"], lever=p["pivot_lever"]))
-    return const
 
 
 @dataclass
@@ -303,7 +289,7 @@ def _normal_forces(layout: Layout, poses, Fvec):
     return [r.preload + r.stiffness * ca.dot(n, delta) for r, (n, _) in zip(rollers, poses)]
 
 
-def _equations(layout: Layout, hooks: _Hooks, const, u: _Unknowns, w1, phi):
+def _equations(layout: Layout, hooks: _Hooks, law, const, u: _Unknowns, w1, phi, calls):
     """Every contact's creep law, the sphere's moment balance, the idlers' torque balance and the shaft
     torques, with the effects' terms. Returns (slip rows, moment, idler rows, shaft torques, per-contact
     outputs, saturation utilisations)."""
@@ -313,8 +299,8 @@ def _equations(layout: Layout, hooks: _Hooks, const, u: _Unknowns, w1, phi):
     Fvec = [u.Ft[i] * tdirs[i] + u.Fa[i] * poses[i][1] for i in range(len(poses))]
     N = _normal_forces(layout, poses, Fvec)
     slip, moment, idle, tau, sat = [], ca.SX.zeros(3), [], {1: 0, 2: 0}, []
-    per = {k: [] for k in ("xi", "eta", "spin", "utilisation", "mu", "M_spin")}
-    kalker = layout.contact_law == "kalker"
+    per = {k: [] for k in ("xi", "eta", "spin", "utilisation", "mu", "M_spin", "loss", "a", "b", "G", "C11", "C22",
+                           "C23", "roll_sign")}
     for i, r in enumerate(layout.rollers):
         (n, a), t, c = poses[i], tdirs[i], const[i]
         drive = r.role != "steering"
@@ -324,83 +310,38 @@ def _equations(layout: Layout, hooks: _Hooks, const, u: _Unknowns, w1, phi):
         s_t, s_a = ca.dot(s, t), ca.dot(s, a)
         roll, spin = ca.dot(u.Om, a), ca.dot(u.Om, n)
         V = smooth_abs(R * roll, 1e-9 * u.v_ref)                          # rolling speed [m/s]
-        N_creep, n_exp = (_positive(N[i], r.preload), 0.0) if kalker else \
-            hooks.transform("creep_normal", (r.preload, 2.0 / 3.0), N[i])  # kim: ε ∝ P^(-2/3) unless N varies
-        state = ContactState(r, drive, V, spin, 1e-9 * u.om_ref, 1e-6 * u.om_ref, roll, N[i], N_creep,
-                             c["eps0"] * (c["n_ref"] / N_creep) ** n_exp, c["b"],
-                             hooks.transform("friction", c["mu"]), u.Ft[i], u.Fa[i])
-        rows, util, m_spin = (_kalker_rows if kalker else _kim_rows)(layout, hooks, state, c, s_t, s_a, u, i)
-        slip += rows
-        sat += util
+        N_creep, n_exp = law.creep_normal(hooks, r, N[i])
+        eps = c["eps0"] * (c["n_ref"] / N_creep) ** n_exp if "eps0" in c else None
+        state = ContactState(r, drive, V, spin, 1e-9 * u.om_ref, 1e-6 * u.om_ref, roll, N[i], N_creep, eps, c["b"],
+                             hooks.transform("friction", c["mu"]), u.Ft[i], u.Fa[i], c)
+        law_rows = law.rows(layout, hooks, state, s_t, s_a, u.v_ref, calls)
+        slip += law_rows.rows
+        sat += law_rows.utilisation
+        m_spin = law_rows.spin_moment
         M = sum(hooks.collect("resistance", state))
         moment += R * ca.cross(n, Fvec[i]) - M * a + m_spin * n
         if drive:
             tau[r.shaft] = tau[r.shaft] + r.ratio * (r_eff * u.Ft[i] - M)
         else:
             idle.append((-r_eff * u.Ft[i] + M) / (r.radius * F_SCALE))
-        per["xi"].append(s_t / V)
-        per["eta"].append(s_a / V)
-        per["spin"].append(spin / V)
+        per["xi"].append(s_t / law_rows.speed)
+        per["eta"].append(s_a / law_rows.speed)
+        per["spin"].append(spin / law_rows.speed)
         per["mu"].append(state.mu)
         per["M_spin"].append(m_spin)
+        per["loss"].append(-(u.Ft[i] * s_t + u.Fa[i] * s_a + m_spin * spin) - M * (w_i - roll))
+        size = (ca.fmax(N[i], 0) / r.preload) ** (1.0 / 3.0)
+        per["a"].append(c["a"] * size)
+        per["b"].append(c["b"] * size)
+        per["G"].append(c["G"])
+        per["roll_sign"].append(ca.if_else(roll >= 0, 1.0, -1.0))   # the patch frame's σ (core.contact.laws)
+        gab = c["G"] * c["a"] * c["b"] * size ** 2
+        per["C11"].append(law_rows.slopes[0] / gab)
+        per["C22"].append(law_rows.slopes[1] / gab)
+        per["C23"].append(law_rows.slopes[2] / (gab * ca.sqrt(gab / c["G"])))
         per["utilisation"].append(ca.sqrt(u.Ft[i] ** 2 + u.Fa[i] ** 2 + 1e-6) / (state.mu * N[i]))  # 1 mN smoothing
     per["N"] = N
     return slip, moment, idle, tau, per, sat
-
-
-def _positive(N, preload):
-    """N kept above zero on the scale of 1e-3 of the preload (a patch at N ≤ 0 does not exist; such a point
-    is reported as lost contact), smooth for Newton: (N + √(N² + (1e-3 P)²))/2."""
-    return 0.5 * (N + ca.sqrt(N * N + (1e-3 * preload) ** 2))
-
-
-def _kim_rows(layout: Layout, hooks: _Hooks, c: ContactState, const, s_t, s_a, u: _Unknowns, i):
-    """Contact law kim: s + c·F = 0 with the effects' creep compliances c (the rigid directions at the
-    EPS_RIGID floor) and their saturation gains. Returns (two scaled rows, saturation utilisations, spin
-    moment 0: Kim's law has none)."""
-    floor = EPS_RIGID * ca.fabs(u.v_ref)
-    terms = hooks.collect("compliance", c)
-    ct, ca_ = sum(x[0] for x in terms), sum(x[1] for x in terms)
-    sat = []
-    for gain, util in hooks.collect("saturation", c):
-        ct, ca_ = ct * gain, ca_ * gain
-        sat.append(util)
-    return [(s_t + (ct + floor) * u.Ft[i]) / u.v_ref, (s_a + (ca_ + floor) * u.Fa[i]) / u.v_ref], sat, 0.0
-
-
-def _kalker_rows(layout: Layout, hooks: _Hooks, c: ContactState, const, s_t, s_a, u: _Unknowns, i):
-    """Contact law kalker (core.creep): Kalker's linear theory with the Hertz patch at the force-balanced N
-    (a, b ∝ N^(1/3)), Kalker's coefficients divided by the calibration factor (contact.calibration × the
-    calibration hooks), saturated by Polach's method. Returns (two scaled rows, the creep utilisation, the
-    spin moment on the sphere about n [N m]).
-
-    Patch frame: Kalker's theory has the material pass through the patch along −e_x, so e_x = σ t, e_y = −σ a,
-    e_n = n with σ the sign of Ω·a. The law is odd in creepage and spin, so F·t and −F·a are its (Fx, Fy) at
-    creepages (s_t/V, −s_a/V) and spin σ Ω·n/V: only the spin term sees the rolling direction. The spin
-    moment about e_n = n is taken at the patch's own creepages (η = −σ s_a/V, φ = Ω·n/V), so its C33 part
-    opposes the sphere's spin in either rolling direction. V is smoothed on 1e-3 of the reference speed
-    (V_f = √(V² + (1e-3 v_ref)²)), and so is σ: a contact that does not roll makes no spin force, and its
-    spin moment is the saturated pivoting moment. The rows are the creepage form of the law,
-    s + V·e·A(u)·F_creep = 0 with e linear theory's compliance, A Polach's amplification at the creep force's
-    utilisation u and F_creep the force less the spin term (the form of the kim law, and like it floored at
-    EPS_RIGID: a contact at rest sticks)."""
-    k = layout.calibration["drive" if c.drive else "steering"]
-    for factor in hooks.collect("calibration", c):
-        k = k * factor
-    size = (c.N_creep / c.roller.preload) ** (1.0 / 3.0)
-    a, b, G = const["a"] * size, const["b"] * size, const["G"]
-    v_f = ca.sqrt(c.V ** 2 + (1e-3 * u.v_ref) ** 2)
-    sigma = layout.sphere_radius * c.roll / v_f
-    f_spin = spin_force(s_t / v_f, -s_a / v_f, sigma * c.spin / v_f, c.N_creep, c.mu, a, b, G, const["C23"] / k)
-    fx, fy = u.Ft[i], -u.Fa[i] - f_spin                        # the creep part of the force, patch frame
-    util = ca.fmin(ca.sqrt(fx ** 2 + fy ** 2 + 1e-18) / (c.mu * c.N_creep), 1 - 1e-9)
-    amp = saturation_amplification(util)
-    floor = EPS_RIGID * ca.fabs(u.v_ref)
-    e11, e22 = k / (G * a * b * const["C11"]), k / (G * a * b * const["C22"])
-    m_spin = spin_moment(-sigma * s_a / v_f, c.spin / v_f, c.N_creep, c.mu, a, b, G, const["C23"] / k,
-                         const["C33"] / k, util, const["lever"] * size)
-    rows = [(s_t + (c.V * e11 * amp + floor) * fx) / u.v_ref, (s_a - (c.V * e22 * amp + floor) * fy) / u.v_ref]
-    return rows, [util], m_spin
 
 
 def _status(resid, per, sat, forward):
@@ -455,6 +396,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
 
     `design` is the vector of CasADi symbols that the layout's fields may depend on (design variables of
     an optimisation study); numeric layouts need none."""
+    law = contact_law(layout.contact_law)
     effects = check_effects(tuple(layout.effects if effects is None else effects), f"{layout.file}: effects",
                             layout.contact_law)
     design = ca.SX(0, 1) if design is None else design
@@ -462,18 +404,20 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
     theta = ca.SX.sym("theta", len(pnames))
     hooks = _Hooks(effects, theta, pnames)
     frame = shaft_frame(layout)
-    const = _contact_constants(layout)
+    const = [law.constants(layout, r) for r in layout.rollers]
     gamma, w1, load, brake, phi_cmd = (ca.SX.sym(s) for s in ("gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_cmd"))
     phi = hooks.transform("steering_angle", phi_cmd)
     u = _unknowns(layout, w1)
-    slip, moment, idle, tau, per, sat = _equations(layout, hooks, const, u, w1, phi)
+    calls = DeferredCalls()
+    slip, moment, idle, tau, per, sat = _equations(layout, hooks, law, const, u, w1, phi, calls)
     per["F_t"], per["F_a"] = ca.vertsplit(u.Ft), ca.vertsplit(u.Fa)
     hertz_p0, peak_pressure, p0_all = _peak_pressure_functions(layout, const, design)
     tau_perp, _ = frame.load_split(gamma, tau[1], tau[2])
     load_res = (1 - brake) * (tau_perp - load) + brake * (tau[2] - load)
     resid = ca.vertcat(*slip, moment / (layout.sphere_radius * F_SCALE), *idle, load_res)
     params = ca.vertcat(gamma, w1, load, brake, phi_cmd, theta, design)
-    G = ca.Function("residual", [u.x, params], [ca.cse(resid)])
+    G = calls.close("residual", [u.x, params], [resid])
+    G_jac = calls.jacobian("residual_jac", [u.x, params], resid, 0)
     x0 = _initial_guess(layout, frame, gamma, w1, phi, u.om_ref)
     x0_fn = ca.Function("x0", [params], [x0])
 
@@ -488,30 +432,33 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
         "N": ca.vertcat(*per["N"]), "F_t": u.Ft, "F_a": u.Fa, "utilisation": ca.vertcat(*per["utilisation"]),
         "p_max": peak_pressure(ca.vertcat(*per["N"]), p0_all, design), "xi": ca.vertcat(*per["xi"]),
         "eta": ca.vertcat(*per["eta"]), "spin": ca.vertcat(*per["spin"]), "mu": ca.vertcat(*per["mu"]),
-        "M_spin": ca.vertcat(*per["M_spin"]),
+        **{k: ca.vertcat(*per[k]) for k in ("M_spin", "loss", "a", "b", "G", "C11", "C22", "C23", "roll_sign")},
     }
     steer_res, misfit = _steering_residual(layout, frame, design)
-    build = _point_builder(outs, u.x, params, G, x0_fn, steer_res, misfit, theta, design,
-                           always_from_rest=layout.contact_law == "kalker")
+    def close(name, names):       # the selected outputs as a function of (x, params)
+        return calls.close(name, [u.x, params], [outs[k] for k in names])
+    build = _point_builder(close, G, G_jac, x0_fn, steer_res, misfit, theta, design,
+                           close("utilisation", ["utilisation"]) if law.several_roots else None)
     every = list(POINT_OUTPUTS) + list(CONTACT_OUTPUTS) + ["steer_misfit"]
     point = build(every)
     return CompiledModel(layout, effects, pnames, pvalues, design, point, [r.name for r in layout.rollers], G,
-                         x0_fn, ca.Function("post", [u.x, params], [outs[k] for k in POINT_OUTPUTS + CONTACT_OUTPUTS]),
+                         x0_fn, close("post", POINT_OUTPUTS + CONTACT_OUTPUTS),
                          frame=frame, hertz_p0=hertz_p0, peak_pressure=peak_pressure, steering_residual=steer_res,
                          _point_builder=lambda sel, written_out=False: build(
                              sel, "point" if sel == every else "point_" + "_".join(sel), written_out),
                          _tiered=Tiered(point, lambda: build(every, "point", True)))
 
 
-def _point_builder(outs, x, params, residual, x0_fn, steer_res, misfit, theta, design, always_from_rest):
+def _point_builder(close, residual, jacobian, x0_fn, steer_res, misfit, theta, design, utilisation):
     """(names, name, written_out) → a CasADi Function of one operating point: φ from the linkage's inverse
-    kinematics, then the solve (_solve_from_rest), then only the selected outputs' expressions; with the
-    solvers that can be code-generated if written_out (_solvers)."""
-    solvers = {}
+    kinematics, then the solve (_solve_from_rest), then only the selected outputs' expressions (`close`:
+    (name, output names) → their Function of (x, params)); with the solvers that can be code-generated if
+    written_out (_solvers)."""
+    solvers, det_sign = {}, _det_sign_function(jacobian)
 
     def build(selected, name="point", written_out=False):
         if written_out not in solvers:
-            solvers[written_out] = _solvers(residual, steer_res, written_out)
+            solvers[written_out] = _solvers(residual, jacobian, steer_res, bool(written_out), written_out == "derivatives")
         solver, steer = solvers[written_out]
         in_names = ["gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_guess", "theta", "design"]
         ins = [ca.MX.sym(n, *(theta.shape if n == "theta" else design.shape if n == "design" else (1, 1)))
@@ -522,8 +469,8 @@ def _point_builder(outs, x, params, residual, x0_fn, steer_res, misfit, theta, d
         model_names = [k for k in selected if k != "steer_misfit"]
         res = {}
         if model_names:
-            sel = ca.Function("post_sel", [x, params], ca.cse([outs[k] for k in model_names]))
-            x_m, several = _solve_from_rest(solver, residual, x0_fn, p_m, always_from_rest)
+            sel = close("post_sel", model_names)
+            x_m, several = _solve_from_rest(solver, residual, x0_fn, det_sign, p_m, utilisation)
             res = dict(zip(model_names, sel.call([x_m, p_m])))
             if "status" in res:
                 res["status"] = ca.if_else(several, STATUS.index("multiple_roots"), res["status"])
@@ -533,22 +480,29 @@ def _point_builder(outs, x, params, residual, x0_fn, steer_res, misfit, theta, d
     return build
 
 
-def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX, always: bool):
+def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, det_sign: ca.Function, p: ca.MX,
+                     utilisation: ca.Function | None):
     """(x, several): the operating point's solution, and whether the equations hold another one there.
 
     Past the envelope the equations can have more than one root, and the Newton solve from the ideal
     kinematics (no forces) can land on either, depending on round-off: an asymmetric box under Kalker's law
     gave α = 2.612° written one way and 2.610° rotated, both converged, where loading from rest gives 2.679°.
     The state then depends on how the load came, which no steady-state model can tell, so such a point
-    carries no number (`multiple_roots`). Under Kalker's law every point is also solved as a rig reaches
-    it, the load applied from rest in LOAD_STEPS equal steps, each solve starting from the last converged
-    one; where both solutions hold and differ (by more than ROOT_TOL in the scaled unknowns), the point is
-    `multiple_roots`; where they agree, or only one holds, that one is the solution. (The stepped solution
-    alone is no answer: near a fold, four steps land on whichever root they reach, and its α jumped by
-    0.6° between loads one ulp apart.) Under Kim's law the roots inside the envelopes are unique, and the
-    stepped solve only replaces a direct one that fails or turns backwards (a branch that runs only there:
-    existing.yaml at (−80°, 2.1 N·m), `reversed` from the ideal kinematics, is ω2 = −20.2 rad/s from rest).
-    Derivatives are those of the solve whose root is returned, by the implicit function theorem."""
+    carries no number (`multiple_roots`). A rig reaches the root that the load, applied from rest, follows
+    continuously; along that path the Jacobian's determinant keeps its sign until the path meets a fold. So
+    where the contact law can have several roots (laws.*.several_roots) the direct root is taken as the rig's
+    where its determinant has the sign of the zero-load state's (the ideal kinematics at no load) and no
+    contact uses more than UTIL_CHECK of its friction (existing_kalker.yaml at γ = −16°, τ⊥ = 2.5 N·m had a
+    second root of the same sign, 18.49° against the rig's 18.35°, with contacts at 0.68 μN; inside the
+    shipped envelopes no contact passes 0.38 μN). Otherwise, or where the direct solve fails, the point is
+    also solved as a rig reaches it, the load applied from rest in LOAD_STEPS equal steps, each solve
+    starting from the last converged one. Where both hold and differ (by more than ROOT_TOL in the scaled
+    unknowns), the point is `multiple_roots`; where only one holds, that one is the solution. (The stepped solution alone is no answer: near a fold, four steps
+    land on whichever root they reach, and its α jumped by 0.6° between loads one ulp apart.) Under Kim's
+    law the roots inside the envelopes are unique, and the stepped solve only replaces a direct one that
+    fails or turns backwards (existing.yaml at (−80°, 2.1 N·m), `reversed` from the ideal kinematics, is
+    ω2 = −20.2 rad/s from rest). Derivatives are those of the solve whose root is returned, by the implicit
+    function theorem."""
     def good(x, q):      # converged, on a forward root (as _status judges them)
         return ca.logic_and(_converged(residual(x, q)), ca.dot(x[0:3], x0_fn(q)[0:3]) > 0)
 
@@ -561,13 +515,34 @@ def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX
         return x
 
     direct = solver(x0_fn(p), p)
-    if always:
-        rest = stepped(p)
-        ok_d, ok_r = good(direct, p), good(rest, p)
-        several = ca.logic_and(ca.logic_and(ok_d, ok_r), ca.norm_inf(direct - rest) > ROOT_TOL)
-        return ca.if_else(ok_d, direct, rest), several
-    # the branch as a function of the direct solution: `if_else` alone would build its branches from the
-    # graph's inputs and so solve the direct problem a second time inside the switch
+    # the branches as functions of the direct solution: `if_else` alone would build them from the graph's
+    # inputs and so solve the direct problem a second time inside the switch
     d, q = ca.MX.sym("direct", direct.sparsity()), ca.MX.sym("params", p.sparsity())
-    pick = ca.Function("from_rest", [d, q], [ca.if_else(good(d, q), d, stepped(q), True)])
-    return pick(direct, p), ca.MX(0)
+    if utilisation is None:             # a law whose roots are unique (laws.*.several_roots)
+        pick = ca.Function("from_rest", [d, q], [ca.if_else(good(d, q), d, stepped(q), True)])
+        return pick(direct, p), ca.MX(0)
+    rest = stepped(q)
+    ok_d, ok_r = good(d, q), good(rest, q)
+    several = ca.logic_and(ca.logic_and(ok_d, ok_r), ca.norm_inf(d - rest) > ROOT_TOL)
+    at_rest = ca.vertcat(q[0:2], 0, q[3:])
+    crowded = ca.mmax(utilisation(d, q)) > UTIL_CHECK
+    suspect = ca.logic_or(ca.logic_or(ca.logic_not(ok_d), crowded), det_sign(d, q) != det_sign(x0_fn(at_rest), at_rest))
+    check = ca.Function("check_roots", [d, q], [ca.if_else(suspect, ca.vertcat(ca.if_else(ok_d, d, rest), several),
+                                                             ca.vertcat(d, 0), True)])
+    out = check(direct, p)
+    return out[:-1], out[-1]
+
+
+def _det_sign_function(jacobian: ca.Function) -> ca.Function:
+    """(x, p) → the sign of det ∂F/∂x (`jacobian`: (x, p) → (∂F/∂x, F)) up to the constant sign of QR's row and
+    column orders (CasADi's sparse Householder QR: det = det(Q) det(R), each reflection I − β v vᵀ contributing
+    1 − β‖v‖² = ±1)."""
+    x, p = jacobian.sx_in() if jacobian.is_a("SXFunction") else jacobian.mx_in()
+    J = ca.SX.sym("J", jacobian.sparsity_out(0))
+    V, R, beta, _, _ = ca.qr_sparse(J, True)
+    sign = 1
+    for j in range(R.size1()):
+        sign = sign * ca.sign(R[j, j]) * ca.sign(1 - beta[j] * ca.sumsqr(V[:, j]))
+    of_J = ca.Function("det_sign_of_jac", [J], [sign])
+    return ca.Function("det_sign", [x, p], [of_J(jacobian(x, p)[0])],
+                       {"is_diff_in": [False, False], "is_diff_out": [False]})     # a sign: no derivative

@@ -134,6 +134,20 @@ def load(lib: Path, name: str) -> ca.Function:
     return ca.external(name, str(lib))
 
 
+def shared_library(code: str) -> Path | None:
+    """The cached library of a C source of the package's own (core.contact.surface), compiled now if it is
+    not there, or None, with a notice, where there is no working compiler."""
+    command = compiler()
+    if command is None:
+        notice("no C compiler found (set CC): the model runs interpreted, several times slower")
+        return None
+    try:
+        return build(code, command)
+    except (RuntimeError, OSError) as err:
+        notice(f"compiling failed, the model runs interpreted: {err}")
+        return None
+
+
 def compiled(fn: ca.Function, derivatives: bool = False) -> ca.Function | None:
     """fn as a compiled library (from the cache, else compiled now), or None, with a notice, where there is
     no working compiler."""

@@ -14,9 +14,11 @@ most LINE_SEARCH_STEPS values of α. So a step longer than 2^LINE_SEARCH_STEPS �
 not finite (a singular J), ends the iteration with x unchanged, where `newton` halves on (down to α = 0, which
 gives NaN for a step that is not finite).
 
-The loop's own operations are not differentiated. Its result passes through CasADi's `fast_newton`
-rootfinder with no iterations. That returns it unchanged and gives the derivatives by the implicit function
-theorem, as the `newton` rootfinder does.
+The loop's own operations are not differentiated. Where derivatives are wanted, one more Newton step is taken
+from its result x*, x = x* − J(x*)⁻¹F(x*, p), with J held constant: at a root F = 0, so the value is x* (to
+the solver's tolerance), and the derivative is −J⁻¹ ∂F/∂p, the implicit function theorem's, as the `newton`
+rootfinder gives it. (CasADi's `fast_newton` rootfinder with no iterations did this before; it cannot be
+code-generated once the residual calls an external function, as the `kalker` law's surface is.)
 """
 from __future__ import annotations
 
@@ -25,22 +27,28 @@ import casadi as ca
 LINE_SEARCH_STEPS = 80      # step lengths α = 1, ½, … tried at most in one line search
 
 
-def newton_solver(name: str, residual: ca.Function, abstol: float, abstol_step: float, max_iter: int) -> ca.Function:
-    """(x0, p) → x with residual(x, p) = 0, by CasADi's `newton` rootfinder's iteration (module docstring).
+def newton_solver(name: str, residual: ca.Function, abstol: float, abstol_step: float, max_iter: int,
+                  derivatives: bool = False, jacobian: ca.Function | None = None) -> ca.Function:
+    """(x0, p) → x with residual(x, p) = 0, by CasADi's `newton` rootfinder's iteration (module docstring);
+    with `derivatives`, x is differentiable in p by the implicit function theorem.
 
-    `residual` is an SX Function (x, p) → F, F the size of x."""
-    x, p = residual.sx_in()
+    `residual` is a Function (x, p) → F, F the size of x: SX, or MX where it calls compiled functions
+    (core.deferred), and then `jacobian` (x, p) → (∂F/∂x, F) is given."""
+    x, p = residual.sx_in() if residual.is_a("SXFunction") else residual.mx_in()
     F = residual(x, p)
-    jac = ca.Function(f"{name}_jac", [x, p], [ca.jacobian(F, x), F])
+    jac = jacobian or ca.Function(f"{name}_jac", [x, p], [ca.jacobian(F, x), F])
     res = ca.Function(f"{name}_res", [x, p], [F])
     search = _line_search(name, res, x.numel(), p.numel(), abstol_step)
     iteration = _iteration(name, jac, res, search, x.numel(), p.numel(), abstol, abstol_step)
     x0, pm = ca.MX.sym("x0", x.sparsity()), ca.MX.sym("p", p.sparsity())
     loop = ca.Function(f"{name}_loop", [x0, pm], [iteration.fold(max_iter)(ca.vertcat(x0, 1), pm)[:x.numel()]],
                        {"is_diff_in": [False, False], "is_diff_out": [False]})
-    implicit = ca.rootfinder(f"{name}_implicit", "fast_newton", residual,
-                             {"max_iter": 0, "error_on_fail": False, "linear_solver": "qr"})
-    return ca.Function(name, [x0, pm], [implicit(loop(x0, pm), pm)], ["x0", "p"], ["x"])
+    root = loop(x0, pm)
+    if derivatives:
+        held = ca.Function(f"{name}_held_jac", [x, p], [jac(x, p)[0]],
+                           {"is_diff_in": [False, False], "is_diff_out": [False]})
+        root = root - _qr_solve(name, held.sparsity_out(0))(held(root, pm), res(root, pm))
+    return ca.Function(name, [x0, pm], [root], ["x0", "p"], ["x"])
 
 
 def _iteration(name, jac, res, search, n, m, abstol, abstol_step) -> ca.Function:

@@ -33,7 +33,7 @@ import numpy as np
 from pydantic import BeforeValidator, Field, StrictBool
 
 from cvtdesign.core.checks import check_layout
-from cvtdesign.core.effects import check_effects
+from cvtdesign.core.contact.laws import check_effects
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.fitted import read_fitted
 from cvtdesign.io.schema import MAX_COUNT, EnvelopeSpec, Name, Num, Strict, VariantSpec, no_bool

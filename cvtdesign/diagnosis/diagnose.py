@@ -39,7 +39,7 @@ from scipy.optimize import least_squares
 from scipy.stats import f_oneway, wilcoxon
 
 from cvtdesign.core.effects import EFFECTS
-from cvtdesign.core.effects import candidates as effect_candidates
+from cvtdesign.core.contact.laws import candidates as effect_candidates
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.metrics import efficiency
 from cvtdesign.core.model import STATUS, compile_model, status_counts

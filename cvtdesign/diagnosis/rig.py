@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 from pydantic import BeforeValidator
 
-from cvtdesign.core.effects import EFFECTS, check_effects
+from cvtdesign.core.effects import EFFECTS, check_names
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.model import compile_model, status_counts
 from cvtdesign.errors import InputError, suggest
@@ -109,7 +109,7 @@ def parse_settings(items, effects, where="--set") -> dict:
     for item in items or []:
         name, _, val = item.partition("=")
         effect, _, param = name.strip().partition(".")
-        check_effects([effect], where)
+        check_names([effect], where)
         if param not in EFFECTS[effect].params:
             raise InputError(f"{where}: effect {effect} has no parameter '{param}' "
                              f"(it has: {', '.join(EFFECTS[effect].params)})")

@@ -555,8 +555,8 @@ def contact_figures(name: str, records: dict, folder: Path) -> list[Path]:
         ax.set(xlabel=xlabel, ylabel=ylabel, ylim=(0, 1.1))
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7)
-    fig.suptitle(f"{name}: creep–force curves and the spin moment at the preload (Kalker's linear theory, saturated by Polach's "
-                 "method; dotted: linear theory)")
+    fig.suptitle(f"{name}: creep–force curves and the spin moment at the preload (FASTSIM, Hertz traction bound; "
+                 "dotted: linear theory)")
     fig.tight_layout()
     curves_png = folder / "contact_curves.png"
     save(fig, curves_png, dpi=90)

@@ -10,6 +10,7 @@ from typing import Annotated, Literal, Union
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 from pydantic_core import PydanticCustomError, PydanticUndefined
 
+from cvtdesign.core.contact.laws import LAWS
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.units import KINDS
 
@@ -170,10 +171,11 @@ class ContactSpec(Strict):
     """The contact law. `kim` (the default): Kim et al.'s fitted creep constants ε_D and ε_S ('Causes of
     microslip in a continuously variable transmission'), omitted ones from Hertz + Kalker at the preload, with
     the effects of the vocabulary on top. `kalker`: at every contact the Hertz patch at its force-balanced
-    normal force and Kalker's linear theory in every direction (C11, C22, C23: creep and spin) with the spin
-    moment (C33), saturated towards μN by Polach's method (core.creep), scaled by `calibration`."""
-    law: Literal["kim", "kalker"] = spec_field("the contact law: kim (fitted creep constants) or kalker (Hertz + "
-                                               "Kalker + Polach at every contact)", "kim")
+    normal force, its creepages normalised by Kalker's coefficients (C11, C22, C23), and the force and spin
+    moment of Kalker's simplified theory (FASTSIM) for creep and spin together (core.contact.surface), scaled
+    by `calibration`."""
+    law: Literal[tuple(LAWS)] = spec_field("the contact law: kim (fitted creep constants) or kalker (Hertz + "
+                                           "Kalker + FASTSIM at every contact)", "kim")
     calibration: CalibrationSpec = spec_field("factors on the Kalker compliances (law kalker only): drive, steering",
                                               CalibrationSpec())
     creep_drive: Num | None = spec_field("creep constant ε_D of drive and follower rollers: slip ratio per "

@@ -21,6 +21,7 @@ import casadi as ca
 import numpy as np
 
 from cvtdesign.core import effects as fx
+from cvtdesign.core.contact import laws
 from cvtdesign.core.checks import check_layout
 from cvtdesign.core.geometry import named_vector, spherical
 from cvtdesign.core.layout import Layout, Material, Roller
@@ -210,7 +211,7 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
     for s in (1, 2):
         if not any(r.role == "drive" and r.shaft == s for r in rollers):
             raise InputError(f"{where}: rollers: no drive roller on shaft {s} (role: drive, shaft: {s})")
-    fx.check_effects(spec.effects, f"{where}: effects")
+    laws.check_effects(spec.effects, f"{where}: effects")
     eparams = _effect_parameters(spec, where, names)
     if spec.frame is not None:     # drawn by `cvtdesign export` only, checked here with the rest
         vector(spec.frame.side, f"{where}: frame.side", names)
@@ -249,7 +250,7 @@ def _contact_law(spec: VariantSpec, where: str, names: dict) -> tuple[str, dict]
         if getattr(c, f) is not None:
             raise InputError(f"{w}.{f}: a fitted creep constant belongs to law kim; under law kalker the contacts "
                              "follow Hertz and Kalker, scaled by contact.calibration: {drive, steering}")
-    fx.check_effects(spec.effects, f"{where}: effects", "kalker")
+    laws.check_effects(spec.effects, f"{where}: effects", "kalker")
     return "kalker", {k: quantity(getattr(c.calibration, k), "calibration", f"{w}.calibration.{k}", names,
                                   "a positive factor") for k in ("drive", "steering")}
 

@@ -9,7 +9,7 @@ from conftest import shipped_model
 
 from cvtdesign.cli import main
 from cvtdesign.core.metrics import envelope, ideal_model, metrics
-from cvtdesign.core.model import EPS_RIGID
+from cvtdesign.core.contact.laws import EPS_RIGID
 from cvtdesign.io.variant import load_variant
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -63,7 +63,7 @@ FIGURES = ("max_abs_alpha_deg", "rms_alpha_deg", "max_abs_alpha_steering_deg", "
 ANGLES = ("alpha", "alpha_steering", "alpha_drive")
 ANGLE_TOL = 1e-9    # [rad] pointwise α, α_steering, α_drive (found: < 1e-15)
 # pointwise N, utilisation, p_max, speeds, torques, relative to the largest value of the envelope: the
-# lateral forces that only the 1e-9 1/N compliance floor (model.EPS_RIGID) decides are solved to ~1e-8
+# lateral forces that only the 1e-9 1/N compliance floor (core.contact.laws.EPS_RIGID) decides are solved to ~1e-8
 # relative, and N and utilisation inherit ~1e-9 of it (found up to 1.5e-9 over 25 random rotations)
 FORCE_TOL = 1e-8
 

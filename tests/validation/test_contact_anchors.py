@@ -5,7 +5,7 @@ derivatives."""
 import casadi as ca
 import pytest
 
-from cvtdesign.core import contact as c
+from cvtdesign.core.contact import hertz, kalker
 
 # Hertz anchors, in N and mm (the function is unit-agnostic)
 G, NU, N = 82000.0, 0.28, 82000.0
@@ -17,7 +17,7 @@ def floats(values):
 
 
 def test_hertz_elliptical_anchor():
-    a, b, p0, approach = floats(c.hertz_ellipse(0.8464e-3, 0.2406e-2, N, E_STAR))
+    a, b, p0, approach = floats(hertz.hertz_ellipse(0.8464e-3, 0.2406e-2, N, E_STAR))
     # to the printed digits: a = 8.000 mm, b = 4.000 mm, p0 = 1223.5 N/mm^2, approach 0.09267 mm
     assert a == pytest.approx(8.000, abs=5e-4)
     assert b == pytest.approx(4.000, abs=5e-4)
@@ -26,7 +26,7 @@ def test_hertz_elliptical_anchor():
 
 
 def test_hertz_circular_anchor():
-    a, b, p0, approach = floats(c.hertz_ellipse(0.4219e-2, 0.4219e-2, N, E_STAR))
+    a, b, p0, approach = floats(hertz.hertz_ellipse(0.4219e-2, 0.4219e-2, N, E_STAR))
     assert a == pytest.approx(4.000, abs=5e-4)
     assert b == a
     assert approach == pytest.approx(0.13500, abs=5e-6)
@@ -76,25 +76,25 @@ def test_kalker_anchor_nodes(a_over_b, inu, nu):
     """At every node of the table the interpolation returns the printed coefficients (to their 3 digits,
     exactly: the nodes are the package's own table values, which must equal the printed ones)."""
     expected = [column[inu] for column in KALKER_ROWS[a_over_b]]
-    assert floats(c.kalker_coefficients(a_over_b, nu))[:3] == pytest.approx(expected, rel=1e-12)
+    assert floats(kalker.kalker_coefficients(a_over_b, nu))[:3] == pytest.approx(expected, rel=1e-12)
 
 
 @pytest.mark.parametrize("sym", [ca.SX, ca.MX])
 def test_symbolic_evaluation_equals_float(sym):
     A, B, Nf, Es, r, nu = (sym.sym(n) for n in ("A", "B", "N", "Es", "r", "nu"))
     f = ca.Function("contact", [A, B, Nf, Es, r, nu],
-                    [*c.hertz_ellipse(A, B, Nf, Es), *c.kalker_coefficients(r, nu)])
+                    [*hertz.hertz_ellipse(A, B, Nf, Es), *kalker.kalker_coefficients(r, nu)])
     for args in [(0.8464e-3, 0.2406e-2, N, E_STAR, 2.0, 0.28),
                  (0.4219e-2, 0.4219e-2, N, E_STAR, 0.37, 0.1),
                  (0.2406e-2, 0.8464e-3, N, E_STAR, 6.5, 0.45)]:
-        expected = floats(c.hertz_ellipse(*args[:4])) + floats(c.kalker_coefficients(*args[4:]))
+        expected = floats(hertz.hertz_ellipse(*args[:4])) + floats(kalker.kalker_coefficients(*args[4:]))
         assert floats(f(*args)) == pytest.approx(expected, rel=1e-14)
 
 
 @pytest.mark.parametrize("A, B", [(0.8464e-3, 0.2406e-2), (0.4219e-2, 0.4219e-2), (0.2406e-2, 0.8464e-3)])
 def test_derivative_of_semi_axis_wrt_load(A, B):
     Nsym = ca.SX.sym("N")
-    a = c.hertz_ellipse(A, B, Nsym, E_STAR)[0]
+    a = hertz.hertz_ellipse(A, B, Nsym, E_STAR)[0]
     f = ca.Function("a_of_N", [Nsym], [a, ca.jacobian(a, Nsym)])
     a0, dadN = floats(f(N))
     h = 1e-3 * N

@@ -11,8 +11,9 @@ their source) give reference creep forces:
     parabolic and elliptic traction bounds on 40 and 200 elements across the patch; FY and MZ;
   * carter2d: Carter's two-dimensional problem.
 
-Compared: (a) tests/validation/fastsim.py against CONTACT's FASTSIM, (b) cvtdesign.core.creep (Polach's
-method with Kalker's coefficients, what the model uses) against CONTACT's exact theory, (c) FASTSIM
+Compared: (a) tests/validation/fastsim.py against CONTACT's FASTSIM, (b) cvtdesign's `kalker` law (the
+creep-force surface of FASTSIM with the Hertz bound, with Kalker's coefficients: what the model uses) against
+CONTACT's exact theory, (c) FASTSIM
 against the exact theory, and Kalker's linear slope. Differences are in F/(mu N) unless stated. CONTACT's
 exact theory is itself discretised (44 x 40 and 40 x 40 elements in contact); its linear slope lies 0.6 %
 above Kalker's table (test_linear_slope), an indication of its own accuracy. Run pytest with -s for the
@@ -27,8 +28,9 @@ import contact_reference as ref  # tests/validation is on sys.path (tests/confte
 import fastsim as fs
 from test_fastsim_published import carter, creepage_for, patch
 
-from cvtdesign.core.contact import KALKER_A_OVER_B, KALKER_TABLE, contact_material, hertz_ellipse, kalker_coefficients
-from cvtdesign.core.creep import creep_forces, polach_forces
+from cvtdesign.core.contact.hertz import contact_material, hertz_ellipse
+from cvtdesign.core.contact.kalker import KALKER_A_OVER_B, KALKER_TABLE, kalker_coefficients
+from cvtdesign.core.contact.patch import forces as law_forces
 
 MM, MPA = 1e-3, 1e6          # CONTACT's mm and N/mm^2 in SI
 KINDS = (("xi", "longitudinal"), ("eta", "lateral"), ("phi", "spin"))
@@ -59,10 +61,11 @@ def curve(series):
     return xi, f
 
 
-def polach_longitudinal(xi, p):
-    """F/(mu N) of cvtdesign's law for pure longitudinal creepage xi."""
-    return np.array([float(creep_forces(x, 0.0, p["N"], p["mu"], p["a"], p["b"], p["G"], *p["C"][:2])[0])
-                     for x in xi]) / (p["mu"] * p["N"])
+def law(p, xi=0.0, eta=0.0, phi=0.0):
+    """(Fx, Fy [N], Mz [N m]) of cvtdesign's `kalker` law (FASTSIM's surface) on an example's patch."""
+    C11, C22, C23 = p["C"]
+    q = dict(N=p["N"], mu=p["mu"], a=p["a"], b=p["b"], G=p["G"], C11=C11, C22=C22, C23=C23)
+    return law_forces(q, xi, eta, phi)
 
 
 def worst(diff, where):
@@ -256,34 +259,34 @@ def test_fastsim_converged_vs_contact():
     assert max(map(abs, d_fy)) < 5e-4 and max(map(abs, d_mz)) < 1.5e-3
 
 
-# --- (b), (c) Polach and FASTSIM against the exact theory -----------------------------------------------
+# --- (b), (c) the law and FASTSIM against the exact theory -----------------------------------------------
 
 def test_longitudinal_vs_exact():
     """Pure longitudinal creepage, tractcurv cases 1-30 (CONTACT's exact theory, a/b = 0.5, Coulomb mu = 0.33;
-    the Eurosprinter case of Polach 2005 and Vollebregt 2014): (b) cvtdesign's law (creep_forces, Polach's
-    method with kalker_coefficients) and (c) the converged FASTSIM (parabolic bound, same coefficients).
+    the Eurosprinter case of Polach 2005 and Vollebregt 2014): (b) cvtdesign's `kalker` law (FASTSIM with
+    the Hertz traction bound, core.contact.surface, with kalker_coefficients) and (c) the converged FASTSIM
+    with the parabolic bound (same coefficients).
 
     Measured, F/(mu N) over the 30 creepages (0 to 25 %):
-      (b) Polach - exact: +0.0192 at CKSI = 0.08 % (Polach above while the patch is mostly in adhesion), then
-          below: max |diff| 0.0614 at 0.28 % (Polach 0.9218 vs 0.9832; the exact curve reaches mu N at
-          ~0.35 %, Polach's only asymptotically: 0.9890 at 0.6 %, 0.9975 at 1 %), < 1e-4 from 5 % on.
-      (c) FASTSIM - exact: max |diff| 0.0487 at CKSI = 0.2 % (FASTSIM below throughout partial slip: the
-          simplified theory saturates more slowly), < 6e-4 from 0.44 % on.
+      (b) law - exact: +0.0094 at CKSI = 0.04 %, then below: max |diff| 0.0613 at 0.28 % (0.9219 vs 0.9832:
+          with the Hertz bound the leading edge always adheres, so the simplified theory saturates more
+          slowly than the exact one, which reaches mu N at ~0.35 %; 0.9890 at 0.6 %), < 1e-4 from 5 % on.
+      (c) FASTSIM (parabolic) - exact: max |diff| 0.0487 at CKSI = 0.2 %, < 6e-4 from 0.44 % on.
     Tolerances: 0.065 (b), 0.050 (c).
     """
     p = example_patch(ref.TRACTCURV)
     mN = p["mu"] * p["N"]
     xi, exact = curve(ref.TRACTCURV_EXACT)
-    pol = -polach_longitudinal(xi, p)
+    ours = -law(p, xi=xi)[0] / mN
     fast = -fs.fastsim(p["a"], p["b"], p["N"], p["mu"], p["G"], *p["C"], xi=xi)[0] / mN
     exact = -exact
-    print("\n  CKSI [%]  exact    Polach   FASTSIM")
-    for x, e, q, f in zip(xi, exact, pol, fast):
+    print("\n  CKSI [%]  exact    law      FASTSIM (parabolic)")
+    for x, e, q, f in zip(xi, exact, ours, fast):
         if x <= 0.01 or x in (0.05, 0.1, 0.25):
             print(f"  {100 * x:7.3f}  {e:.4f}   {q:.4f}   {f:.4f}")
-    db, at_b = worst(pol - exact, xi)
+    db, at_b = worst(ours - exact, xi)
     dc, at_c = worst(fast - exact, xi)
-    print(f"  (b) Polach - exact: max |diff| {db:.4f} at xi = {at_b}; (c) FASTSIM - exact: {dc:.4f} at xi = {at_c}")
+    print(f"  (b) law - exact: max |diff| {db:.4f} at xi = {at_b}; (c) FASTSIM - exact: {dc:.4f} at xi = {at_c}")
     assert db < 0.065 and dc < 0.050
 
 
@@ -294,24 +297,25 @@ def test_lateral_spin_vs_exact():
     CETA < 0).
 
     Measured:
-      (b) cvtdesign's law (polach_forces, kalker_coefficients): FY/(mu N) -0.4655, 0.142 short of the exact
-          (23 % of it). It saturates the lateral-creep part (+0.318, linear +0.332) and the spin part (-0.783,
-          linear -1.003) each on its own and adds them, where in the exact solution the two share one
-          traction bound; it has no MZ.
+      (b) cvtdesign's `kalker` law (FASTSIM's surface, kalker_coefficients): FY/(mu N) -0.5964, 0.011 short of
+          the exact (1.8 %), MZ -4.46e4 N mm (-7.5 %): the surface reproduces FASTSIM with the Hertz bound.
+          (Polach's method, the law before, gave -0.4655: it saturated the lateral-creep and spin parts each on
+          its own and added them.)
       (c) FASTSIM, converged, kalker_coefficients: parabolic bound -0.6480 (0.0406 beyond the exact), MZ
           -3.769e4 N mm (-21.8 %); elliptic bound -0.5959 (0.0115 short of it), MZ -4.47e4 N mm (-7.3 %).
-    Tolerances: (b) 0.16; (c) FY 0.05 (parabolic) and 0.015 (elliptic), MZ 0.25 and 0.10 relative.
+    Tolerances: (b) FY 0.015, MZ 0.10 relative; (c) FY 0.05 (parabolic) and 0.015 (elliptic), MZ 0.25 and
+    0.10 relative.
     """
     q = ref.FASTSIM_CASE
     s = example_patch(q)
     mN = s["mu"] * s["N"]
     _, _, _, _, mz, fy_n, _ = ref.FASTSIM_RESULTS[1]
-    args = (s["N"], s["mu"], s["a"], s["b"], s["G"])
-    pol = float(polach_forces(q["CKSI"], q["CETA"], q["CPHI"] / MM, *args, *s["C"])[1]) / mN
+    _, fy_law, mz_law = law(s, q["CKSI"], q["CETA"], q["CPHI"] / MM)
+    ours, ours_mz = float(fy_law) / mN, float(mz_law) / (mz * MM) - 1
     lin = float(fs.linear_forces(s["a"], s["b"], s["G"], *s["C"], eta=q["CETA"], phi=q["CPHI"] / MM)[1]) / mN
-    print(f"\nexact FY/muN {fy_n:.4f}, MZ {mz:.4g} N mm; linear theory {lin:.4f}; Polach {pol:.4f} "
-          f"(diff {pol - fy_n:+.4f})")
-    assert abs(pol - fy_n) < 0.16
+    print(f"\nexact FY/muN {fy_n:.4f}, MZ {mz:.4g} N mm; linear theory {lin:.4f}; the law {ours:.4f} "
+          f"(diff {ours - fy_n:+.4f}), MZ {float(mz_law) / MM:.4g} N mm ({ours_mz:+.1%})")
+    assert abs(ours - fy_n) < 0.015 and abs(ours_mz) < 0.10
     for bound, tol_fy, tol_mz in (("parabolic", 0.05, 0.25), ("elliptic", 0.015, 0.10)):
         _, Fy, Mz = fs.fastsim(s["a"], s["b"], s["N"], s["mu"], s["G"], *s["C"], eta=q["CETA"],
                                phi=q["CPHI"] / MM, moment=True, bound=bound)

@@ -18,7 +18,7 @@ import pytest
 
 import fastsim as fs  # tests/validation is on sys.path (tests/conftest.py)
 
-from cvtdesign.core.contact import kalker_coefficients
+from cvtdesign.core.contact.kalker import kalker_coefficients
 
 G, N, MU, NU = 80e9, 1000.0, 0.1, 0.25
 RATIOS = (1.0, 0.5, 2.0)

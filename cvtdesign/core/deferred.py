@@ -1,0 +1,114 @@
+"""Calls of compiled functions that the model's SX graph defers (core.model, core.contact.laws).
+
+The model is assembled as CasADi SX expressions, the fastest form for its many scalar operations. A function
+that is a table lookup in C (the `kalker` law's creep-force surface) cannot be written out in SX, and SX
+differentiates a call to it direction by direction: the box's 24 × 24 Jacobian then evaluated the surface's
+full Jacobian 192 times for 8 contacts. So such a call is deferred: the law gets an SX symbol v standing for
+the call's value, and `close` builds a function of the model as three parts, an SX function of the calls'
+arguments a, the calls, and an SX function of the rest with v as an input. Its Jacobian is the chain rule,
+written out once in SX with the calls' Jacobians D as symbols,
+
+    d out/d in = ∂out/∂in + ∂out/∂v · D · ∂a/∂in,
+
+and evaluated with one call per table that returns the value and its Jacobian together: 8 table evaluations
+for the box's Jacobian. It is attached to the function as its Jacobian, so every derivative CasADi takes of
+it (the Newton solves, the implicit derivatives for the optimiser) uses it. Without deferred calls `close`
+is the plain SX function.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+
+
+@dataclass
+class _Call:
+    value_fn: ca.Function        # args → value
+    jacobian_fn: ca.Function     # args → (value, ∂value/∂arg for each arg)
+    args: list                   # SX expressions of the arguments
+    value: ca.SX                 # the symbol standing for the value
+
+
+class DeferredCalls:
+    """The deferred calls of one model."""
+
+    def __init__(self):
+        self.calls: list[_Call] = []
+
+    def call(self, value_fn: ca.Function, jacobian_fn: ca.Function, args: list) -> ca.SX:
+        """An SX symbol that stands for value_fn(*args) (one output) in the expressions built from it;
+        jacobian_fn(*args) gives the value and its derivative with respect to each argument."""
+        value = ca.SX.sym(f"{value_fn.name()}_{len(self.calls)}", value_fn.sparsity_out(0))
+        self.calls.append(_Call(value_fn, jacobian_fn, list(args), value))
+        return value
+
+    def close(self, name: str, inputs: list, outputs: list) -> ca.Function:
+        """Function(inputs) → outputs, the deferred calls in them evaluated, with its Jacobian by the chain rule
+        (module docstring). `inputs` are the SX symbols the expressions depend on besides the calls' values."""
+        values = ca.vertcat(*(c.value for c in self.calls))
+        if not self.calls or not ca.depends_on(ca.vertcat(*outputs), values):
+            return ca.Function(name, inputs, outputs)
+        flat_args = [a for c in self.calls for a in c.args]
+        args = ca.Function(f"{name}_args", inputs, ca.cse(flat_args))
+        rest = ca.Function(f"{name}_rest", [*inputs, values], ca.cse(outputs))
+        mx_in = [ca.MX.sym(f"i{k}", s.sparsity()) for k, s in enumerate(inputs)]
+        arg_values = self._split(args.call(mx_in))
+        value = ca.vertcat(*(c.value_fn(*a) for c, a in zip(self.calls, arg_values)))
+        jac = self._jacobian(name, inputs, outputs, mx_in)
+        chained = ca.Function(name, mx_in, rest.call([*mx_in, value]),
+                              {"custom_jacobian": jac, "jac_penalty": 0, "enable_forward": False,
+                               "enable_reverse": False, "enable_fd": False, "never_inline": True})
+        # called from a plain MX function, whose derivatives CasADi then takes through `jac` (a function with
+        # only a custom Jacobian cannot build every derivative CasADi asks of it, e.g. a rootfinder's)
+        return ca.Function(name, mx_in, chained.call(mx_in))
+
+    def _split(self, flat: list) -> list[list]:
+        out, k = [], 0
+        for c in self.calls:
+            out.append(flat[k:k + len(c.args)])
+            k += len(c.args)
+        return out
+
+    def jacobian(self, name: str, inputs: list, output, wrt: int) -> ca.Function:
+        """Function(inputs) → (∂output/∂inputs[wrt], output), the chain rule through the deferred calls (what a
+        Newton solve needs, without the derivatives with respect to the other inputs)."""
+        if not self.calls:
+            return ca.Function(name, inputs, [ca.jacobian(output, inputs[wrt]), output])
+        mx_in = [ca.MX.sym(f"i{k}", s.sparsity()) for k, s in enumerate(inputs)]
+        jac, value = self._chain(name, inputs, [output], [inputs[wrt]], mx_in)
+        return ca.Function(name, mx_in, [jac[0], value[0]])
+
+    def _jacobian(self, name, inputs, outputs, mx_in) -> ca.Function:
+        """jac_<name>: (inputs, nominal outputs) → ∂out_k/∂in_j for every output k and input j (CasADi's order:
+        outputs major)."""
+        result, _ = self._chain(name, inputs, outputs, inputs, mx_in)
+        nominal = [ca.MX.sym(f"o{k}", out.sparsity()) for k, out in enumerate(outputs)]
+        names_in = [f"i{k}" for k in range(len(inputs))] + [f"out_o{k}" for k in range(len(outputs))]
+        names_out = [f"jac_o{k}_i{j}" for k in range(len(outputs)) for j in range(len(inputs))]
+        return ca.Function(f"jac_{name}", [*mx_in, *nominal], result, names_in, names_out)
+
+    def _chain(self, name, inputs, outputs, wrt, mx_in) -> tuple[list, list]:
+        """(∂out_k/∂w_j for outputs k and w_j in `wrt`, outputs-major; the outputs' values) as MX of mx_in, by
+        the chain rule: the partial derivatives in SX (sparse), the calls' Jacobians D from one evaluation
+        each, and the products ∂out/∂v · D · ∂a/∂w as sparse matrix products."""
+        values = ca.vertcat(*(c.value for c in self.calls))
+        every = ca.vertcat(*inputs)
+        live = [[ca.depends_on(a, every) for a in c.args] for c in self.calls]   # constant arguments have no D
+        a_all = ca.vertcat(*(a for c, lv in zip(self.calls, live) for a, on in zip(c.args, lv) if on))
+        partial = [ca.jacobian(out, w) for out in outputs for w in wrt]
+        through = [ca.jacobian(out, values) for out in outputs] + [ca.jacobian(a_all, w) for w in wrt]
+        parts = ca.Function(f"{name}_partials", [*inputs, values], ca.cse(partial + through + list(outputs)))
+        args = ca.Function(f"{name}_args", inputs, ca.cse([a for c in self.calls for a in c.args]))
+        value_list, blocks = [], []
+        for c, a, lv in zip(self.calls, self._split(args.call(mx_in)), live):
+            v, *d = c.jacobian_fn(*a)
+            value_list.append(v)
+            blocks.append(ca.horzcat(*(dk for dk, on in zip(d, lv) if on)))
+        D = ca.diagcat(*blocks)
+        got = parts.call([*mx_in, ca.vertcat(*value_list)])
+        n_p, n_o = len(partial), len(outputs)
+        direct, by_value, of_args = got[:n_p], got[n_p:n_p + n_o], got[n_p + n_o:n_p + n_o + len(wrt)]
+        result = [direct[k * len(wrt) + j] + ca.mtimes(ca.mtimes(by_value[k], D), of_args[j])
+                  for k in range(n_o) for j in range(len(wrt))]
+        return result, got[n_p + n_o + len(wrt):]
