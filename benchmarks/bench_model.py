@@ -5,7 +5,10 @@
    same process: np.linalg.solve on a stack of 3 well-conditioned random 24 × 24 systems a point (a Newton
    solve of the box's 24 unknowns takes about that much linear algebra). Goal: the compiled model within
    1.5 × the baseline. Also the one-off compile and the load of the cached library on a later run.
-2. `cvtdesign compare variants/box.yaml` from a cold start (a new process), against `python -c "import
+2. The `kalker` contact law against Kim's (`kim`) on the same layout and grid: box_kalker.yaml against box.yaml
+   over box's envelope at 61 × 61 points, both compiled, interleaved. Goal: a kalker point at most 3 × a kim
+   point. Printed as `kalker/kim compiled cost ratio: X`.
+3. `cvtdesign compare variants/box.yaml` from a cold start (a new process), against `python -c "import
    casadi"` as the baseline of what merely starting Python with CasADi costs on this machine now; then one
    unprofiled run's timeline of both processes, and the floor the figure sets: the baseline's start-up plus
    what the plotting process alone needs (importing matplotlib, drawing the figure).
@@ -73,6 +76,30 @@ def grid_benchmark(repeats: int = 5, goal: float = 1.5):
     print(f"  compiled and interpreted agree (status, α to 1e-10): {same}")
     print(f"  one-off compile (generate C, cc {' '.join(FLAGS)}, load) {t_compile:5.2f} s;   "
           f"later runs, from the cache (generate C, hash, load) {t_load * 1e3:5.0f} ms")
+
+
+def law_benchmark(repeats: int = 5, goal: float = 3.0):
+    """The kalker law's compiled cost per point against Kim's law's, on box's envelope (module docstring)."""
+    G, T, models = None, None, {}
+    with tempfile.TemporaryDirectory() as cache:
+        os.environ["CVTDESIGN_CACHE"], os.environ["CVTDESIGN_COMPILE"] = cache, "always"
+        for law, name in (("kim", "box"), ("kalker", "box_kalker")):
+            L = load_variant(ROOT / f"variants/{name}.yaml")
+            G, T = np.meshgrid(np.linspace(L.gamma_grid.min(), L.gamma_grid.max(), 61),
+                               np.linspace(L.load_grid.min(), L.load_grid.max(), 61), indexing="ij")
+            models[law] = compile_model(L)
+            models[law].evaluate(G, T)                   # compiles, loads the library, builds the thread map
+        best = {}
+        for _ in range(repeats):
+            for law, m in models.items():
+                best[law] = min(best.get(law, np.inf), best_of(lambda: m.evaluate(G, T), 1)[0])
+        del os.environ["CVTDESIGN_COMPILE"], os.environ["CVTDESIGN_CACHE"]
+    ratio = best["kalker"] / best["kim"]
+    print(f"contact laws on box's envelope, {G.size} points, compiled (best of {repeats}, interleaved; load average "
+          f"{os.getloadavg()[0]:.2f})")
+    for law in models:
+        print(f"  {law:6s} {best[law] / G.size * 1e6:7.2f} µs/point")
+    print(f"  kalker/kim compiled cost ratio: {ratio:.2f}   goal ≤ {goal:g}: {'met' if ratio <= goal else 'not met'}")
 
 
 COLD_TIMELINE = """
@@ -213,4 +240,5 @@ def cold_start_benchmark(rounds: int = 5, goal: float = 4.0):
 
 if __name__ == "__main__":
     grid_benchmark()
+    law_benchmark()
     cold_start_benchmark()

@@ -11,6 +11,7 @@ from cvtdesign.core.metrics import envelope, ideal_model, metrics
 from cvtdesign.core.model import compile_model
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_file
+from cvtdesign.io.points import check_points_path, contact_points, write_points
 from cvtdesign.io.report import Note, Table, png_figure
 from cvtdesign.io.variant import load_variant, shipped_variant
 
@@ -21,7 +22,8 @@ COLUMNS = [
     ("max_abs_alpha_steering_deg", "max |α| steering [°]", "{:.3f}"),
     ("max_abs_alpha_drive_deg", "max |α| drive [°]", "{:.3f}"),
     ("ratio_error_pct_at_max_load", "ratio error at max load [%]", "{:.2f}"),
-    ("min_efficiency", "worst efficiency", "{:.3f}"),
+    ("min_efficiency", "worst efficiency ¹", "{:.3f}"),
+    ("max_loss_no_output_W", "max loss without output [W] ²", "{:.2f}"),
     ("max_traction_utilisation", "max F/(μN)", "{:.3f}"),
     ("max_hertz_pressure_MPa", "max Hertz p [MPa]", "{:.2f}"),
 ]
@@ -31,6 +33,8 @@ def run(args):
     """Print the comparison table and have args.painter (the plotting process that cli.parser starts before it
     imports this module) draw the figure, which is completely written when this returns."""
     painter = args.painter
+    if args.points:
+        check_points_path(args.points)
     files = [Path(f) for f in args.variants]
     layouts = [load_variant(f) for f in files]
     if len(files) == 1:
@@ -50,6 +54,8 @@ def run(args):
         row["name"] = f"ideal ({layouts[-1].name})"
         rows.insert(0, row)
 
+    if args.points:
+        write_points(args.points, [contact_points(L.name, L, res) for L, res in zip(layouts, results)])
     blocks = comparison_blocks(rows)
     console = Console(width=max(100, 30 + 22 * len(rows)))
     show(console, blocks)
@@ -61,6 +67,8 @@ def run(args):
         print(f"cvtdesign: error: plotting failed: {error}", file=sys.stderr)
         return 1
     console.print(f"plots: {figure}")
+    if args.points:
+        console.print(f"contact states: {args.points}")
     if args.report:
         plot = png_figure(figure, "slip angle α, its steering and drive parts against commanded γ at several "
                                   "loads, and the efficiency map, per variant")
@@ -75,10 +83,18 @@ def comparison_blocks(rows: list[dict]) -> list:
     table = Table("CVT comparison over the operating envelope (γ × τ⊥)", ["figure", *[r["name"] for r in rows]])
     for key, label, fmt in COLUMNS:
         table.add(label, *["—" if r[key] is None else fmt.format(r[key]) for r in rows])
-    blocks = [table]
+    blocks = [table, Note("¹ over the points with |γ| ≥ 5° and |τ⊥| ≥ 25 % of the largest load that deliver power "
+                          "(it leaves at one shaft): " + "; ".join(_efficiency_points(r) for r in rows)),
+              Note("² the largest power lost at a point that delivers none (zero load, γ = 0, or power entering "
+                   "both shafts), where an efficiency means nothing")]
     for r in rows:
         blocks.append(Note(f"{r['name']}: {r['ideal_law']}"))
         if r["ok"] < r["points"]:
             blocks.append(Note(f"{r['name']}: {r['points'] - r['ok']} of {r['points']} operating points left out "
                                f"of the figures: {left_out_text(r)}", "bad"))
     return blocks
+
+
+def _efficiency_points(row: dict) -> str:
+    text = f"{row['name']} {row['efficiency_points']}"
+    return text + (f" ({row['no_output_points']} more deliver none)" if row["no_output_points"] else "")

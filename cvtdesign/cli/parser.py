@@ -73,6 +73,9 @@ def _add_compare(p):
     p.add_argument("--out", default="out/compare", help="folder for the plots (default: out/compare)")
     p.add_argument("--json", help="also write the figures to this JSON file")
     p.add_argument("--report", help="also write an HTML report (the tables and the plot) to this file")
+    p.add_argument("--points", metavar="FILE.csv|FILE.parquet",
+                   help="also write every contact's state at every operating point (one row per variant, point "
+                        "and contact; columns in docs/comparing.md), as CSV or Parquet by the extension")
 
 
 def _add_optimise(p):
@@ -180,7 +183,7 @@ def check_outputs(args):
     """Refuse an output path that cannot be written before any computation (each write checks again):
     --json, --report and the --out of rig and new are files, none of them an input of the command; --plots and
     the other commands' --out are folders."""
-    files = [("--json", getattr(args, "json", None)), ("--report", getattr(args, "report", None))]
+    files = [(k, getattr(args, k[2:], None)) for k in ("--json", "--report", "--points")]
     if args.command in ("rig", "new"):
         files.append(("--out", getattr(args, "out", None)))
     elif getattr(args, "out", None):

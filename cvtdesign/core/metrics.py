@@ -6,8 +6,13 @@ Figures (all over the variant's envelope, Kim's protocol by default: γ −80°.
  * ratio_error_pct_at_max_load: largest |Brokowski eq 23 error| (requested − achieved)/requested of the
    speed ratio ω2/ω1 at the highest |τ⊥|, over the γ whose ideal |ratio| lies in Brokowski's resteering
    range 0.4..2.5 (near γ = 0 and ±90° the ratio itself goes to 0 or ∞ and a relative error means little);
- * min_efficiency: power out / power in, whichever shaft the power enters, over the points that transmit power, |γ| ≥ 5° and
-   |τ⊥| ≥ 25 % of the largest load (at γ = 0 no power leaves the CVT, at zero load none enters);
+ * min_efficiency: power out / power in, whichever shaft the power enters, over the points that deliver power
+   (it leaves at one shaft) with |γ| ≥ 5° and |τ⊥| ≥ 25 % of the largest load (at γ = 0 no power leaves the
+   CVT, at zero load none enters); `efficiency_points` counts them and `no_output_points` the points of that
+   range that deliver none (power enters both shafts: the losses exceed what the load returns);
+ * max_loss_no_output_W: the largest power lost [W] at an ok point that delivers no power (zero load, γ = 0,
+   or power entering both shafts), where an efficiency means nothing: under Kalker's law spin costs power
+   even without load;
  * max_traction_utilisation: max |F|/(μN) over all contacts; max_hertz_pressure_MPa: max Hertz peak pressure.
 
 The ideal law, γ and α are the layout's own (kinematics.py). Every figure is taken over the points where the
@@ -22,6 +27,7 @@ import dataclasses
 
 import numpy as np
 
+from cvtdesign.core.contact.laws import IDEAL
 from cvtdesign.core.model import CompiledModel, compile_model, status_counts
 
 
@@ -29,7 +35,7 @@ def ideal_model(layout) -> CompiledModel:
     """The ideal CVT of a layout: the same rollers and linkage with rigid rolling contacts (Kim's law with no
     effects: no creep, no losses), whatever the layout's contact law. Kalker's law creeps with no effect
     on, so `effects=()` alone is not ideal under it (box_kalker.yaml's 'ideal' slipped 4.185°)."""
-    return compile_model(dataclasses.replace(layout, contact_law="kim"), effects=())
+    return compile_model(dataclasses.replace(layout, contact_law=IDEAL), effects=())
 
 
 def envelope(model: CompiledModel, theta=None) -> dict:
@@ -50,6 +56,13 @@ def efficiency(p1, p2):
         return np.where(p_in > 1e-12, p_out / p_in, np.nan)
 
 
+def delivers_power(res: dict) -> np.ndarray:
+    """Where power leaves the CVT at one of its shafts (τ_i ω_i < 0 beyond round-off: 1e-9 of the power in)."""
+    p1, p2 = res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"]
+    with np.errstate(invalid="ignore"):
+        return res["ok"] & (-np.minimum(p1, p2) > 1e-9 * np.maximum(np.maximum(p1, p2), 0.0))
+
+
 def metrics(model: CompiledModel, res: dict) -> dict:
     """The figures of merit of an `envelope` result (module docstring), with the points' status counts."""
     L = model.layout
@@ -61,14 +74,16 @@ def metrics(model: CompiledModel, res: dict) -> dict:
     at_max = np.isclose(np.abs(T), np.max(np.abs(L.load_grid)))
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio_err = 100 * (ideal - achieved) / ideal
-    eff_mask = (np.abs(G) >= np.radians(5) - 1e-12) & (np.abs(T) >= 0.25 * np.max(np.abs(L.load_grid)))
+    eff_range = (np.abs(G) >= np.radians(5) - 1e-12) & (np.abs(T) >= 0.25 * np.max(np.abs(L.load_grid)))
+    delivers = delivers_power(res)
+    no_output = res["ok"] & ~delivers
 
     def nanmax(x, mask=None):
         x = np.where(mask, x, np.nan) if mask is not None else x
         return float(np.nanmax(x)) if np.any(np.isfinite(x)) else None
 
     a = deg(res["alpha"])
-    min_eff = nanmax(-res["efficiency"], eff_mask)
+    min_eff = nanmax(-res["efficiency"], eff_range & delivers)
     return {
         "name": L.name, "file": L.file, "ideal_law": model.frame.law_text(),
         "max_abs_alpha_deg": nanmax(np.abs(a)),
@@ -77,6 +92,9 @@ def metrics(model: CompiledModel, res: dict) -> dict:
         "max_abs_alpha_drive_deg": nanmax(np.abs(deg(res["alpha_drive"]))),
         "ratio_error_pct_at_max_load": nanmax(np.abs(ratio_err), in_range & at_max),
         "min_efficiency": None if min_eff is None else -min_eff,
+        "efficiency_points": int(np.sum(eff_range & delivers)),
+        "no_output_points": int(np.sum(eff_range & no_output)),
+        "max_loss_no_output_W": nanmax(res["power_loss"], no_output),
         "max_traction_utilisation": nanmax(res["utilisation"]),
         "max_hertz_pressure_MPa": None if nanmax(res["p_max"]) is None else nanmax(res["p_max"]) / 1e6,
         "points": int(res["status"].size), **status_counts(res, model.roller_names),
