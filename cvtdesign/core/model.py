@@ -454,7 +454,7 @@ def _point_builder(close, residual, jacobian, x0_fn, steer_res, misfit, theta, d
     kinematics, then the solve (_solve_from_rest), then only the selected outputs' expressions (`close`:
     (name, output names) → their Function of (x, params)); with the solvers that can be code-generated if
     written_out (_solvers)."""
-    solvers, det_sign = {}, _det_sign_function(jacobian)
+    solvers = {}
 
     def build(selected, name="point", written_out=False):
         if written_out not in solvers:
@@ -470,7 +470,7 @@ def _point_builder(close, residual, jacobian, x0_fn, steer_res, misfit, theta, d
         res = {}
         if model_names:
             sel = close("post_sel", model_names)
-            x_m, several = _solve_from_rest(solver, residual, x0_fn, det_sign, p_m, utilisation)
+            x_m, several = _solve_from_rest(solver, residual, x0_fn, p_m, utilisation)
             res = dict(zip(model_names, sel.call([x_m, p_m])))
             if "status" in res:
                 res["status"] = ca.if_else(several, STATUS.index("multiple_roots"), res["status"])
@@ -480,24 +480,22 @@ def _point_builder(close, residual, jacobian, x0_fn, steer_res, misfit, theta, d
     return build
 
 
-def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, det_sign: ca.Function, p: ca.MX,
-                     utilisation: ca.Function | None):
+def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX, utilisation: ca.Function | None):
     """(x, several): the operating point's solution, and whether the equations hold another one there.
 
     Past the envelope the equations can have more than one root, and the Newton solve from the ideal
     kinematics (no forces) can land on either, depending on round-off: an asymmetric box under Kalker's law
     gave α = 2.612° written one way and 2.610° rotated, both converged, where loading from rest gives 2.679°.
     The state then depends on how the load came, which no steady-state model can tell, so such a point
-    carries no number (`multiple_roots`). A rig reaches the root that the load, applied from rest, follows
-    continuously; along that path the Jacobian's determinant keeps its sign until the path meets a fold. So
-    where the contact law can have several roots (laws.*.several_roots) the direct root is taken as the rig's
-    where its determinant has the sign of the zero-load state's (the ideal kinematics at no load) and no
-    contact uses more than UTIL_CHECK of its friction (existing_kalker.yaml at γ = −16°, τ⊥ = 2.5 N·m had a
-    second root of the same sign, 18.49° against the rig's 18.35°, with contacts at 0.68 μN; inside the
-    shipped envelopes no contact passes 0.38 μN). Otherwise, or where the direct solve fails, the point is
-    also solved as a rig reaches it, the load applied from rest in LOAD_STEPS equal steps, each solve
-    starting from the last converged one. Where both hold and differ (by more than ROOT_TOL in the scaled
-    unknowns), the point is `multiple_roots`; where only one holds, that one is the solution. (The stepped solution alone is no answer: near a fold, four steps
+    carries no number (`multiple_roots`). Where the contact law can have several roots (laws.*.several_roots),
+    the direct root stands unless it failed or some contact uses more than UTIL_CHECK of its friction: a second
+    root needs the law to bend, which it does near saturation (existing_kalker.yaml at γ = −16°, τ⊥ = 2.5 N·m,
+    contacts at 0.68 μN: the direct solve reached α = 18.49° where loading from rest reaches 18.35°; inside the
+    shipped envelopes no contact passes 0.38 μN, and scans of the shipped kalker variants and an asymmetric
+    box over γ ±88°, τ⊥ ±4 N·m found no second root below 0.5 μN). There the point is also solved as a rig
+    reaches it, the load applied from rest in LOAD_STEPS equal steps, each solve starting from the last
+    converged one. Where both hold and differ (by more than ROOT_TOL in the scaled unknowns), the point is
+    `multiple_roots`; where only one holds, that one is the solution. (The stepped solution alone is no answer: near a fold, four steps
     land on whichever root they reach, and its α jumped by 0.6° between loads one ulp apart.) Under Kim's
     law the roots inside the envelopes are unique, and the stepped solve only replaces a direct one that
     fails or turns backwards (existing.yaml at (−80°, 2.1 N·m), `reversed` from the ideal kinematics, is
@@ -524,25 +522,8 @@ def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, det_sign
     rest = stepped(q)
     ok_d, ok_r = good(d, q), good(rest, q)
     several = ca.logic_and(ca.logic_and(ok_d, ok_r), ca.norm_inf(d - rest) > ROOT_TOL)
-    at_rest = ca.vertcat(q[0:2], 0, q[3:])
-    crowded = ca.mmax(utilisation(d, q)) > UTIL_CHECK
-    suspect = ca.logic_or(ca.logic_or(ca.logic_not(ok_d), crowded), det_sign(d, q) != det_sign(x0_fn(at_rest), at_rest))
+    suspect = ca.logic_or(ca.logic_not(ok_d), ca.mmax(utilisation(d, q)) > UTIL_CHECK)
     check = ca.Function("check_roots", [d, q], [ca.if_else(suspect, ca.vertcat(ca.if_else(ok_d, d, rest), several),
                                                              ca.vertcat(d, 0), True)])
     out = check(direct, p)
     return out[:-1], out[-1]
-
-
-def _det_sign_function(jacobian: ca.Function) -> ca.Function:
-    """(x, p) → the sign of det ∂F/∂x (`jacobian`: (x, p) → (∂F/∂x, F)) up to the constant sign of QR's row and
-    column orders (CasADi's sparse Householder QR: det = det(Q) det(R), each reflection I − β v vᵀ contributing
-    1 − β‖v‖² = ±1)."""
-    x, p = jacobian.sx_in() if jacobian.is_a("SXFunction") else jacobian.mx_in()
-    J = ca.SX.sym("J", jacobian.sparsity_out(0))
-    V, R, beta, _, _ = ca.qr_sparse(J, True)
-    sign = 1
-    for j in range(R.size1()):
-        sign = sign * ca.sign(R[j, j]) * ca.sign(1 - beta[j] * ca.sumsqr(V[:, j]))
-    of_J = ca.Function("det_sign_of_jac", [J], [sign])
-    return ca.Function("det_sign", [x, p], [of_J(jacobian(x, p)[0])],
-                       {"is_diff_in": [False, False], "is_diff_out": [False]})     # a sign: no derivative

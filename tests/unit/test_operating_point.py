@@ -129,10 +129,10 @@ def test_under_kalkers_law_the_answer_does_not_depend_on_how_the_layout_is_writt
 @pytest.mark.parametrize("compile_policy", ["never", "always"])
 def test_a_second_root_near_the_friction_limit_is_not_reported_as_the_rig_s(compile_policy, monkeypatch):
     """existing_kalker.yaml at γ = −16°, τ⊥ = 2.5 N·m (past its envelope; contacts at 0.68 μN): the Newton solve
-    from ideal kinematics lands on α = 18.492°, a root whose Jacobian determinant has the zero-load state's sign,
-    while loading from rest reaches 18.350° (in 4, 16, 64 or 256 steps alike). The determinant alone would have
-    accepted the first; where a contact uses more than half its friction the point is also solved from rest,
-    so it is `multiple_roots`, with no number, however the layout is written. At 2.4 N·m the root is unique."""
+    from ideal kinematics lands on α = 18.492° while loading from rest reaches 18.350° (in 4, 16, 64 or 256
+    steps alike). Its Jacobian determinant has the zero-load state's sign, so a check of that sign would have
+    accepted it; where a contact uses more than half its friction the point is also solved from rest, so it is
+    `multiple_roots`, with no number, however the layout is written. At 2.4 N·m the root is unique."""
     if compile_policy == "always" and native.compiler() is None:
         pytest.skip("no C compiler on this machine")
     monkeypatch.setenv("CVTDESIGN_COMPILE", compile_policy)

@@ -117,7 +117,7 @@ def test_compiled_law_is_the_same_spline():
     """The law the model calls (surface.c, loaded into the process; or CasADi's bspline without a compiler) gives
     the numpy spline's numbers, and its Jacobian is the spline's derivative (central differences, 1e-7)."""
     import casadi as ca
-    law, with_jacobian = surface.law_functions()
+    law = surface.spline_function()
     fallback = surface._casadi_spline(surface.coefficients(), "fallback")[0]
     z = surface.compactify(random_creepages(50, seed=11))
     for ratio in (0.9, 1.6):

@@ -128,17 +128,14 @@ class KalkerLaw:
         mu_n = c.mu * c.N_creep
         v = ca.sqrt(c.V ** 2 + (ROLL_FLOOR * v_ref) ** 2)
         g = const["G"] * a * b / (k * mu_n * v)
-        f = {}
-        for sigma in (1.0, -1.0):
-            creep = ca.vertcat(g * const["C11"] * s_t, -g * const["C22"] * s_a,
-                               g * ca.sqrt(a * b) * const["C23"] * sigma * c.spin)
-            f[sigma] = calls.call(*surface.law_functions(), [surface.compactify(creep), const["log_ratio"]])
-        w = 0.5 * (1.0 + ca.tanh(layout.sphere_radius * c.roll / (ROLL_BLEND * v_ref)))   # weight of σ = +1
-        fx, fy = w * f[1.0][0] + (1 - w) * f[-1.0][0], w * f[1.0][1] + (1 - w) * f[-1.0][1]
+        z = [surface.compactify(ca.vertcat(g * const["C11"] * s_t, -g * const["C22"] * s_a,
+                                           g * ca.sqrt(a * b) * const["C23"] * sigma * c.spin)) for sigma in (1.0, -1.0)]
+        w = 0.5 * (1.0 + ca.tanh(layout.sphere_radius * c.roll / (ROLL_BLEND * ca.fabs(v_ref))))   # weight of σ = +1
+        f = calls.call(*surface.law_functions(), [*z, const["log_ratio"], w])
         scale = c.mu * c.roller.preload
-        rows = [(c.Ft - mu_n * fx) / scale, (c.Fa + mu_n * fy) / scale]
+        rows = [(c.Ft - mu_n * f[0]) / scale, (c.Fa + mu_n * f[1]) / scale]
         gab = const["G"] * a * b / k
-        return ContactRows(rows, [ca.sqrt(fx ** 2 + fy ** 2)], mu_n * a * (w * f[1.0][2] - (1 - w) * f[-1.0][2]),
+        return ContactRows(rows, [ca.sqrt(f[0] ** 2 + f[1] ** 2)], mu_n * a * f[2],
                            (gab * const["C11"], gab * const["C22"], gab * ca.sqrt(a * b) * const["C23"]), v)
 
 

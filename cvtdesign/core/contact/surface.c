@@ -2,9 +2,10 @@
  * variables, the compactified normalised creepages z0, z1, z2 in [-1, 1] and log(a/b), with three outputs
  * (Fx/(mu N), Fy/(mu N), Mz/(mu N a)), evaluated with its exact first derivatives.
  *
- * It implements CasADi's external-function interface for two functions: SURFACE (z[3], log_ratio) -> f[3] and
- * jac_SURFACE (z[3], log_ratio, f) -> (df/dz [3x3], df/dlog_ratio [3x1]); surface.py substitutes SURFACE by a
- * name that carries the table's digest, so a compiled model can only bind to the table it was built with.
+ * It implements CasADi's external-function interface for SURFACE (z[3], log_ratio) -> f[3] with its Jacobian
+ * jac_SURFACE (z[3], log_ratio, f) -> (df/dz [3x3], df/dlog_ratio [3x1]), and for what the model calls,
+ * SURFACE_pair and SURFACE_pair_jac_value (below); surface.py substitutes SURFACE by a name that carries the
+ * table's digest, so a compiled model can only bind to the table it was built with.
  * The coefficients are not in this file: surface.py hands them over once, through SURFACE_init, as a C-ordered
  * array [output][ratio][z2][z1][z0] of doubles, which it keeps alive for the life of the process.
  *
@@ -199,21 +200,56 @@ int jac_SURFACE(const casadi_real **arg, casadi_real **res, casadi_int *iw, casa
     return 0;
 }
 
-/* SURFACE_jac_value: (z[3], log_ratio) -> (f[3], df/dz [3x3], df/dlog_ratio [3x1]) in one pass, for models
- * that chain-rule the surface's Jacobian themselves (core/deferred.py) */
-casadi_int SURFACE_jac_value_n_in(void) { return 2; }
-casadi_int SURFACE_jac_value_n_out(void) { return 3; }
-const casadi_int *SURFACE_jac_value_sparsity_in(casadi_int i) { return i == 0 ? sp_vector3 : sp_scalar; }
-const casadi_int *SURFACE_jac_value_sparsity_out(casadi_int i) { return i == 1 ? sp_matrix33 : sp_vector3; }
-int SURFACE_jac_value_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-    *sz_arg = 2; *sz_res = 3; *sz_iw = 0; *sz_w = 0;
+/* SURFACE_pair: the law at a contact, (z+ [3], z- [3], log_ratio, w) -> w s f(z+) + (1 - w) s' f(z-), with
+ * s = (1, 1, 1) and s' = (1, 1, -1): the surface at the creepages of the two rolling senses σ = +1 and -1,
+ * weighted, the moment taken with its sense's sign (core/contact/laws.py: a contact that barely rolls takes the
+ * mean). w is 0 or 1 except at such contacts, and only the side that counts is evaluated. SURFACE_pair_jac_value
+ * returns the value and its derivatives in each argument in one pass: d/dz+ [3x3], d/dz- [3x3], d/dlog_ratio
+ * [3x1], d/dw [3x1] (d/dw is 0 outside the blend, where w's own derivative vanishes). */
+static void pair(const double **arg, double *f, double *Jp, double *Jm, double *Jr, double *Jw) {
+    double w = arg[3][0], lr = arg[2][0], fp[3] = {0, 0, 0}, fm[3] = {0, 0, 0}, J[2][12];
+    int want_ratio = Jr != 0, jac = Jp || Jm || Jr;
+    memset(J, 0, sizeof J);
+    if (w != 0.0) evaluate(arg[0], lr, fp, jac ? J[0] : 0, want_ratio);
+    if (w != 1.0) evaluate(arg[1], lr, fm, jac ? J[1] : 0, want_ratio);
+    for (int o = 0; o < 3; o++) {
+        double s = o == 2 ? -1.0 : 1.0;      /* the moment's sign in the σ = -1 sense */
+        f[o] = w * fp[o] + (1.0 - w) * s * fm[o];
+        if (Jw) Jw[o] = (w != 0.0 && w != 1.0) ? fp[o] - s * fm[o] : 0.0;
+        if (Jr) Jr[o] = w * J[0][9 + o] + (1.0 - w) * s * J[1][9 + o];
+        for (int k = 0; k < 3; k++) {        /* J[side][k*3 + o] = d f_o / d z_k */
+            if (Jp) Jp[k * 3 + o] = w * J[0][k * 3 + o];
+            if (Jm) Jm[k * 3 + o] = (1.0 - w) * s * J[1][k * 3 + o];
+        }
+    }
+}
+
+casadi_int SURFACE_pair_n_in(void) { return 4; }
+casadi_int SURFACE_pair_n_out(void) { return 1; }
+const casadi_int *SURFACE_pair_sparsity_in(casadi_int i) { return i < 2 ? sp_vector3 : sp_scalar; }
+const casadi_int *SURFACE_pair_sparsity_out(casadi_int i) { return sp_vector3; }
+int SURFACE_pair_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+    *sz_arg = 4; *sz_res = 1; *sz_iw = 0; *sz_w = 0;
     return 0;
 }
-int SURFACE_jac_value(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem) {
-    double f[3], J[12];
-    evaluate(arg[0], arg[1][0], f, J, res[2] != 0);
+int SURFACE_pair(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem) {
+    double f[3];
+    pair(arg, f, 0, 0, 0, 0);
     if (res[0]) memcpy(res[0], f, sizeof f);
-    if (res[1]) memcpy(res[1], J, 9 * sizeof(double));
-    if (res[2]) memcpy(res[2], J + 9, 3 * sizeof(double));
+    return 0;
+}
+
+casadi_int SURFACE_pair_jac_value_n_in(void) { return 4; }
+casadi_int SURFACE_pair_jac_value_n_out(void) { return 5; }
+const casadi_int *SURFACE_pair_jac_value_sparsity_in(casadi_int i) { return i < 2 ? sp_vector3 : sp_scalar; }
+const casadi_int *SURFACE_pair_jac_value_sparsity_out(casadi_int i) { return i == 1 || i == 2 ? sp_matrix33 : sp_vector3; }
+int SURFACE_pair_jac_value_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+    *sz_arg = 4; *sz_res = 5; *sz_iw = 0; *sz_w = 0;
+    return 0;
+}
+int SURFACE_pair_jac_value(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem) {
+    double f[3];
+    pair(arg, f, res[1], res[2], res[3], res[4]);
+    if (res[0]) memcpy(res[0], f, sizeof f);
     return 0;
 }

@@ -144,9 +144,21 @@ def _r_step() -> float:
 
 @functools.cache
 def law_functions() -> tuple[ca.Function, ca.Function]:
-    """The spline as CasADi Functions of (z [3], log(a/b)): its value (Fx/(μN), Fy/(μN), Mz/(μN a)), and its
-    value with its exact Jacobian (value, ∂/∂z [3×3], ∂/∂log(a/b) [3×1]) in one evaluation: surface.c loaded
-    into this process (module docstring), else CasADi's bspline."""
+    """What the model calls at each contact, as CasADi Functions of (z+ [3], z− [3], log(a/b), w): the spline at
+    the creepages of the two rolling senses, weighted, w f(z+) + (1 − w) f(z−) with f(z−)'s moment negated (the
+    moment's sign follows σ; core.contact.laws: w is 0 or 1 except at a contact that barely rolls, and only the
+    side that counts is evaluated); and the same with its exact Jacobian in each argument, in one evaluation. surface.c loaded into this process (module docstring),
+    else CasADi's bspline."""
+    return _library()[1:]
+
+
+def spline_function() -> ca.Function:
+    """The spline itself, (z [3], log(a/b)) → (Fx/(μN), Fy/(μN), Mz/(μN a)), with its exact Jacobian."""
+    return _library()[0]
+
+
+@functools.cache
+def _library() -> tuple[ca.Function, ca.Function, ca.Function]:
     c = coefficients()
     digest = hashlib.sha256(c.tobytes() + SOURCE.read_bytes()).hexdigest()[:12]
     name = f"cvtdesign_surface_{digest}"
@@ -157,16 +169,21 @@ def law_functions() -> tuple[ca.Function, ca.Function]:
     getattr(handle, f"{name}_init")(c.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), ctypes.c_int(c.shape[2]),
                                     ctypes.c_int(c.shape[1]), ctypes.c_double(_z_step()),
                                     ctypes.c_double(np.log(RATIO_NODES[0])), ctypes.c_double(_r_step()))
-    return ca.external(name, str(library)), ca.external(f"{name}_jac_value", str(library))
+    return tuple(ca.external(n, str(library)) for n in (name, f"{name}_pair", f"{name}_pair_jac_value"))
 
 
-def _casadi_spline(c: np.ndarray, name: str) -> tuple[ca.Function, ca.Function]:
-    """The same spline by CasADi's B-spline node (uniform knots one step beyond each end, as surface.c)."""
+def _casadi_spline(c: np.ndarray, name: str) -> tuple[ca.Function, ca.Function, ca.Function]:
+    """The same functions by CasADi's B-spline node (uniform knots one step beyond each end, as surface.c), which
+    evaluates both sides of a pair."""
     nz, nr = c.shape[2], c.shape[1]
     hz, hr, r0 = _z_step(), _r_step(), float(np.log(RATIO_NODES[0]))
     knots = [list(-1.0 + hz * np.arange(-3, nz + 1))] * 3 + [list(r0 + hr * np.arange(-3, nr + 1))]
     flat = np.transpose(c, (0, 4, 3, 2, 1)).ravel(order="F")     # output fastest, then z0, z1, z2, ratio
     z, lr = ca.MX.sym("z", 3), ca.MX.sym("log_ratio")
     value = ca.bspline(ca.vertcat(z, lr), ca.DM(flat), knots, [3, 3, 3, 3], 3, {"lookup_mode": ["exact"] * 4})
-    return (ca.Function(name, [z, lr], [value], {"never_inline": True}),
-            ca.Function(f"{name}_jac_value", [z, lr], [value, ca.jacobian(value, z), ca.jacobian(value, lr)]))
+    single = ca.Function(name, [z, lr], [value], {"never_inline": True})
+    zp, zm, w = ca.MX.sym("z_plus", 3), ca.MX.sym("z_minus", 3), ca.MX.sym("w")
+    both = w * single(zp, lr) + (1 - w) * ca.vertcat(1, 1, -1) * single(zm, lr)
+    args = [zp, zm, lr, w]
+    return (single, ca.Function(f"{name}_pair", args, [both], {"never_inline": True}),
+            ca.Function(f"{name}_pair_jac_value", args, [both, *(ca.jacobian(both, a) for a in args)]))
