@@ -32,6 +32,7 @@ COMMANDS = {     # name -> one-line help; cvtdesign.cli.<name> runs it
     "diagnose": "where the model and the data disagree, which effect causes it, how far it shrinks",
     "resteer": "steering commands for requested speed ratios under a known load (Brokowski sec. 5)",
     "selfcheck": "prove the diagnosis on rig data with withheld effects; exit 1 if a target is missed",
+    "cache": "show the compiled-model cache (its folder and size), or empty it with --clear",
 }
 
 # Short commands that draw one figure. A plotting process (args.painter, an io.plots.Background) draws it, started
@@ -49,7 +50,7 @@ def build_parser():
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     adders = {"new": _add_new, "show": _add_show, "compare": _add_compare, "optimise": _add_optimise,
               "study": _add_study, "export": _add_export, "contact": _add_contact, "rig": _add_rig, "diagnose": _add_diagnose,
-              "resteer": _add_resteer, "selfcheck": _add_selfcheck}
+              "resteer": _add_resteer, "selfcheck": _add_selfcheck, "cache": _add_cache}
     for name, text in COMMANDS.items():
         adders[name](sub.add_parser(name, help=text, description=text))
     return p
@@ -158,6 +159,11 @@ def _add_contact(p):
     p.add_argument("variant", help="variant YAML file")
     p.add_argument("--json", help="write every roller's contact and its creep–force curves to this JSON file")
     p.add_argument("--plots", help="folder for the creep–force curves and the patch ellipses")
+
+
+def _add_cache(p):
+    p.add_argument("--clear", action="store_true", help="remove every compiled model from the cache (each is "
+                   "compiled again when next needed)")
 
 
 INPUTS = ("variant", "variants", "study", "data", "protocol", "calibration")   # arguments naming files a command reads
