@@ -2,10 +2,13 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import importlib
 import os
+import signal
 import sys
+import threading
 from importlib.metadata import version
 
 from cvtdesign.errors import InputError, RunError
@@ -199,15 +202,55 @@ def check_outputs(args):
             _not_an_input(path, kind, args)
 
 
+def _terminate(signum, frame):
+    """SIGTERM (`kill`, a batch system's stop) ends a command as Ctrl-C does: the KeyboardInterrupt closes
+    what the command opened (a study's cluster) and main prints the same one line (a study's: how many cases
+    are kept)."""
+    TERMINATED.append(signum)
+    raise KeyboardInterrupt
+
+
+TERMINATED: list = []      # the SIGTERMs this process received in main
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    """`_terminate` handles SIGTERM inside the block (in the main thread only: signals are delivered there)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _drop_stdout() -> None:
+    """Send what is left of stdout to /dev/null once its reader has closed it (`cvtdesign compare … | head`),
+    as rich does, so that Python's flush at exit reports no closed pipe."""
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
 def main(argv=None) -> int:
-    """Run one command; returns its exit status (2 for bad input, with one line on stderr)."""
+    """Run one command; returns its exit status (2 for bad input, with one line on stderr; 130 after Ctrl-C,
+    143 after SIGTERM; 1 when stdout's reader closed it, quietly: every command writes its files first)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)     # the command line, for --report
     if args.command is None:
         parser.print_help()
         return 0
+    with _sigterm_as_interrupt():
+        return _run(args, argv)
+
+
+def _run(args, argv) -> int:
     short, collecting, painter = args.command in SHORT_WITH_FIGURE, gc.isenabled(), None
+    TERMINATED.clear()
     try:
         check_outputs(args)
         if short:
@@ -225,7 +268,10 @@ def main(argv=None) -> int:
         return 1
     except KeyboardInterrupt as e:   # study.Interrupted says how much is kept
         print(f"cvtdesign: {str(e) or 'interrupted'}", file=sys.stderr)
-        return 130
+        return 128 + (signal.SIGTERM if TERMINATED else signal.SIGINT)
+    except BrokenPipeError:
+        _drop_stdout()
+        return 1
     finally:
         if painter is not None:
             painter.close()
