@@ -19,8 +19,8 @@ Parts, named by role (the names in the STEP file; colours in COLOURS):
 * `fork_<k>`, the k-th entry of `steering.forks` (counted from 1), turned with its rollers: per roller a
   yoke (two arms beside the wheel's faces holding the axle, joined by a bridge beyond the rim), a bent rod
   from each bridge up along the fork axis and across to a hub on it, and a pivot stem along the fork axis.
-  Rollers on both sides of the sphere (two on one fork, at ±the fork axis) make a C: the far bridge's rod
-  goes out beyond the fork's wheels, on the side farthest from the other rollers, and round to the hub.
+  Rollers on both sides of the sphere (two on one fork at ±its axis, or the box's four pole rollers on one
+  fork) make a C: a far bridge's rod goes out beyond the fork's wheels, round the sphere and into the stem.
 * `coupling_<follower>`: a flexible coupling shaft (a 6 mm tube) from the end face of the drive roller's
   axle on the same shaft to the end face of the follower's: straight on, radially out, round the outside of
   everything else (on a sphere COUPLING_CLEARANCE beyond the other parts) and back in. It shows which
@@ -173,9 +173,9 @@ def _wheel(layout, r, phi, R) -> Crowned:
 
 def _fork(index, axis, wheels, names, others, R) -> Part:
     """Yokes round each wheel, a bent rod from each bridge up (along the fork axis) and across to a hub on
-    the fork axis, and a pivot stem along the axis. A bridge on the far side of the sphere from the hub (two
-    rollers on one fork, on either side of the sphere) gets a rod that first goes out beyond every wheel of
-    the fork (`_round_the_sphere`); `others` are the other rollers' wheels, R the sphere's radius [mm]."""
+    the fork axis, and a pivot stem along the axis. A bridge on the far side of the sphere from the hub, whose
+    rod straight up would cut the sphere, gets one round it (`_round_the_sphere`); `others` are the other
+    rollers' wheels, R the sphere's radius [mm]."""
     prims, bridges = [], []
     g, t, hw = FORK_GAP, FORK_THICKNESS, FORK_ARM_HALF_WIDTH
     for w in wheels:

@@ -78,9 +78,10 @@ def comparison_blocks(rows: list[dict]) -> list:
     The table never looks better than the run: when a variant has fewer than half its points ok, a first
     row says so in its column; a figure over no ok point is '—'; a pressure over the allowable is marked."""
     table = Table("CVT comparison over the operating envelope (γ × τ⊥)", ["figure", *[r["name"] for r in rows]])
-    if any(2 * r["ok"] < r["points"] for r in rows):
-        table.add("operating points ok", *[f"{r['ok']} of {r['points']}" + (" (under half)" if 2 * r["ok"] < r["points"]
-                                                                            else "") for r in rows], style="bad")
+    under = [2 * r["ok"] < r["points"] for r in rows]
+    if any(under):
+        table.add("operating points ok", *[f"{r['ok']} of {r['points']}" + (" (under half)" if u else "")
+                                           for r, u in zip(rows, under)], style="bad")
     for key, label, fmt in COLUMNS:
         table.add(label, *[figure_cell(r, key, fmt) for r in rows])
     blocks = [table]

@@ -202,15 +202,15 @@ def check_outputs(args):
             _not_an_input(path, kind, args)
 
 
+TERMINATED: list = []      # the SIGTERMs this process received in main
+
+
 def _terminate(signum, frame):
     """SIGTERM (`kill`, a batch system's stop) ends a command as Ctrl-C does: the KeyboardInterrupt closes
     what the command opened (a study's cluster) and main prints the same one line (a study's: how many cases
     are kept)."""
     TERMINATED.append(signum)
     raise KeyboardInterrupt
-
-
-TERMINATED: list = []      # the SIGTERMs this process received in main
 
 
 @contextlib.contextmanager

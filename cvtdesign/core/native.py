@@ -32,6 +32,7 @@ When to compile (CVTDESIGN_COMPILE):
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import re
@@ -144,10 +145,6 @@ def _remove(*paths: Path) -> int:
     return freed
 
 
-def _library_files(lib: Path) -> list[Path]:
-    return [lib, *(lib.with_suffix(s) for s in (".sha256", ".err", ".lock"))]
-
-
 def build(code: str, command: list[str]) -> Path:
     """The library of `code`: from the cache if `verified`, else compiled by `command` now (lock, a
     `.build-<name>-` folder, rename, sidecar: module docstring); a damaged one is replaced, with the DAMAGED
@@ -185,6 +182,10 @@ def prune(keep: Path | None = None, limit: int | None = None) -> None:
     folder, limit = cache_dir(), MAX_CACHE_BYTES if limit is None else limit
     for d in folder.glob(".build-*"):
         stem = d.name[len(".build-"):].split("-")[0]
+        if not re.fullmatch(r"[0-9a-f]{32}", stem):       # a compile folder of an older cvtdesign
+            if _age(d) > STALE_SECONDS:
+                _remove(d)
+            continue
         with _unlocked(folder / f"{stem}.lock") as free:
             if free:
                 _remove(d)
@@ -193,32 +194,27 @@ def prune(keep: Path | None = None, limit: int | None = None) -> None:
             _remove(s)
     files = [f for f in folder.iterdir() if CACHE_FILE.fullmatch(f.name) and f.is_file()]
     size = sum(f.stat().st_size for f in files)
-    libs = sorted((f for f in files if f.suffix == ".so" and f != keep), key=lambda f: _last_use(f))
-    for lib in libs:
+    for lib in sorted((f for f in files if f.suffix == ".so" and f != keep), key=_last_use):
         if size <= limit:
             break
         with _unlocked(lib.with_suffix(".lock")) as free:
             if free:
-                size -= _remove(*_library_files(lib)[:3])
+                size -= _remove(lib, lib.with_suffix(".sha256"), lib.with_suffix(".err"))
 
 
-class _unlocked:
-    """`with _unlocked(lock_path) as free`: holds the lock for the block if nobody else does (free True)."""
-
-    def __init__(self, path: Path):
-        self.lock, self.free = FileLock(str(path), timeout=0), False
-
-    def __enter__(self) -> bool:
-        try:
-            self.lock.acquire()
-            self.free = True
-        except (Timeout, OSError):
-            self.free = False
-        return self.free
-
-    def __exit__(self, *exc):
-        if self.free:
-            self.lock.release()
+@contextlib.contextmanager
+def _unlocked(path: Path):
+    """Hold the lock `path` for the block if nobody else holds it; yields whether it is held."""
+    lock = FileLock(str(path), timeout=0)
+    try:
+        lock.acquire()
+    except (Timeout, OSError):
+        yield False
+        return
+    try:
+        yield True
+    finally:
+        lock.release()
 
 
 def _age(path: Path) -> float:

@@ -82,7 +82,8 @@ def read_protocol(path, layout: Layout) -> Protocol:
     if not 1 <= spec.replicates <= MAX_COUNT:
         raise InputError(f"{where}: replicates: expected from 1 to {MAX_COUNT}, got {spec.replicates}")
     gammas, loads = values(spec.gamma, "angle", "gamma"), values(spec.load, "torque", "load")
-    check_loads([(f"{where}: load.start", loads[0]), (f"{where}: load.stop", loads[-1])] if isinstance(spec.load, RangeSpec)
+    ranged = isinstance(spec.load, RangeSpec)
+    check_loads([(f"{where}: load.start", loads[0]), (f"{where}: load.stop", loads[-1])] if ranged
                 else [(f"{where}: load[{i}]", v) for i, v in enumerate(loads)], layout)
     check_points(speeds.size * gammas.size * loads.size, len(layout.rollers), where,
                  f"operating points ({speeds.size} speeds × {gammas.size} γ × {loads.size} loads)")

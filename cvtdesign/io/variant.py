@@ -213,9 +213,9 @@ def check_points(n: int, n_rollers: int, where: str, what: str = "operating poin
     free = machine.free_memory()
     limit = MAX_POINTS if free is None else min(MAX_POINTS, free // (2 * BYTES_PER_POINT * (4 + n_rollers)))
     if n > limit:
-        raise InputError(f"{where}: {n:.4g} {what}; expected at most {limit} (at most {MAX_POINTS} in one run, "
-                         f"and what half of this machine's {(free or 0) / 2**30:.1f} GB of free memory holds); "
-                         "a larger step")
+        memory = "" if free is None else f", and what half of this machine's {free / 2**30:.1f} GB of free memory holds"
+        raise InputError(f"{where}: {n:.4g} {what}; expected at most {limit} (at most {MAX_POINTS} in one run"
+                         f"{memory}); a larger step")
 
 
 def load_capacity(layout: Layout) -> float | None:
@@ -227,7 +227,7 @@ def load_capacity(layout: Layout) -> float | None:
     scale = layout.effect_parameters.get("traction_saturation", {}).get("mu_scale", 1.0) \
         if "traction_saturation" in layout.effects else 1.0
     terms = [(r.material.mu, layout.sphere_material.mu, r.preload, r.radius, r.ratio) for r in layout.rollers]
-    if not all(isinstance(v, (int, float)) for v in [layout.sphere_radius, scale, *np.ravel(terms)]):
+    if not all(isinstance(v, (int, float)) for v in [layout.sphere_radius, scale, *(v for t in terms for v in t)]):
         return None
     R = layout.sphere_radius
     return LOAD_MARGIN * max(1.0, scale) * sum(min(m1, m2) * P * max(R, r * abs(k)) for m1, m2, P, r, k in terms)
