@@ -14,6 +14,7 @@ from cvtdesign.cad.plan import plan
 from cvtdesign.cad.step import assembly, build, screen, step_header, write_step
 from cvtdesign.core.checks import check_layout
 from cvtdesign.core.layout import Layout
+from cvtdesign.errors import InputError, RunError
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, staged
 from cvtdesign.io.variant import load_variant
@@ -43,13 +44,15 @@ class _Forked:
         child.close()
 
     def result(self):
-        """What fn returned; what it raised is raised here."""
+        """What fn returned; what it raised is raised here, as one line (RunError) unless it is bad input."""
         try:
             ok, value = self.conn.recv()
         except EOFError:
-            raise RuntimeError("the drawing process ended unexpectedly") from None
+            raise RunError("the drawing process ended unexpectedly") from None
         if not ok:
-            raise value
+            if isinstance(value, InputError):
+                raise value
+            raise RunError(f"drawing the SVG failed: {type(value).__name__}: {value}") from value
         return value
 
     def close(self):
@@ -98,7 +101,7 @@ def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, c
                 # so that nothing is left behind once `staged` removes the temporary files
                 error = painter.wait() if drawn else None
             if error:
-                raise RuntimeError(f"PNG rendering failed: {error}")
+                raise RunError(f"PNG rendering failed: {error}")
     finally:
         painter.close()
     result = {"step": str(paths[0]), "svg": str(paths[1]), "png": str(paths[2]), "parts": p.names(),

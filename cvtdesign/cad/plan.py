@@ -19,6 +19,8 @@ Parts, named by role (the names in the STEP file; colours in COLOURS):
 * `fork_<k>`, the k-th entry of `steering.forks` (counted from 1), turned with its rollers: per roller a
   yoke (two arms beside the wheel's faces holding the axle, joined by a bridge beyond the rim), a bent rod
   from each bridge up along the fork axis and across to a hub on it, and a pivot stem along the fork axis.
+  Rollers on both sides of the sphere (two on one fork at ±its axis, or the box's four pole rollers on one
+  fork) make a C: a far bridge's rod goes out beyond the fork's wheels, round the sphere and into the stem.
 * `coupling_<follower>`: a flexible coupling shaft (a 6 mm tube) from the end face of the drive roller's
   axle on the same shaft to the end face of the follower's: straight on, radially out, round the outside of
   everything else (on a sphere COUPLING_CLEARANCE beyond the other parts) and back in. It shows which
@@ -27,6 +29,7 @@ Parts, named by role (the names in the STEP file; colours in COLOURS):
 """
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -168,9 +171,11 @@ def _wheel(layout, r, phi, R) -> Crowned:
     return wheel
 
 
-def _fork(index, axis, wheels, names) -> Part:
+def _fork(index, axis, wheels, names, others, R) -> Part:
     """Yokes round each wheel, a bent rod from each bridge up (along the fork axis) and across to a hub on
-    the fork axis, and a pivot stem along the axis."""
+    the fork axis, and a pivot stem along the axis. A bridge on the far side of the sphere from the hub, whose
+    rod straight up would cut the sphere, gets one round it (`_round_the_sphere`); `others` are the other
+    rollers' wheels, R the sphere's radius [mm]."""
     prims, bridges = [], []
     g, t, hw = FORK_GAP, FORK_THICKNESS, FORK_ARM_HALF_WIDTH
     for w in wheels:
@@ -188,11 +193,35 @@ def _fork(index, axis, wheels, names) -> Part:
     H = max([max(b @ k for b in bridges) + t / 2, max(w.support(k) for w in wheels) + g + FORK_ROD]
             + [b @ k + FORK_BEND for b in off_axis])
     hub = H * k
-    for b in off_axis:
-        prims.append(Pipe(rounded_path([b, b + (H - b @ k) * k, hub], FORK_ROD, FORK_BEND)))
+    for b in bridges:
+        beside = b - (b @ k) * k
+        if b @ k < 0 and np.linalg.norm(beside) < R + FORK_GAP + FORK_ROD:    # straight up would cut the sphere
+            prims.append(_round_the_sphere(b, k, H, wheels, others))
+        elif np.linalg.norm(beside) > 1e-6:
+            prims.append(Pipe(rounded_path([b, b + (H - b @ k) * k, hub], FORK_ROD, FORK_BEND)))
     prims.append(Rod(hub - (FORK_ROD + 1.0) * k, hub + STEM_LENGTH * k, STEM_RADIUS))
     return Part(f"fork_{index + 1}", "fork", COLOURS["fork"], prims, f"steering.forks[{index}]",
                 tuple(f"axle_{n}" for n in names))
+
+
+def _round_the_sphere(b, k, H, wheels, others) -> Pipe:
+    """A rod from a bridge b on the far side of the sphere to the stem above the hub at H·k: out
+    (perpendicular to the fork axis k, on the bridge's own side or, for a bridge on the axis, on the one of
+    twelve sides farthest in angle from the other rollers' wheels) beyond every wheel of the fork, along k
+    to the stem, and in."""
+    u = perp(k)
+    sides = [np.cos(a) * u + np.sin(a) * np.cross(k, u) for a in np.radians(np.arange(0, 360, 30))]
+    beside = b - (b @ k) * k
+    if np.linalg.norm(beside) > 1e-6:
+        sides = [unit(beside)]
+    away = [unit(c) for w in others if np.linalg.norm(c := w.centre - (w.centre @ k) * k) > 1e-6]
+    e = min(sides, key=lambda s: max([s @ c for c in away], default=-1.0))
+    rho = max(w.reach() for w in wheels) + FORK_GAP + FORK_ROD
+    # it ends in the stem, above the other rods' ends and beside the axis: rods that met end to end, or ran
+    # along one line, made OpenCascade's fusion of the fork empty
+    top = H + STEM_LENGTH / 2
+    return Pipe(rounded_path([b, (b @ k) * k + rho * e, top * k + rho * e, top * k + FORK_ROD * e], FORK_ROD,
+                             FORK_BEND))
 
 
 def _coupling(follower, drive, axles, wheels, r_out, vias) -> Part:
@@ -263,6 +292,17 @@ def _frame(layout: Layout, parts, side, dist, thick) -> Part:
     return Part("frame", "frame", COLOURS["frame"], [block], "frame")
 
 
+@contextmanager
+def _drawn(layout: Layout, field: str, name: str):
+    """A part the layout asks for that cannot be drawn (a rod's corner tighter than the rod: shapes.rounded_path)
+    is one InputError line naming its field."""
+    try:
+        yield
+    except RuntimeError as e:
+        raise InputError(f"{layout.file}: {field}: part {name} cannot be drawn ({e}); expected a layout whose parts "
+                         "can be drawn (docs/cad.md)") from None
+
+
 def plan(layout: Layout, gamma_deg: float = 45.0) -> Plan:
     """The assembly's parts at commanded γ [deg], in mm, from the layout (no cadquery)."""
     gamma = np.radians(gamma_deg)
@@ -283,7 +323,10 @@ def plan(layout: Layout, gamma_deg: float = 45.0) -> Plan:
         out.parts.append(Part(f"axle_{r.name}", "axle", COLOURS["axle"], [axles[r.name]], f"rollers.{r.name}",
                               roller=r.name))
     for i, axis, rs in _forks(layout):
-        out.parts.append(_fork(i, axis, [wheels[r.name] for r in rs], [r.name for r in rs]))
+        names = [r.name for r in rs]
+        with _drawn(layout, f"steering.forks[{i}]", f"fork_{i + 1}"):
+            out.parts.append(_fork(i, axis, [wheels[n] for n in names], names,
+                                   [w for n, w in wheels.items() if n not in names], R))
     followers = [r for r in layout.rollers if r.role == "follower"]
     if followers:
         # chords of COUPLING_STEP dip inside the sphere they are inscribed in by a factor cos(step/2)
@@ -291,7 +334,8 @@ def plan(layout: Layout, gamma_deg: float = 45.0) -> Plan:
         vias = [] if frame is None else [frame[0]]          # keep the couplings off the plate's side
         for f in followers:
             drive = next(r for r in layout.rollers if r.role == "drive" and r.shaft == f.shaft)
-            out.parts.append(_coupling(f.name, drive.name, axles, wheels, r_out, vias))
+            with _drawn(layout, f"rollers.{f.name}.shaft", f"coupling_{f.name}"):
+                out.parts.append(_coupling(f.name, drive.name, axles, wheels, r_out, vias))
     if frame is not None:
         out.parts.append(_frame(layout, out.parts, *frame))
     return out

@@ -14,7 +14,7 @@ import numpy as np
 from cvtdesign.cad.kernel import kernel
 from cvtdesign.cad.plan import Plan
 from cvtdesign.cad.shapes import boxes_overlap, perp, unit
-from cvtdesign.errors import InputError
+from cvtdesign.errors import InputError, RunError
 
 TOUCH_TOL = 1e-3           # [mm] two parts touch: min distance below this
 
@@ -27,7 +27,9 @@ def build(p: Plan) -> tuple[dict, dict]:
         solids = pieces[part.name] = [prim.solid(cq) for prim in part.prims]
         shape = solids[0] if len(solids) == 1 else solids[0].fuse(*solids[1:]).clean()
         if len(shape.Solids()) != 1:
-            raise RuntimeError(f"part {part.name}: its primitives fused into {len(shape.Solids())} solids")
+            raise InputError(f"{p.layout.file}: {part.field}: part {part.name} does not join into one solid (its "
+                             f"pieces make {len(shape.Solids())}); expected a layout whose parts can be drawn "
+                             "(docs/cad.md)")
         shapes[part.name] = shape.Solids()[0]
     return shapes, pieces
 
@@ -162,7 +164,7 @@ def write_step(assy, path: Path, header: dict):
     writer.Transfer(doc, k.as_is)
     _set_header(k, writer.ChangeWriter().Model(), header)
     if writer.Write(str(path)) != k.written:
-        raise RuntimeError(f"STEP writer failed for {path}")
+        raise RunError(f"the STEP writer failed for {path}")
 
 
 def read_step(path: Path) -> dict:

@@ -57,12 +57,18 @@ def run(args):
     if args.points:
         write_points(args.points, [contact_points(L.name, L, res) for L, res in zip(layouts, results)])
     blocks = comparison_blocks(rows)
+    # the files first, then the terminal: a reader that closes stdout early (`| head`) loses no file
+    if args.json:
+        write_file(args.json, json_text({"variants": rows}), kind="--json")
+    error = painter.wait()
+    if args.report and not error:
+        plot = png_figure(figure, "slip angle α, its steering and drive parts against commanded γ at several "
+                                  "loads, and the efficiency map, per variant")
+        write_file(args.report, report_text(args, "cvtdesign compare", [*blocks, plot]), kind="--report")
     console = Console(width=max(100, 30 + 22 * len(rows)))
     show(console, blocks)
     if args.json:
-        write_file(args.json, json_text({"variants": rows}), kind="--json")
         console.print(f"figures written to {args.json}")
-    error = painter.wait()
     if error:
         print(f"cvtdesign: error: plotting failed: {error}", file=sys.stderr)
         return 1
@@ -70,19 +76,22 @@ def run(args):
     if args.points:
         console.print(f"contact states: {args.points}")
     if args.report:
-        plot = png_figure(figure, "slip angle α, its steering and drive parts against commanded γ at several "
-                                  "loads, and the efficiency map, per variant")
-        write_file(args.report, report_text(args, "cvtdesign compare", [*blocks, plot]), kind="--report")
         console.print(f"report: {args.report}")
     return 0
 
 
 def comparison_blocks(rows: list[dict]) -> list:
     """The comparison table (one column per variant, the figures of COLUMNS as rows) and, per variant, its
-    ideal law and the operating points left out of the figures."""
+    ideal law, the operating points left out of the figures and the contacts over their allowable pressure.
+    The table never looks better than the run: when a variant has fewer than half its points ok, a first
+    row says so in its column; a figure over no ok point is '—'; a pressure over the allowable is marked."""
     table = Table("CVT comparison over the operating envelope (γ × τ⊥)", ["figure", *[r["name"] for r in rows]])
+    under = [2 * r["ok"] < r["points"] for r in rows]
+    if any(under):
+        table.add("operating points ok", *[f"{r['ok']} of {r['points']}" + (" (under half)" if u else "")
+                                           for r, u in zip(rows, under)], style="bad")
     for key, label, fmt in COLUMNS:
-        table.add(label, *["—" if r[key] is None else fmt.format(r[key]) for r in rows])
+        table.add(label, *[figure_cell(r, key, fmt) for r in rows])
     blocks = [table, Note("¹ over the points with |γ| ≥ 5° and |τ⊥| ≥ 25 % of the largest load that deliver power "
                           "(it leaves at one shaft): " + "; ".join(_efficiency_points(r) for r in rows)),
               Note("² the largest power lost at a point that delivers none (zero load, γ = 0, or power entering "
@@ -92,7 +101,22 @@ def comparison_blocks(rows: list[dict]) -> list:
         if r["ok"] < r["points"]:
             blocks.append(Note(f"{r['name']}: {r['points'] - r['ok']} of {r['points']} operating points left out "
                                f"of the figures: {left_out_text(r)}", "bad"))
+        if r.get("max_hertz_pressure_over_allowable"):
+            at = ", ".join(f"{n} ×{k}" for n, k in r["hertz_over_allowable_at"].items())
+            blocks.append(Note(f"{r['name']}: Hertz peak pressure over the contact's allowable pressure "
+                               f"({r['hertz_allowable_pressure_MPa']:.3g} MPa) at {at} points", "bad"))
     return blocks
+
+
+def figure_cell(r: dict, key: str, fmt: str) -> str:
+    """A variant's figure as the table shows it: '—' where no point is ok to take it over, a Hertz pressure
+    over the allowable marked with it."""
+    if r[key] is None or not r["ok"]:
+        return "—"
+    text = fmt.format(r[key])
+    if key == "max_hertz_pressure_MPa" and r.get("max_hertz_pressure_over_allowable"):
+        text += f" > {r['hertz_allowable_pressure_MPa']:.3g} allowed"
+    return text
 
 
 def _efficiency_points(row: dict) -> str:

@@ -48,15 +48,17 @@ def run(args):
     layout = load_variant(args.variant)
     records = {r.name: roller_record(layout, r) for r in layout.rollers}
     console = Console(width=150)
+    written = []          # the files first, then the terminal (a reader closing stdout early loses no file)
+    if args.plots:
+        written += [f"plot: {f}" for f in plots.contact_figures(layout.name, records,
+                                                                make_folder(args.plots, kind="--plots"))]
+    if args.json:
+        write_file(args.json, json_text({"variant": layout.name, "rollers": records}), kind="--json")
+        written.append(f"contacts written to {args.json}")
     show(console, [patch_table(layout.name, records),
                    Note("creep constants: ε_long = 1/(G a b C11), ε_lat = 1/(G a b C22); spin coeff. G (ab)^1.5 C23 "
                         "(lateral force per unit spin creepage [1/m]); a patch that pivots (spins without rolling) carries the moment μNℓ, ℓ the Hertz pressure's mean lever; in the curves (--json, --plots) creepage saturates at μN, while "
                         "pure spin's lateral force peaks and then falls as the traction comes to circulate")])
-    if args.plots:
-        folder = make_folder(args.plots, kind="--plots")
-        for f in plots.contact_figures(layout.name, records, folder):
-            console.print(f"plot: {f}")
-    if args.json:
-        write_file(args.json, json_text({"variant": layout.name, "rollers": records}), kind="--json")
-        console.print(f"contacts written to {args.json}")
+    for line in written:
+        console.print(line)
     return 0

@@ -33,12 +33,8 @@ def run(args):
     with progress_bar(console, "diagnosis", str, transient=True) as progress:
         rep = diagnose.diagnose(layout, data, base, candidates or None, progress)
     blocks = report_blocks(rep)
-    show(console, blocks)
-    figures = []
-    if args.plots:
-        figures = plot_report(rep, make_folder(args.plots, kind="--plots"))
-        for f in figures:
-            console.print(f"plot: {f}")
+    # the files first, then the terminal (a reader closing stdout early loses no file)
+    figures = plot_report(rep, make_folder(args.plots, kind="--plots")) if args.plots else []
     files, kinds = {}, {}
     if args.json:
         files[Path(args.json)], kinds[Path(args.json)] = json_text(diagnose.public(rep)), "--json"
@@ -46,6 +42,9 @@ def run(args):
         files[Path(args.report)], kinds[Path(args.report)] = report_text(args, "cvtdesign diagnose", blocks +
                                                                          report_figures(rep, figures)), "--report"
     write_files(files, kind=kinds)
+    show(console, blocks)
+    for f in figures:
+        console.print(f"plot: {f}")
     if args.json:
         console.print(f"report written to {args.json}")
     if args.report:

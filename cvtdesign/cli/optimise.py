@@ -48,11 +48,11 @@ def run(args):
         files[Path(args.report)] = report_text(args, f"cvtdesign optimise: study {res['study']}", blocks)
         kinds[Path(args.report)] = "--report"
     write_files(files, kind=kinds)
+    if res["success"] and args.step:          # the files first, then the table
+        export_steps(console, [res["variant_file"]], Path(res["variant_file"]).parent / "step")
     show(console, blocks)
     if args.report:
         console.print(f"report: {args.report}")
-    if res["success"] and args.step:
-        export_steps(console, [res["variant_file"]], Path(res["variant_file"]).parent / "step")
     return 0 if res["success"] else 1
 
 

@@ -2,10 +2,13 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import importlib
 import os
+import signal
 import sys
+import threading
 from importlib.metadata import version
 
 from cvtdesign.errors import InputError, RunError
@@ -32,6 +35,7 @@ COMMANDS = {     # name -> one-line help; cvtdesign.cli.<name> runs it
     "diagnose": "where the model and the data disagree, which effect causes it, how far it shrinks",
     "resteer": "steering commands for requested speed ratios under a known load (Brokowski sec. 5)",
     "selfcheck": "prove the diagnosis on rig data with withheld effects; exit 1 if a target is missed",
+    "cache": "show the compiled-model cache (its folder and size), or empty it with --clear",
 }
 
 # Short commands that draw one figure. A plotting process (args.painter, an io.plots.Background) draws it, started
@@ -49,7 +53,7 @@ def build_parser():
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     adders = {"new": _add_new, "show": _add_show, "compare": _add_compare, "optimise": _add_optimise,
               "study": _add_study, "export": _add_export, "contact": _add_contact, "rig": _add_rig, "diagnose": _add_diagnose,
-              "resteer": _add_resteer, "selfcheck": _add_selfcheck}
+              "resteer": _add_resteer, "selfcheck": _add_selfcheck, "cache": _add_cache}
     for name, text in COMMANDS.items():
         adders[name](sub.add_parser(name, help=text, description=text))
     return p
@@ -163,6 +167,11 @@ def _add_contact(p):
     p.add_argument("--plots", help="folder for the creep–force curves and the patch ellipses")
 
 
+def _add_cache(p):
+    p.add_argument("--clear", action="store_true", help="remove every compiled model from the cache (each is "
+                   "compiled again when next needed)")
+
+
 INPUTS = ("variant", "variants", "study", "data", "protocol", "calibration")   # arguments naming files a command reads
 
 
@@ -196,15 +205,55 @@ def check_outputs(args):
             _not_an_input(path, kind, args)
 
 
+TERMINATED: list = []      # the SIGTERMs this process received in main
+
+
+def _terminate(signum, frame):
+    """SIGTERM (`kill`, a batch system's stop) ends a command as Ctrl-C does: the KeyboardInterrupt closes
+    what the command opened (a study's cluster) and main prints the same one line (a study's: how many cases
+    are kept)."""
+    TERMINATED.append(signum)
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    """`_terminate` handles SIGTERM inside the block (in the main thread only: signals are delivered there)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _drop_stdout() -> None:
+    """Send what is left of stdout to /dev/null once its reader has closed it (`cvtdesign compare … | head`),
+    as rich does, so that Python's flush at exit reports no closed pipe."""
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
 def main(argv=None) -> int:
-    """Run one command; returns its exit status (2 for bad input, with one line on stderr)."""
+    """Run one command; returns its exit status (2 for bad input, with one line on stderr; 130 after Ctrl-C,
+    143 after SIGTERM; 1 when stdout's reader closed it, quietly: every command writes its files first)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)     # the command line, for --report
     if args.command is None:
         parser.print_help()
         return 0
+    with _sigterm_as_interrupt():
+        return _run(args, argv)
+
+
+def _run(args, argv) -> int:
     short, collecting, painter = args.command in SHORT_WITH_FIGURE, gc.isenabled(), None
+    TERMINATED.clear()
     try:
         check_outputs(args)
         if short:
@@ -222,7 +271,10 @@ def main(argv=None) -> int:
         return 1
     except KeyboardInterrupt as e:   # study.Interrupted says how much is kept
         print(f"cvtdesign: {str(e) or 'interrupted'}", file=sys.stderr)
-        return 130
+        return 128 + (signal.SIGTERM if TERMINATED else signal.SIGINT)
+    except BrokenPipeError:
+        _drop_stdout()
+        return 1
     finally:
         if painter is not None:
             painter.close()

@@ -14,7 +14,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.text import Text
 
 from cvtdesign.io.report import Note, Table, html_report
-from cvtdesign.io.units import KINDS, dimension_of, parse_quantity, registry
+from cvtdesign.io.units import KINDS, dimension_of, dimensions
 
 # the unit every printed quantity of a kind (units.KINDS, and power) is shown in, and its factor from SI
 ENGINEERING = {
@@ -22,7 +22,6 @@ ENGINEERING = {
     "pressure": ("MPa", 1e-6), "power": ("W", 1.0), "compliance": ("1/N", 1.0), "stiffness": ("N/mm", 1e-3),
     "speed": ("rad/s", 1.0), "dimensionless": ("", 1.0),
 }
-ANGLE_UNITS = ("degree", "radian", "arcminute", "arcsecond")
 
 
 def number(value, digits: int = 4) -> str:
@@ -59,17 +58,10 @@ def kind_of(*raws) -> str:
     decides ('30 mm' a length, '10 deg' an angle, '100 N' a force); plain numbers and expressions say
     nothing, and with nothing said the kind is 'dimensionless'."""
     for raw in raws:
-        dim = dimension_of(raw)
-        if dim is None:
-            continue
-        if dim:
-            for kind, (unit, _) in KINDS.items():
-                if unit and kind != "angle" and registry().parse_units(unit).dimensionality == dim:
-                    return kind
-            continue
-        q = parse_quantity(raw.strip()) if isinstance(raw, str) else None
-        if q is not None and q[1] is not None and any(a in str(q[1]) for a in ANGLE_UNITS):
-            return "angle"
+        dim = dimension_of(raw)            # None: an expression, {}: a plain number
+        kind = next((k for k in KINDS if dim and dim in dimensions(k)), None)
+        if kind:
+            return kind
     return "dimensionless"
 
 
@@ -143,9 +135,20 @@ def left_out_text(counts: dict) -> str:
 def progress_bar(console, label: str, describe, transient: bool = False):
     """A rich progress bar (label, bar, done/total, elapsed time, the last item) as the callback
     progress(done, total, item) that long computations take; `describe(item)` says what the item was
-    (item None: nothing finished yet)."""
-    with Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TextColumn("{task.description}"), console=console, transient=transient) as bar:
-        task = bar.add_task("", total=None)
-        yield lambda done, total, item: bar.update(task, total=total, completed=done,
-                                                   description="" if item is None else describe(item))
+    (item None: nothing finished yet). The bar appears at the first call, once the computation has checked
+    its inputs and starts: a command refused before that prints its one line and no empty bar."""
+    bar = Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                   TextColumn("{task.description}"), console=console, transient=transient)
+    tasks = []
+
+    def progress(done, total, item):
+        if not tasks:
+            bar.start()
+            tasks.append(bar.add_task("", total=None))
+        bar.update(tasks[0], total=total, completed=done, description="" if item is None else describe(item))
+
+    try:
+        yield progress
+    finally:
+        if tasks:
+            bar.stop()

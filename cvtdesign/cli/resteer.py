@@ -56,6 +56,12 @@ def run(args):
     if table:
         t.add_row("mean |error| \\[%]", *[f"{e:.2f}" if np.isfinite(e := table[m]["mean_abs_error_pct"]) else "—"
                                           for m in cmds["methods"]])
+    figure = None          # the files first, then the terminal (a reader closing stdout early loses no file)
+    if args.plots and table:
+        figure = make_folder(args.plots, kind="--plots") / "resteer.png"
+        plots.resteer_figure(ratios, load, table, figure)
+    if args.json:
+        write_file(args.json, json_text({"commands": cmds, "achieved": table}), kind="--json")
     console.print(t)
     if any(not np.isfinite(g) for gs in cmds["methods"].values() for g in gs):
         console.print("none: no commanded γ inside the envelope gives that ratio under this load (by that method)")
@@ -66,10 +72,6 @@ def run(args):
     if cmds["fit"]:
         console.print("fitted: " + ", ".join(f"{n} = {p['value']:.4g} ± {p['std']:.2g}" for n, p in cmds["fit"].items())
                       + f"; lookup at the data's load level {cmds['lookup_load']:+.3g} N·m")
-    if args.plots and table:
-        f = make_folder(args.plots, kind="--plots") / "resteer.png"
-        plots.resteer_figure(ratios, load, table, f)
-        console.print(f"plot: {f}")
-    if args.json:
-        write_file(args.json, json_text({"commands": cmds, "achieved": table}), kind="--json")
+    if figure:
+        console.print(f"plot: {figure}")
     return 0

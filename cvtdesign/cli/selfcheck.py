@@ -9,24 +9,26 @@ from cvtdesign.diagnosis import selfcheck
 from cvtdesign.diagnosis.selfcheck import meets_targets
 from cvtdesign.errors import InputError
 from cvtdesign.io.output import write_file
+from cvtdesign.io.schema import MAX_COUNT
 
 
 def run(args):
-    if args.seeds < 1:
-        raise InputError(f"--seeds: expected a positive integer (null datasets per noise level / 2), got {args.seeds}")
+    if not 1 <= args.seeds <= MAX_COUNT:
+        raise InputError(f"--seeds: expected a positive integer up to {MAX_COUNT} (null datasets per noise level "
+                         f"/ 2), got {args.seeds}")
+    only = [x.strip() for x in args.only.split(",")] if args.only else None
+    matrices = [m.strip() for m in args.matrices.split(",")] if args.matrices else selfcheck.MATRICES
+    bad = [m for m in matrices if m not in selfcheck.MATRICES]
+    if bad:
+        raise InputError(f"--matrices: unknown matrix '{bad[0]}' (expected {', '.join(selfcheck.MATRICES)})")
     console = Console(width=120)
     with progress_bar(console, "datasets", lambda row: f"last: {row['id']} → {row['verdict']}") as progress:
-        only = [x.strip() for x in args.only.split(",")] if args.only else None
-        matrices = [m.strip() for m in args.matrices.split(",")] if args.matrices else selfcheck.MATRICES
-        bad = [m for m in matrices if m not in selfcheck.MATRICES]
-        if bad:
-            raise InputError(f"--matrices: unknown matrix '{bad[0]}' (expected {', '.join(selfcheck.MATRICES)})")
         results = selfcheck.run(args.variant, args.quick, args.seeds, args.scheduler, args.workers, progress, only,
                                 matrices)
     summ = selfcheck.summary(results)
-    print_summary(summ, results, console)
     if args.json:
         write_file(args.json, json_text({"summary": summ, "datasets": results}), kind="--json")
+    print_summary(summ, results, console)
     return 0 if selfcheck.meets_targets(summ) else 1
 
 

@@ -43,6 +43,8 @@ def run(args):
     frame = shaft_frame(layout)
     gamma = np.radians(args.gamma)
     phi = steering_angle(layout, gamma)
+    figure = make_folder(args.out, kind="--out") / f"{layout.name}_layout.png"
+    plots.layout_figure(layout, phi, gamma, figure)         # the file first, then the terminal
     console = Console(width=160)
     console.print(f"ideal law: {frame.law_text()}")
     ratio = float(frame.ideal_ratio(gamma))
@@ -50,7 +52,5 @@ def run(args):
     console.print(f"at commanded γ = {args.gamma:g}°: steering angle φ = {np.degrees(phi):.3f}°, ideal "
                   f"ω2/ω1 = {ratio:.4g}")
     console.print(roller_table(layout))
-    figure = make_folder(args.out, kind="--out") / f"{layout.name}_layout.png"
-    plots.layout_figure(layout, phi, gamma, figure)
     console.print(f"drawing: {figure}")
     return 0

@@ -54,14 +54,15 @@ def run(args):
         blocks += pareto_blocks(cid, pts, k, kinds)
         if any(p["success"] for p in pts):          # a chain with no successful point has no front to draw
             chains.append((cid, pts, k))
-    show(console, blocks)
-    if chains:
-        figure = Path(res["out_dir"]) / "pareto.png"
+    figure = Path(res["out_dir"]) / "pareto.png" if chains else None   # the files first, then the table
+    if figure:
         plots.pareto_figure(chains, figure)
-        console.print(f"Pareto plot: {figure}")
     if args.step:
         chosen = list(best["variant_file"]) + (list(pareto[pareto["success"]]["variant_file"]) if len(pareto) else [])
         export_steps(console, [f for f in chosen if isinstance(f, str) and f], Path(res["out_dir"]) / "step")
+    show(console, blocks)
+    if figure:
+        console.print(f"Pareto plot: {figure}")
     return 0
 
 

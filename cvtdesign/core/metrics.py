@@ -13,7 +13,11 @@ Figures (all over the variant's envelope, Kim's protocol by default: γ −80°.
  * max_loss_no_output_W: the largest power lost [W] at an ok point that delivers no power (zero load, γ = 0,
    or power entering both shafts), where an efficiency means nothing: under Kalker's law spin costs power
    even without load;
- * max_traction_utilisation: max |F|/(μN) over all contacts; max_hertz_pressure_MPa: max Hertz peak pressure.
+ * max_traction_utilisation: max |F|/(μN) over all contacts; max_hertz_pressure_MPa: max Hertz peak pressure;
+ * max_hertz_pressure_over_allowable: whether a contact's pressure exceeds its allowable (the smaller
+   allowable_pressure of its two materials; None where neither gives one) at some point, with
+   hertz_allowable_pressure_MPa the allowable of the contact nearest to or most over it and
+   hertz_over_allowable_at the points over it per roller.
 
 The ideal law, γ and α are the layout's own (kinematics.py). Every figure is taken over the points where the
 physics holds; the points that lost contact, slip grossly, did not converge, reached a root with the sphere
@@ -97,5 +101,23 @@ def metrics(model: CompiledModel, res: dict) -> dict:
         "max_loss_no_output_W": nanmax(res["power_loss"], no_output),
         "max_traction_utilisation": nanmax(res["utilisation"]),
         "max_hertz_pressure_MPa": None if nanmax(res["p_max"]) is None else nanmax(res["p_max"]) / 1e6,
+        **pressure_against_allowable(model, res),
         "points": int(res["status"].size), **status_counts(res, model.roller_names),
     }
+
+
+def pressure_against_allowable(model: CompiledModel, res: dict) -> dict:
+    """The envelope's Hertz peak pressures against each contact's allowable (module docstring)."""
+    L = model.layout
+    allow = [min((m.p_allow for m in (r.material, L.sphere_material) if m.p_allow is not None), default=np.nan)
+             for r in L.rollers]
+    allow = np.asarray(allow, float).reshape(-1, *([1] * (res["p_max"].ndim - 1)))
+    with np.errstate(invalid="ignore"):
+        ratio = res["p_max"] / allow
+    if not np.any(np.isfinite(ratio)):
+        return {"max_hertz_pressure_over_allowable": None, "hertz_allowable_pressure_MPa": None,
+                "hertz_over_allowable_at": {}}
+    worst = int(np.nanargmax(np.nanmax(ratio.reshape(len(L.rollers), -1), axis=1)))
+    over = {n: int(k) for n, k in zip(model.roller_names, np.sum(ratio > 1, axis=tuple(range(1, ratio.ndim)))) if k}
+    return {"max_hertz_pressure_over_allowable": bool(over),
+            "hertz_allowable_pressure_MPa": float(allow.ravel()[worst]) / 1e6, "hertz_over_allowable_at": over}

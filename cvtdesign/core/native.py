@@ -2,10 +2,20 @@
 cached on disk and loaded on later runs.
 
 The cache is internal, not the tool's output, so it is written here and not through io/output.py. It is
-the folder CVTDESIGN_CACHE, else $XDG_CACHE_HOME/cvtdesign, else ~/.cache/cvtdesign. A library is named by
-the SHA-256 of its C source and the compile command, so a changed model, CasADi version or flag never loads
-a stale one. Processes that compile the same library at once (Dask workers) take a file lock on its name;
-the first compiles to a temporary file and renames it into place (os.replace), the others then find it.
+the folder CVTDESIGN_CACHE, else $XDG_CACHE_HOME/cvtdesign, else ~/.cache/cvtdesign; `cvtdesign cache`
+shows it and `cvtdesign cache --clear` empties it. A library is named by the SHA-256 of its C source and the
+compile command, so a changed model, CasADi version or flag never loads a stale one. Processes that compile
+the same library at once (Dask workers) take a file lock on its name; the first compiles in a folder
+`.build-<name>-*` and renames the library into place (os.replace), the others then find it.
+
+A cached library cannot hurt: loading a damaged one (truncated: a bus error that killed the process; random
+bytes; another model's library in its place: a traceback) is prevented, not caught. The compiling process
+writes the sidecar <library>.sha256 with the library's SHA-256, size and name, and renames it into place
+just before the library, so no library is there without it. A library is loaded only when its bytes match
+its sidecar (`verified`), and used only when its inputs and outputs are the model's. A library that fails
+is compiled again (or, while that runs, the model runs interpreted), with one notice line. Compile folders
+left by a killed compile are removed once nobody holds their library's lock, and the cache is kept under
+MAX_CACHE_BYTES: past it, the libraries used longest ago are removed.
 
 The compiler is $CC, else the first of cc, gcc, clang on the PATH. Without one, the model stays interpreted
 (CasADi's virtual machine: the same numbers, slower), and one line on stderr says so once per process.
@@ -19,26 +29,35 @@ When to compile (CVTDESIGN_COMPILE):
    library for the next run.
  * 'always': compile at first use and wait for it. 'never': stay interpreted.
 """
+
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
+import re
 import shlex
 import shutil
 import subprocess
 import sys
 import tempfile
 import threading
+import time
 from pathlib import Path
 from typing import Callable
 
 import casadi as ca
-from filelock import FileLock
+from filelock import FileLock, Timeout
 
 FLAGS = ["-O1", "-fPIC", "-shared"]   # -O3 compiles 2–3× longer for no faster model (docs/benchmarks.md)
 HOT_SECONDS = 1.0       # interpreted evaluation time of one function after which 'auto' compiles it
 WAIT_SECONDS = 3.0      # a call estimated to take longer than this interpreted waits for the compiler
 POLICIES = ("auto", "always", "never")
+MAX_CACHE_BYTES = 512 * 2**20   # the cache's size bound: past it, the libraries used longest ago are removed
+STALE_SECONDS = 3600.0  # a compiler source of a detached compile not started this long ago is left over
+CACHE_FORMAT = "2"      # part of every library's name: libraries cached before their sidecars are never looked up
+CACHE_FILE = re.compile(r"[0-9a-f]{32}\.(so|sha256|lock|err)|\.build-.*|\.source-.*\.c")   # the cache's own files
+DAMAGED = "the compiled-model cache {} held a damaged library (not the bytes compiled into it); compiling it again"
 
 _noticed: set = set()
 _notice_lock = threading.Lock()
@@ -92,28 +111,145 @@ def source(fn: ca.Function, derivatives: bool = False) -> str:
 
 def library_path(code: str, command: list[str]) -> Path:
     """Where the library of this C source, compiled by this command, lives in the cache."""
-    digest = hashlib.sha256("\0".join([code, *command, *FLAGS]).encode()).hexdigest()[:32]
+    digest = hashlib.sha256("\0".join([CACHE_FORMAT, code, *command, *FLAGS]).encode()).hexdigest()[:32]
     return cache_dir() / f"{digest}.so"
 
 
+def _fingerprint(data: bytes, name: str) -> str:
+    """A library's sidecar text: the SHA-256, size and name of its bytes."""
+    return f"{hashlib.sha256(data).hexdigest()} {len(data)} {name}\n"
+
+
+def verified(lib: Path) -> bool:
+    """Whether `lib` holds exactly the bytes that were compiled into it: those its sidecar <lib>.sha256 names,
+    by SHA-256, size and file name (so a library moved in from another name fails)."""
+    try:
+        return lib.with_suffix(".sha256").read_text() == _fingerprint(lib.read_bytes(), lib.name)
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
+def _remove(*paths: Path) -> int:
+    """Remove files and folders of the cache (those already gone are skipped); returns the bytes freed."""
+    freed = 0
+    for p in paths:
+        try:
+            if p.is_dir() and not p.is_symlink():
+                freed += sum(f.stat().st_size for f in p.rglob("*") if f.is_file())
+                shutil.rmtree(p, ignore_errors=True)
+            else:
+                freed += p.stat().st_size
+                p.unlink()
+        except OSError:
+            pass
+    return freed
+
+
 def build(code: str, command: list[str]) -> Path:
-    """The library of `code`: from the cache, else compiled by `command` now (lock, temporary file,
-    rename: module docstring). Raises RuntimeError with the compiler's first error line if it fails."""
+    """The library of `code`: from the cache if `verified`, else compiled by `command` now (lock, a
+    `.build-<name>-` folder, rename, sidecar: module docstring); a damaged one is replaced, with the DAMAGED
+    notice. Raises RuntimeError with the compiler's first error line if it fails."""
     lib = library_path(code, command)
     lib.parent.mkdir(parents=True, exist_ok=True)
     with FileLock(str(lib.with_suffix(".lock"))):
-        if lib.exists():
+        if verified(lib):
+            os.utime(lib.with_suffix(".sha256"))        # its last use, for `prune`
             return lib
-        with tempfile.TemporaryDirectory(dir=lib.parent, prefix=".build-") as tmp:
-            src, out = Path(tmp) / "model.c", Path(tmp) / "model.so"
+        if lib.exists():
+            notice(DAMAGED.format(lib.parent))
+        _remove(lib, lib.with_suffix(".sha256"))
+        _remove(*lib.parent.glob(f".build-{lib.stem}-*"))  # a killed compile's: nobody else builds it now
+        with tempfile.TemporaryDirectory(dir=lib.parent, prefix=f".build-{lib.stem}-") as tmp:
+            src, out, side = Path(tmp) / "model.c", Path(tmp) / "model.so", Path(tmp) / "model.sha256"
             src.write_text(code)
             done = subprocess.run([*command, *FLAGS, str(src), "-o", str(out), "-lm"], capture_output=True, text=True)
             if done.returncode != 0:
                 lines = done.stderr.splitlines()
                 raise RuntimeError(f"{' '.join(command)} failed: "
                                    f"{next((ln for ln in lines if 'error' in ln), lines[0] if lines else '')}")
+            side.write_text(_fingerprint(out.read_bytes(), lib.name))
+            os.replace(side, lib.with_suffix(".sha256"))    # first: a library is never there without it
             os.replace(out, lib)
+    prune(keep=lib)
     return lib
+
+
+def prune(keep: Path | None = None, limit: int | None = None) -> None:
+    """Tidy the cache: remove the compile folders of killed compiles (those whose library's lock nobody
+    holds), compiler sources of detached compiles older than STALE_SECONDS, and, while the cache is larger
+    than `limit` (default MAX_CACHE_BYTES), the libraries used longest ago (by their sidecar's time, which
+    each load renews), except `keep` and those in use by a compile (their lock held)."""
+    folder, limit = cache_dir(), MAX_CACHE_BYTES if limit is None else limit
+    for d in folder.glob(".build-*"):
+        stem = d.name[len(".build-"):].split("-")[0]
+        if not re.fullmatch(r"[0-9a-f]{32}", stem):       # a compile folder of an older cvtdesign
+            if _age(d) > STALE_SECONDS:
+                _remove(d)
+            continue
+        with _unlocked(folder / f"{stem}.lock") as free:
+            if free:
+                _remove(d)
+    for s in folder.glob(".source-*.c"):
+        if _age(s) > STALE_SECONDS:
+            _remove(s)
+    files = [f for f in folder.iterdir() if CACHE_FILE.fullmatch(f.name) and f.is_file()]
+    size = sum(f.stat().st_size for f in files)
+    for lib in sorted((f for f in files if f.suffix == ".so" and f != keep), key=_last_use):
+        if size <= limit:
+            break
+        with _unlocked(lib.with_suffix(".lock")) as free:
+            if free:
+                size -= _remove(lib, lib.with_suffix(".sha256"), lib.with_suffix(".err"))
+
+
+@contextlib.contextmanager
+def _unlocked(path: Path):
+    """Hold the lock `path` for the block if nobody else holds it; yields whether it is held."""
+    lock = FileLock(str(path), timeout=0)
+    try:
+        lock.acquire()
+    except (Timeout, OSError):
+        yield False
+        return
+    try:
+        yield True
+    finally:
+        lock.release()
+
+
+def _age(path: Path) -> float:
+    try:
+        return time.time() - path.stat().st_mtime
+    except OSError:
+        return 0.0
+
+
+def _last_use(lib: Path) -> float:
+    for p in (lib.with_suffix(".sha256"), lib):
+        try:
+            return p.stat().st_mtime
+        except OSError:
+            continue
+    return 0.0
+
+
+def cache_summary() -> dict:
+    """The cache as `cvtdesign cache` shows it: its folder, how many libraries, its size in bytes, the bound."""
+    folder = cache_dir()
+    files = [f for f in folder.iterdir() if CACHE_FILE.fullmatch(f.name)] if folder.is_dir() else []
+    size = sum(f.stat().st_size for f in files if f.is_file())
+    return {"folder": folder, "libraries": sum(f.suffix == ".so" for f in files), "bytes": size,
+            "limit": MAX_CACHE_BYTES}
+
+
+def clear_cache() -> tuple[int, int]:
+    """Remove every file of the cache (`cvtdesign cache --clear`), and only those (CACHE_FILE: the folder
+    may be one the user shares with other files); returns (libraries, bytes) removed."""
+    folder = cache_dir()
+    if not folder.is_dir():
+        return 0, 0
+    files = [f for f in folder.iterdir() if CACHE_FILE.fullmatch(f.name)]
+    return sum(f.suffix == ".so" for f in files), _remove(*files)
 
 
 def build_detached(code: str, command: list[str]) -> Path:
@@ -129,9 +265,25 @@ def build_detached(code: str, command: list[str]) -> Path:
     return lib
 
 
-def load(lib: Path, name: str) -> ca.Function:
-    """The function `name` of a compiled library (with its derivatives, if the library has them)."""
-    return ca.external(name, str(lib))
+def load(lib: Path, name: str, like: ca.Function | None = None) -> ca.Function:
+    """The function `name` of a `verified` library (with its derivatives, if the library has them), whose
+    inputs and outputs are the sizes of `like`'s (when given). Raises RuntimeError in one line otherwise:
+    a damaged library is never handed to the loader, and CasADi's account of its search path never shown."""
+    if not verified(lib):
+        raise RuntimeError(f"{lib.name} in {lib.parent} is not the library that was compiled")
+    try:
+        fn = ca.external(name, str(lib))
+    except RuntimeError as e:
+        why = re.search(rf"Error code: {re.escape(str(lib))}: (.*)", str(e))
+        raise RuntimeError(f"cannot load {lib}: {why[1] if why else 'not a library of this machine'}") from None
+    if like is not None and _signature(fn) != _signature(like):
+        raise RuntimeError(f"{lib} holds another model (inputs and outputs of other sizes)")
+    return fn
+
+
+def _signature(fn: ca.Function) -> tuple:
+    """The sizes of a function's inputs and outputs."""
+    return (tuple(fn.size_in(i) for i in range(fn.n_in())), tuple(fn.size_out(i) for i in range(fn.n_out())))
 
 
 def shared_library(code: str) -> Path | None:
@@ -156,7 +308,7 @@ def compiled(fn: ca.Function, derivatives: bool = False) -> ca.Function | None:
         notice("no C compiler found (set CC): the model runs interpreted, several times slower")
         return None
     try:
-        return load(build(source(fn, derivatives), command), fn.name())
+        return load(build(source(fn, derivatives), command), fn.name(), like=fn)
     except (RuntimeError, OSError) as err:
         notice(f"compiling the model failed, it runs interpreted: {err}")
         return None
@@ -208,14 +360,19 @@ class Tiered:
                 return
             code = source(self.written_out())
             lib = library_path(code, command)
-            self.pending = (code, command, build_detached(code, command) if not (wait or lib.exists()) else lib)
+            ready = verified(lib)
+            if not ready and lib.exists():
+                notice(DAMAGED.format(lib.parent))    # build replaces it, here or in the detached process
+            if not (wait or ready):
+                build_detached(code, command)
+            self.pending = (code, command, lib)
         code, command, lib = self.pending
         if lib.with_suffix(".err").exists():
             notice(f"compiling the model failed, it runs interpreted: {lib.with_suffix('.err').read_text().strip()}")
             self.given_up = True
-        elif lib.exists() or wait:
+        elif wait or verified(lib):
             try:
-                self.native = load(build(code, command), self.interpreted.name())
+                self.native = load(build(code, command), self.interpreted.name(), like=self.interpreted)
             except (RuntimeError, OSError) as err:
                 notice(f"compiling the model failed, it runs interpreted: {err}")
                 self.given_up = True

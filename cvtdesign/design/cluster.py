@@ -2,7 +2,9 @@
 scheduler given by address; the same code runs on both.
 
 Bad settings are one InputError line: `--workers` must be a positive integer (LocalCluster would wait
-forever for -1 workers), and a scheduler that does not answer within CONNECT_TIMEOUT seconds is refused.
+forever for -1 workers) and, for a local cluster, at most the cores this process may use (100,000 workers on
+2 cores were still starting after 150 s), and a scheduler that does not answer within CONNECT_TIMEOUT
+seconds is refused.
 The local cluster's worker processes ignore Ctrl-C (SIGINT reaches the whole process group at a terminal):
 only this process is interrupted, and it closes the cluster, with distributed's logging of the shutdown
 silenced (`quiet_logs`), instead of every worker printing its own traceback.
@@ -11,7 +13,6 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import os
 import signal
 import threading
 from contextlib import contextmanager, nullcontext
@@ -22,19 +23,25 @@ from distributed.core import rpc
 from distributed.security import Security
 
 from cvtdesign.errors import InputError
+from cvtdesign.io import machine
 
 CONNECT_TIMEOUT = 5.0   # seconds to wait for an existing scheduler to answer
 
 
 def check_workers(workers, scheduler: str | None = None) -> None:
-    """`--workers`: None (one per core) or a positive integer; `--scheduler`: None or an address (an empty
-    one quietly started a local cluster)."""
+    """`--workers`: None (one per core) or a positive integer, for a local cluster at most the cores this
+    process may use (io.machine.cores: each worker is single-threaded, more would only share them);
+    `--scheduler`: None or an address (an empty one quietly started a local cluster)."""
     if scheduler is not None and not scheduler.strip():
         raise InputError("--scheduler: expected the address of a running scheduler, e.g. tcp://host:8786, got ''")
     if workers is None:
         return
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise InputError(f"--workers: expected a positive number of worker processes, got {workers}")
+    if not scheduler and workers > machine.cores():
+        raise InputError(f"--workers: {workers} worker processes on the {machine.cores()} cores this process may "
+                         f"use; expected at most {machine.cores()} (each worker is single-threaded: more only share "
+                         "the cores), or --scheduler for a cluster of more")
 
 
 def connect(scheduler: str, timeout: float | None = None):
@@ -84,7 +91,7 @@ def local_cluster(workers: int | None = None):
     old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
     try:
         with dask.config.set({"distributed.worker.profile.enabled": False}):
-            return LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1, processes=True,
+            return LocalCluster(n_workers=workers or machine.cores(), threads_per_worker=1, processes=True,
                                 dashboard_address=":0", silence_logs=logging.ERROR)
     finally:
         if main:

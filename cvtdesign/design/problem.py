@@ -42,6 +42,7 @@ from cvtdesign.core.model import compile_model, failed_contact, status_codes
 from cvtdesign.design.solution import EnvelopeCheck, check_envelope
 from cvtdesign.design.study_file import (
     StudySpec,
+    duty_cycle,
     load_study,
     min_normal_force,
     problem_inputs,
@@ -480,12 +481,9 @@ def _objective(nlp: _NLP, obj_grid):
         return ca.sqrt(ca.sumsqr(obj_grid) / nlp.npts)
     if nlp.kind not in ("power_loss", "pareto"):
         return nlp.t
-    duty, where = nlp.duty, nlp.where
-    if not duty:
+    if not nlp.duty:
         return ca.sum2(obj_grid) / nlp.npts
-    dg = np.array([parameter_value(d.gamma, f"{where}: objective.duty_cycle.gamma", {}) for d in duty])
-    dl = np.array([parameter_value(d.load, f"{where}: objective.duty_cycle.load", {}) for d in duty])
-    w = np.array([d.weight for d in duty])
+    dg, dl, w = duty_cycle(nlp.spec, nlp.g_pts, nlp.l_pts, nlp.where)
     dphi, _ = steering_angle_guess(*steering_data(nlp.base), dg)
     loss = nlp.model.point_function(["power_loss"]).map(len(dg), "serial")(dg, nlp.w1, dl, 0.0, dphi, nlp.theta, nlp.P)
     return ca.dot(ca.DM(w / w.sum()), ca.vec(loss))

@@ -38,7 +38,7 @@ from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.fitted import read_fitted
 from cvtdesign.io.schema import MAX_COUNT, EnvelopeSpec, Name, Num, Strict, VariantSpec, no_bool
 from cvtdesign.io.units import check_range, dimension_of, kind_name, to_si
-from cvtdesign.io.variant import grid, load_spec, parameter_value, quantity, resolve
+from cvtdesign.io.variant import check_envelope_limits, grid, load_spec, parameter_value, quantity, resolve
 from cvtdesign.io.yaml_file import read_spec
 
 DEFAULT_MIN_NORMAL_FRACTION = 0.05   # default min_normal_force: this fraction of each roller's base preload
@@ -59,8 +59,8 @@ class DesignVar(Strict):
 
 
 class DutyPoint(Strict):
-    gamma: Num          # an angle within ±90°
-    load: Num           # a torque
+    gamma: Num          # an angle inside the envelope's γ range (`duty_cycle`)
+    load: Num           # a torque inside the envelope's load range
     weight: Weight = 1.0   # finite, >= 0
 
 
@@ -254,6 +254,10 @@ def problem_inputs(study_path, spec: StudySpec, base_file, fixed: dict | None = 
                              f"{suggest(n, vspec.parameters)}")
         if n in spec.design:
             raise InputError(f"{where}: batch.sweep.{n}: '{n}' is a design variable; sweep fixed parameters only")
+    for n, values in spec.batch.sweep.items():      # of the parameter's kind, before the variant is built with them
+        if n in vspec.parameters:
+            for i, v in enumerate(values):
+                _typed_value(v, n, vspec, f"{where}: batch.sweep.{n}[{i}]")
     try:
         base = resolve(vspec, str(base_file), overrides=fixed)
     except InputError as e:
@@ -284,10 +288,6 @@ def problem_inputs(study_path, spec: StudySpec, base_file, fixed: dict | None = 
                              f"'= {n}' or in an expression")
         lower.append(lo)
         upper.append(hi)
-    for n, values in spec.batch.sweep.items():
-        if n in vspec.parameters:
-            for i, v in enumerate(values):
-                _typed_value(v, n, vspec, f"{where}: batch.sweep.{n}[{i}]")
     check_settings(study_path, spec, base)
     return vspec, base, names, np.array(lower), np.array(upper)
 
@@ -299,9 +299,11 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
     where = str(study_path)
     if spec.effects is not None:
         check_effects(spec.effects, f"{where}: effects", base.contact_law)
+    gammas, loads = base.gamma_grid, base.load_grid
     if spec.envelope is not None:
-        grid(spec.envelope.gamma, "angle", f"{where}: envelope.gamma")
-        grid(spec.envelope.load, "torque", f"{where}: envelope.load")
+        gammas = grid(spec.envelope.gamma, "angle", f"{where}: envelope.gamma")
+        loads = grid(spec.envelope.load, "torque", f"{where}: envelope.load")
+        check_envelope_limits(dataclasses.replace(base, gamma_grid=gammas, load_grid=loads), f"{where}: envelope")
     cs = spec.constraints
     if cs.traction_margin is not None:
         w = f"{where}: constraints.traction_margin"
@@ -317,16 +319,29 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
                     "length", 0.0, 10.0, lo_open=True, guess="mm")
     pre0 = np.array([float(r.preload) for r in base.rollers])
     min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
-    weights = []
-    for i, d in enumerate(spec.objective.duty_cycle or []):
-        quantity(d.gamma, "gamma", f"{where}: objective.duty_cycle[{i}].gamma")
-        quantity(d.load, "load", f"{where}: objective.duty_cycle[{i}].load")
-        if not (math.isfinite(d.weight) and d.weight >= 0):
-            raise InputError(f"{where}: objective.duty_cycle[{i}].weight: expected a finite weight >= 0, got {d.weight}")
-        weights.append(d.weight)
-    if weights and not sum(weights) > 0:
-        raise InputError(f"{where}: objective.duty_cycle: every weight is 0; expected at least one positive weight")
+    duty_cycle(spec, gammas, loads, where)
     check_counts(where, spec)
+
+
+def duty_cycle(spec: StudySpec, gammas: np.ndarray, loads: np.ndarray, where: str) -> tuple:
+    """The objective's duty cycle as arrays (γ [rad], τ⊥ [N·m], weight), each point inside the envelope the
+    optimum is checked over (`gammas`, `loads`: a point outside it is one whose gross slip or lost contact no
+    constraint sees; γ = 120° gave a mean power loss printed as valid) and a weight ≥ 0, not all 0."""
+    points = []
+    for i, d in enumerate(spec.objective.duty_cycle or []):
+        w = f"{where}: objective.duty_cycle[{i}]"
+        g, tau = quantity(d.gamma, "gamma", f"{w}.gamma"), quantity(d.load, "load", f"{w}.load")
+        for name, v, axis, unit, k in (("γ", g, gammas, "deg", 180 / math.pi), ("τ⊥", tau, loads, "N·m", 1.0)):
+            if not axis.min() - 1e-12 <= v <= axis.max() + 1e-12:
+                raise InputError(f"{w}.{'gamma' if name == 'γ' else 'load'}: {name} = {v * k:g} {unit} is outside the "
+                                 f"envelope the optimum is checked over ({name} {axis.min() * k:g}..{axis.max() * k:g} "
+                                 f"{unit}); expected a point inside it (or a wider envelope)")
+        if not (math.isfinite(d.weight) and d.weight >= 0):
+            raise InputError(f"{w}.weight: expected a finite weight >= 0, got {d.weight}")
+        points.append((g, tau, d.weight))
+    if points and not sum(p[2] for p in points) > 0:
+        raise InputError(f"{where}: objective.duty_cycle: every weight is 0; expected at least one positive weight")
+    return tuple(np.array(a) for a in zip(*points)) if points else ()
 
 
 def check_counts(where: str, spec: StudySpec) -> None:

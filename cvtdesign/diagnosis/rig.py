@@ -20,7 +20,7 @@ from cvtdesign.core.model import compile_model, status_counts
 from cvtdesign.errors import InputError, suggest
 from cvtdesign.io.schema import MAX_COUNT, Num, RangeSpec, Strict, no_bool
 from cvtdesign.io.units import to_si
-from cvtdesign.io.variant import effect_value, grid, quantity
+from cvtdesign.io.variant import check_loads, check_points, effect_value, grid, quantity
 from cvtdesign.io.yaml_file import read_spec
 
 Quantity = Num       # a plain number (SI) or a quantity; true/false are not numbers
@@ -81,8 +81,13 @@ def read_protocol(path, layout: Layout) -> Protocol:
         raise InputError(f"{where}: motor_speed: expected non-zero speeds of at most 1e4 rad/s")
     if not 1 <= spec.replicates <= MAX_COUNT:
         raise InputError(f"{where}: replicates: expected from 1 to {MAX_COUNT}, got {spec.replicates}")
-    return Protocol(values(spec.gamma, "angle", "gamma"), values(spec.load, "torque", "load"), speeds,
-                    spec.load_kind, spec.replicates)
+    gammas, loads = values(spec.gamma, "angle", "gamma"), values(spec.load, "torque", "load")
+    ranged = isinstance(spec.load, RangeSpec)
+    check_loads([(f"{where}: load.start", loads[0]), (f"{where}: load.stop", loads[-1])] if ranged
+                else [(f"{where}: load[{i}]", v) for i, v in enumerate(loads)], layout)
+    check_points(speeds.size * gammas.size * loads.size, len(layout.rollers), where,
+                 f"operating points ({speeds.size} speeds × {gammas.size} γ × {loads.size} loads)")
+    return Protocol(gammas, loads, speeds, spec.load_kind, spec.replicates)
 
 
 def parse_noise(text: str | None, where="--noise") -> Noise:
@@ -133,6 +138,9 @@ def simulate(layout: Layout, effects, parameters: dict | None = None, protocol: 
                          f"{protocol.replicates}")
     if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0):
         raise InputError(f"seed: expected an integer >= 0 for the noise generator, got {seed}")
+    points = protocol.speeds.size * protocol.gammas.size * protocol.loads.size
+    check_points(points * protocol.replicates, len(layout.rollers), "replicates",
+                 f"rows ({points} operating points × {protocol.replicates} replicates)")
     model = compile_model(layout.with_effects(effects, parameters))
     W, G, T = np.meshgrid(protocol.speeds, protocol.gammas, protocol.loads, indexing="ij")
     res = model.evaluate(G, T, speeds=W, load_kind=protocol.load_kind)

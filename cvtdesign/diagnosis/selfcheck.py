@@ -24,7 +24,7 @@ from dask.distributed import as_completed
 from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.core.metrics import envelope, metrics
 from cvtdesign.core.model import compile_model
-from cvtdesign.design.cluster import dask_client
+from cvtdesign.design.cluster import check_workers, dask_client
 from cvtdesign.diagnosis import diagnose, independent_sim, measured, rig
 from cvtdesign.diagnosis.rig import kim_protocol
 from cvtdesign.errors import InputError
@@ -224,6 +224,7 @@ def run(variant=EXISTING, quick=False, seeds=3, scheduler=None, workers=None, pr
     """Every dataset of the matrices (or those whose id contains one of `only`) on Dask (a local cluster by
     default); results in the matrices' order. The rig matrix uses `variant`; the independent one is Kim's
     existing CVT. A dataset whose diagnosis raises is recorded with verdict 'error: …' and counted as wrong."""
+    check_workers(workers, scheduler)        # before anything is made or shown
     variant = variant or EXISTING
     every = make_cases(quick, seeds, matrices, variant)
     cases = [c for c in every if any(o in c["id"] for o in only)] if only else every

@@ -20,7 +20,7 @@ from cvtdesign.core import effects as fx
 from cvtdesign.io.output import write_files
 from cvtdesign.io.schema import Spherical, VariantSpec, unit_text
 from cvtdesign.io.units import KINDS
-from cvtdesign.io.variant import MAX_GRID_POINTS, PLAUSIBLE, POSITIVE_EFFECT_PARAMS
+from cvtdesign.io.variant import LOAD_MARGIN, MAX_GRID_POINTS, MAX_POINTS, PLAUSIBLE, POSITIVE_EFFECT_PARAMS
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"    # the repository's docs/ (run from a checkout)
 REFERENCE, EFFECTS_DOC = "variant-reference.md", "effects.md"
@@ -172,7 +172,11 @@ WRITING = """\
 * **A plain number is SI**: m, N, Pa, N/m, 1/N, rad, N·m, rad/s. `radius: 0.04` is 40 mm.
 * **A quantity carries its unit** in a string: `"40 mm"`, `"100 N"`, `"10.7 MPa"`, `"2e5 N/m"`,
   `"0.0038 1/N"`, `"10 deg"`, `"1 N*m"`, `"10 rad/s"`. It is converted to SI; a unit of the wrong kind
-  (`radius: 40 N`) is refused.
+  (`radius: 40 N`) is refused, the angle counted as a kind of its own: an angle field takes angle units
+  (`deg`, `rad`, `turn`, ...) or a plain number (rad), never `%` or a ratio like `m/m` (`step: 10 %` was once
+  read as 5.73°); a plain-number field takes no angle unit (`friction: 45 deg`); a speed is an angle per time
+  (`rad/s`, `rpm`), never `Hz` or `1/s` (1 Hz is 6.28 rad/s). A creep constant may be written per newton
+  (`1/N`) or, for a slip angle, `rad/N`.
 * **`"= expr"` is an expression over `parameters`**, evaluated in SI (lengths in m, angles in rad):
   `radius: "= r_drive"`, `polar: "= asin(d / (2*R))"`. Allowed: numbers, the parameter names, `pi`,
   `+ - * / **`, and `sin cos tan asin acos atan atan2 sqrt exp log`. A parameter may use the parameters
@@ -225,6 +229,13 @@ def reference_markdown() -> str:
         out += ["| field | type | unit (SI; example) | default | plausible range | meaning |",
                 "| --- | --- | --- | --- | --- | --- |"]
         out += [field_row(prefix, n, info, inherited) for n, info in model.model_fields.items()]
+        if prefix == "envelope.load.":
+            out += ["", (f"The load is also refused beyond what the variant's contacts can carry: {LOAD_MARGIN:g} × "
+                         "Σ μ·P·max(R, r) over the contacts (μ the smaller friction coefficient of the roller's and "
+                         "the sphere's material, P the preload, R the sphere's radius, r the roller's; 40.6 N·m for "
+                         "Kim's CVT), with a hint when the values look meant in N·mm. The envelope may have at most "
+                         f"{MAX_POINTS:,} operating points (γ × load), fewer where half the machine's free memory "
+                         "holds fewer.")]
         if prefix == "envelope.gamma.":
             out += ["", ("Relabelled shafts may put γ anywhere in ±180° (Kim's own labels: 10°..170°), except at ±90°: "
                     "there the sphere's axis is square to the motor's shaft, whose roller cannot turn it, so a "

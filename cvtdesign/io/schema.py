@@ -230,11 +230,16 @@ class VariantSpec(Strict):
     mount stiffness 0 < k ≤ 1e10 N/m; Young's modulus 0.1 MPa ≤ E ≤ 1200 GPa; Poisson's ratio 0 ≤ ν < 0.5;
     friction 0 < μ ≤ 3; allowable pressure 10 kPa ≤ p ≤ 100 GPa; creep constants 0 < ε ≤ 1 1/N; creep
     reference force 0 < N ≤ 1e5 N; follower ratio 1e-3 ≤ |ratio| ≤ 1e3; contact polar/azimuth angles
-    |θ| ≤ 360°; envelope γ within ±180° (relabelled shafts put Kim's γ at 10°..170°), load |τ| ≤ 1e4 N·m,
-    at most MAX_GRID_POINTS points per axis, motor speed 0 < ω ≤ 1e4 rad/s; frame distance 0 < d ≤ 10 m,
+    |θ| ≤ 360°; envelope γ within ±180° (relabelled shafts put Kim's γ at 10°..170°), load |τ| ≤ 1e4 N·m
+    and at most what the variant's contacts can carry (`load_capacity`: 2 × Σ μ·P·max(R, r), 40.6 N·m for
+    Kim's CVT), at most MAX_GRID_POINTS points per axis and MAX_POINTS (γ × load) in all, fewer where half the
+    machine's free memory holds fewer, motor speed 0 < ω ≤ 1e4 rad/s; frame distance 0 < d ≤ 10 m,
     thickness 0 < t ≤ 1 m;
     effect parameters within their `effects.Param` bounds, and above 0 for `POSITIVE_EFFECT_PARAMS`. Every
-    value must be finite; named `parameters` are any finite quantity (their use is checked where they land)."""
+    value must be finite; named `parameters` are any finite quantity (their use is checked where they land).
+    A quantity must be of its field's kind, the angle counted as a kind of its own (io.units.dimension): an
+    angle field takes angle units or a plain number (rad), never '%' or a ratio such as 'm/m'; a plain-number
+    field takes no angle unit; a speed is an angle per time (rad/s, rpm), never 'Hz' or '1/s'."""
     name: Name = spec_field("the variant's name: letters, digits, '_', '.', '+', '-', not starting with '.', at "
                             "most 100 characters (it becomes part of file names: <name>.step, <name>_layout.png)")
     description: str = spec_field("one line saying what the variant is (free text)", "")

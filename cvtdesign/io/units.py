@@ -5,6 +5,12 @@ expression "= asin(d / (2*R))" over the file's named parameters (evaluated in SI
 does the unit arithmetic; the evaluator accepts only arithmetic, parameter names and a few math functions,
 so a file can never run code.
 
+A quantity must be of its field's kind, with the angle counted as a dimension of its own (`dimension`): pint
+holds the radian dimensionless, which read 'step: 10 %' as 0.1 rad (5.73°), 'friction: 45 deg' as 0.785 and
+'motor_speed: 10 Hz' as 10 rad/s (it is 62.8). An angle field takes angle units only (deg, rad, turn, ...)
+or a plain number (rad); a plain-number field takes no angle unit; a speed takes an angle per time (rad/s,
+rpm), never a bare rate ('Hz', '1/s').
+
 Every value is checked, one InputError line each: a quantity is a number followed by a unit (pint parses
 only the unit, and only a unit without numeric powers beyond a single digit, so no text can make it
 compute a huge integer); the number, the converted value and an expression's result must be finite
@@ -66,6 +72,9 @@ KINDS = {
     "speed": ("rad/s", "'10 rad/s'"),
     "dimensionless": ("", "'0.8'"),
 }
+# units a kind also takes besides its SI unit's dimension: a creep constant is a slip ratio (drive) or a slip
+# angle (steering) per newton
+ALSO = {"compliance": ("rad/N",)}
 
 
 class Parameters(dict):
@@ -89,11 +98,11 @@ class Parameters(dict):
             self.written[name] = (str(text).strip(), dimension_of(text))
 
 
-def _check_reference(name: str, unit: str, a_kind: str, example: str, names, where: str) -> None:
-    """A field (of SI `unit`, `a_kind` 'a length') written as a bare parameter reference ('= r_drive') takes
-    that parameter only if it was written as a quantity of the field's kind (Parameters)."""
+def _check_reference(name: str, kind: str, a_kind: str, example: str, names, where: str) -> None:
+    """A field of `kind` (a KINDS key; `a_kind` 'a length') written as a bare parameter reference ('= r_drive')
+    takes that parameter only if it was written as a quantity of the field's kind (Parameters)."""
     written = getattr(names, "written", {}).get(name)
-    if written is not None and written[1] != registry().parse_units(unit).dimensionality:
+    if written is not None and written[1] not in dimensions(kind):
         raise InputError(f"{where}: '= {name}' is parameter {name} = '{shorten(written[0])}', not {a_kind}; "
                          f"expected {a_kind} like {example}")
 
@@ -141,33 +150,59 @@ def is_plain_number(raw) -> bool:
     return False
 
 
+def dimension(unit):
+    """The pint dimensionality of a unit (a pint Unit or its text) with the angle as a dimension of its own,
+    '[angle]' to the power of the radian in the unit: deg → [angle], rpm → [angle]/[time], % and m/m → {}
+    (dimensionless), Hz → 1/[time]. Pint alone holds the radian dimensionless (module docstring)."""
+    reg = registry()
+    unit = reg.parse_units(unit) if isinstance(unit, str) else unit
+    power = dict(reg.Quantity(1, unit).to_root_units().unit_items()).get("radian", 0)
+    return unit.dimensionality * pint.util.UnitsContainer({"[angle]": power}) if power else unit.dimensionality
+
+
+def dimensions(kind: str) -> list:
+    """The dimensions (`dimension`) a quantity of `kind` (a KINDS key) may have: its SI unit's and ALSO's."""
+    return [dimension(u) for u in (KINDS[kind][0], *ALSO.get(kind, ()))]
+
+
 def dimension_of(raw):
-    """The pint dimensionality of a file value ({} for a plain number: SI of an unstated kind; None for an
-    expression or an unreadable value)."""
+    """The dimensionality (`dimension`: the angle counted) of a file value ({} for a plain number: SI of an
+    unstated kind; None for an expression or an unreadable value)."""
     if isinstance(raw, bool) or raw is None:
         return None
     if isinstance(raw, (int, float)):
-        return registry().parse_units("").dimensionality
+        return dimension("")
     text = str(raw).strip()
     if text.startswith("=") or len(text) > MAX_QUANTITY_TEXT:
         return None
     q = parse_quantity(text)
     if q is None:
         return None
-    return (q[1] or registry().parse_units("")).dimensionality
+    return dimension(q[1] or "")
 
 
 def kind_name(dim) -> str:
-    """'length', 'force', ... for a pint dimensionality, else its text ('[mass]')."""
+    """'a length', 'an angle', ... for a `dimension`, 'a plain number' for none, else its text ('[mass]')."""
     if dim is None:
         return "an expression"
     if not dim:
-        return "a plain number or an angle"
-    for kind, (unit, _) in KINDS.items():
-        if unit and registry().parse_units(unit).dimensionality == dim and kind != "angle":
-            return f"a {kind}"
+        return "a plain number"
+    for kind in KINDS:
+        if dim in dimensions(kind):
+            return f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}"
     names = {"[mass]": "a mass", "[time]": "a time", "[temperature]": "a temperature", "[current]": "a current"}
     return names.get(str(dim), f"a quantity of dimension {dim}")
+
+
+def _kind_hint(kind: str, a_kind: str, dim) -> str:
+    """Why a unit of the dimension `dim` is not of `kind` (`a_kind`: 'a length'), where the angle is why."""
+    if kind == "angle":
+        return " (a percentage or a ratio is not an angle)" if "[angle]" not in dim else ""
+    if kind == "speed" and "[angle]" not in dim:
+        return " (a rate without an angle is not a speed: 1 Hz is 6.28 rad/s; write rad/s or rpm)"
+    if "[angle]" in dim:
+        return f" ({'an angle' if dim == dimension('rad') else 'a unit with an angle'} is not {a_kind})"
+    return ""
 
 
 # ------------------------------------------------------------------------------------------ expressions
@@ -247,7 +282,7 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
     string holding only a number, e.g. a command-line value) are taken as SI. The result is finite, or a
     CasADi expression (an optimiser's symbolic parameter)."""
     unit, example = KINDS[kind]
-    kind = "plain number" if kind == "dimensionless" else kind
+    key, kind = kind, "plain number" if kind == "dimensionless" else kind
     a_kind = f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}"
     if isinstance(raw, bool) or raw is None:
         raise InputError(f"{where}: expected {a_kind} like {example}, got {str(raw).lower() if isinstance(raw, bool) else 'nothing'}"
@@ -265,7 +300,7 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
     text = raw.strip()
     if text.startswith("="):
         if text[1:].strip().isidentifier():
-            _check_reference(text[1:].strip(), unit, a_kind, example, names, where)
+            _check_reference(text[1:].strip(), key, a_kind, example, names, where)
         return evaluate_expression(text[1:].strip(), names or {}, where)
     q = parse_quantity(text) if len(text) <= MAX_QUANTITY_TEXT else None
     if q is None:
@@ -275,6 +310,9 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
         raise InputError(f"{where}: expected a finite {kind} like {example}, got '{shorten(raw)}'")
     if u is None:
         return value
+    if dimension(u) not in dimensions(key):
+        raise InputError(f"{where}: expected {a_kind} like {example}, got '{shorten(raw)}'"
+                         f"{_kind_hint(key, a_kind, dimension(u))}")
     try:
         si = float(registry().Quantity(value, u).to(unit or "dimensionless").magnitude)
     except (pint.errors.DimensionalityError, pint.errors.UndefinedUnitError, ValueError, TypeError,

@@ -98,6 +98,8 @@ def load_yaml(path):
             raise InputError(f"{where}: its aliases expand to more than {MAX_NODES} YAML nodes (or refer to "
                              "themselves); expected a plain YAML file")
         return None if node is None else loader.construct_document(node)
+    except InputError:          # already one line naming the file (an InputError is a ValueError too)
+        raise
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         line = f" (line {mark.line + 1})" if mark else ""

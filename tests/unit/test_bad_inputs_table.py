@@ -21,11 +21,13 @@ file named. A case the tool does not yet meet is kept, marked xfail(strict=True)
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import hashlib
 import math
 import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -859,6 +861,65 @@ case("selfcheck: --variant with non-finite preload", ("bad.yaml", "rollers.D1.pr
      with_variant("selfcheck", (D1 + ("preload",), "inf N")), "selfcheck", "variant YAML")
 
 
+# ------------------------------------------------------------------ a fresh sample of hostile inputs (issue 25)
+# Units of the wrong kind: pint holds angles dimensionless, so '10 %' became 0.1 rad (5.73°) and '45 deg' a
+# friction of 0.785; '10 Hz' became 10 rad/s (it is 62.8). Loads beyond anything the variant's contacts can
+# carry ('-1000..1000' meant in N·mm). Grids, workers and duty cycles beyond what the machine or the model has.
+
+WRONG_KIND = [
+    ("angle in %", "envelope.gamma.step", ENV_G + ("step",), "10 %"),
+    ("angle as a length ratio", "envelope.gamma.stop", ENV_G + ("stop",), "1.4 m/m"),
+    ("angle in ppm", "envelope.gamma.start", ENV_G + ("start",), "-1e6 ppm"),
+    ("contact polar angle in %", "rollers.D1.contact.polar", D1 + ("contact",), {"polar": "50 %", "azimuth": "90 deg"}),
+    ("contact azimuth as a length ratio", "rollers.D1.contact.azimuth", D1 + ("contact",),
+     {"polar": "90 deg", "azimuth": "1570 mm/m"}),
+    ("steering offset in %", "effect_parameters.steering_offset.offset", EP, {"steering_offset": {"offset": "5 %"}}),
+    ("friction in degrees", "urethane_82A.friction", M82 + ("friction",), "45 deg"),
+    ("Poisson's ratio in rad", "urethane_82A.poisson_ratio", M82 + ("poisson_ratio",), "0.48 rad"),
+    ("coupling ratio in turns", "rollers.D1.ratio", D1 + ("ratio",), "1 turn"),
+    ("motor speed in Hz", "envelope.motor_speed", ("envelope", "motor_speed"), "10 Hz"),
+    ("motor speed in 1/min", "envelope.motor_speed", ("envelope", "motor_speed"), "600 1/min"),
+]
+for id, expect, path, value in WRONG_KIND:
+    vcase(f"wrong kind: {id}", expect, (path, value))
+vcase("wrong kind: a parameter in % as a polar angle", ("rollers.D1.contact.polar", "parameter tilt"),
+      (("parameters", "tilt"), "100 %"), (D1 + ("contact",), {"polar": "= tilt", "azimuth": "90 deg"}))
+vcase("load range meant in N·mm", "envelope.load", (ENV_L, {"start": -1000, "stop": 1000, "step": 100}))
+vcase("load of 300 N·m on 100 N preloads", "envelope.load.stop", (ENV_L + ("stop",), "300 N*m"))
+vcase("an envelope of 9e9 points", "envelope", (ENV_G + ("step",), "0.0017 deg"), (ENV_L + ("step",), "2.1e-5 N*m"))
+pcase("gamma in %", "gamma[0]", {"gamma": ["10 %"]})
+pcase("load beyond the contacts' traction", "load[0]", {"load": ["500 N*m"]})
+case("rig: --noise axis in %", "--noise", cli("rig", "{v}", "--noise", "axis=0.05 %", "--out", "{out}/d.csv"),
+     "rig", "command line")
+case("rig: --noise speed in Hz", "--noise", cli("rig", "{v}", "--noise", "speed=0.01 Hz", "--out", "{out}/d.csv"),
+     "rig", "command line")
+case("resteer: --load in %", "--load", cli(*T, "--load", "10 %"), "resteer", "command line")
+DUTY = {"kind": "power_loss"}
+scase("duty-cycle point at γ = 120°", "objective.duty_cycle[0].gamma",
+      objective=DUTY | {"duty_cycle": [{"gamma": "120 deg", "load": "0.5 N*m"}]})
+scase("duty-cycle point at γ = -90°", "objective.duty_cycle[1].gamma",
+      objective=DUTY | {"duty_cycle": [{"gamma": "30 deg", "load": "0.5 N*m"}, {"gamma": "-90 deg", "load": "0"}]})
+scase("duty-cycle γ in %", "objective.duty_cycle[0].gamma", objective=DUTY | {"duty_cycle": [{"gamma": "50 %", "load": 0.5}]})
+scase("duty-cycle load beyond the contacts", "objective.duty_cycle[0].load",
+      objective=DUTY | {"duty_cycle": [{"gamma": "30 deg", "load": "500 N*m"}]})
+scase("study envelope load meant in N·mm", "envelope.load", envelope=Whole(
+    {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "30 deg"}, "load": {"start": -1000, "stop": 1000, "step": 500}}))
+case("study: --workers 100000", ("--workers", "100000"),
+     cli("study", "{tmp}/work/studies/box_placement.yaml", "--out", "{out}/store", "--workers", "100000"),
+     "study", "command line")
+case("selfcheck: --workers 100000", ("--workers", "100000"),
+     cli("selfcheck", "--matrices", "independent", "--quick", "--workers", "100000", "--json", "{out}/s.json"),
+     "selfcheck", "command line")
+case("export: --gamma 90", "--gamma", cli("export", "{v}", "--gamma", "90", "--out", "{out}/cad"), "export",
+     "command line")
+case("selfcheck: --seeds 100000000", "--seeds", cli("selfcheck", "--seeds", "100000000", "--json", "{out}/s.json"),
+     "selfcheck", "command line")
+case("rig: --replicates 10000 (1.87 million rows)", "replicates",
+     cli("rig", "{v}", "--replicates", "10000", "--out", "{out}/d.csv"), "rig", "command line")
+pcase("1e10 operating points", "protocol.yaml", {"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "0.0017 deg"},
+                                                 "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "2.1e-5 N*m"}})
+
+
 # --------------------------------------------------------------------------------------------------- runner
 
 def snapshot(folder: Path) -> dict:
@@ -895,6 +956,21 @@ def check_promise(rc, out: str, err: str, expect, before: dict, after: dict):
 MAX_SECONDS = 15     # a refusal comes at once (an unreachable scheduler: after its 5 s connect timeout)
 
 
+@contextlib.contextmanager
+def deadline(seconds: int):
+    """Fail a case that is not refused at all (an accepted input may start hours of work): a TimeoutError
+    in the main thread after `seconds`."""
+    def expire(signum, frame):
+        raise TimeoutError(f"still running after {seconds} s: the input was not refused")
+    old = signal.signal(signal.SIGALRM, expire)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
 @pytest.mark.parametrize("build, expect", CASES)
 def test_bad_input(build, expect, tmp_path, capfd, monkeypatch):
     env = make_env(tmp_path)
@@ -904,13 +980,23 @@ def test_bad_input(build, expect, tmp_path, capfd, monkeypatch):
     capfd.readouterr()
     t0 = time.perf_counter()
     try:
-        rc = main(argv)
+        with deadline(4 * MAX_SECONDS):
+            rc = main(argv)
     except SystemExit as e:              # argparse's errors
         rc = e.code
     seconds = time.perf_counter() - t0
     out, err = capfd.readouterr()
     check_promise(rc, out, err, expect, before, snapshot(tmp_path))
     assert seconds < MAX_SECONDS, f"refused only after {seconds:.1f} s"
+
+
+def test_an_alias_error_names_the_file_once(tmp_path, capsys):
+    """A YAML file whose aliases refer to themselves: one line naming the file once (the InputError raised
+    inside the reader was caught as a ValueError and wrapped again: 'x.yaml: not valid YAML: x.yaml: ...')."""
+    f = _write(tmp_path / "alias.yaml", "a: &a [*a]\n")
+    assert main(["compare", str(f), "--out", str(tmp_path / "p")]) == 2
+    err = capsys.readouterr().err
+    assert err.count(str(f)) == 1 and "aliases" in err and "not valid YAML" not in err, err
 
 
 def test_table_covers_every_command_and_file_type():

@@ -7,8 +7,12 @@ import contextlib
 import os
 import re
 import shutil
+import signal
 import socket
+import subprocess
+import sys
 import threading
+import time
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -176,6 +180,46 @@ def test_bad_workers_refused(tmp_path, capsys, no_cluster, workers):
     assert main(["study", str(small_study(tmp_path)), "--out", str(tmp_path / "s"), "--workers", workers]) == 2
     one_line(capsys.readouterr().err, f"--workers: expected a positive number of worker processes, got {workers}")
     assert not (tmp_path / "s").exists()
+
+
+def test_more_workers_than_cores_refused_at_once_leaving_nothing(tmp_path, capsys, no_cluster):
+    """`study --workers 100000` on a 2-core machine gave no refusal, was still starting workers after 150 s
+    and left res/.lock and res/manifest.json: now one line that gives the limit, in under 5 s, with nothing
+    written and no progress bar before it."""
+    out, cores = tmp_path / "res", len(os.sched_getaffinity(0))
+    t0 = time.perf_counter()
+    assert main(["study", str(small_study(tmp_path)), "--out", str(out), "--workers", "100000"]) == 2
+    assert time.perf_counter() - t0 < 5
+    cap = capsys.readouterr()
+    one_line(cap.err, f"--workers: 100000 worker processes on the {cores} cores this process may use; expected at "
+                      f"most {cores}")
+    assert cap.out == "" and not out.exists()
+
+
+def test_a_refused_study_prints_no_progress_bar(tmp_path, capsys, no_cluster):
+    """Every study refusal printed an empty progress bar ('cases ━━━━ 0/? 0:00:00') before its one line."""
+    bad = small_study(tmp_path, multistart={"starts": 0})
+    assert main(["study", str(bad), "--out", str(tmp_path / "s")]) == 2
+    cap = capsys.readouterr()
+    one_line(cap.err, "multistart.starts")
+    assert cap.out == ""
+
+
+def test_sigterm_stops_a_study_as_ctrl_c_does(tmp_path):
+    """SIGTERM (`kill`, a batch system's stop) ended a study with no message. Now it closes the cluster and
+    says in the same one line as Ctrl-C how many cases are kept, which stay in the store (exit 128 + 15)."""
+    path, out = small_study(tmp_path), tmp_path / "s"
+    script = Path(sys.executable).parent / "cvtdesign"
+    proc = subprocess.Popen([str(script), "study", str(path), "--out", str(out), "--workers", "1"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 180
+    while not case_files(out) and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    kept = len(case_files(out))
+    assert proc.returncode == 143 and 1 <= kept < 6, (proc.returncode, err)
+    one_line(err, f"cvtdesign: interrupted: {kept} of 6 cases finished and kept in {out}; run again to resume")
 
 
 def test_unreachable_scheduler_refused_within_the_timeout(tmp_path, capsys, monkeypatch):
