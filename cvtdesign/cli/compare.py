@@ -1,19 +1,23 @@
 """`cvtdesign compare`: variants side by side over their envelope, with the ideal CVT and Kim's existing CVT."""
 from __future__ import annotations
 
+import dataclasses
 import sys
 from pathlib import Path
 
 from rich.console import Console
 
 from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
+from cvtdesign.core import basis
 from cvtdesign.core.metrics import envelope, ideal_model, metrics
 from cvtdesign.core.model import compile_model
+from cvtdesign.core.uncertainty import intervals
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_file
 from cvtdesign.io.points import check_points_path, contact_points, write_points
 from cvtdesign.io.report import Note, Table, png_figure
-from cvtdesign.io.variant import load_variant, shipped_variant
+from cvtdesign.errors import InputError
+from cvtdesign.io.variant import check_envelope_limits, load_variant, shipped_variant
 
 
 COLUMNS = [
@@ -29,6 +33,12 @@ COLUMNS = [
 ]
 
 
+_BASIS_ROWS = [
+    ("contact law", lambda r: r["contact_law"]),
+    ("calibration", lambda r: r["calibration"]["cell"]),
+]
+
+
 def run(args):
     """Print the comparison table and have args.painter (the plotting process that cli.parser starts before it
     imports this module) draw the figure, which is completely written when this returns."""
@@ -37,21 +47,26 @@ def run(args):
         check_points_path(args.points)
     files = [Path(f) for f in args.variants]
     layouts = [load_variant(f) for f in files]
-    if len(files) == 1:
-        existing = shipped_variant("existing")     # Kim's CVT, wherever the command runs from
+    if len(files) == 1:                            # Kim's CVT under the same law, wherever the command runs from
+        existing = shipped_variant("existing_kalker" if layouts[0].contact_law == "kalker" else "existing")
         if existing.resolve() != files[0].resolve():
             layouts.insert(0, load_variant(existing))
+    layouts = one_basis(layouts, layouts[-1] if len(files) == 1 else layouts[0], args)
+    names = basis.distinct_names(layouts)
+    layouts = [dataclasses.replace(L, name=n) for L, n in zip(layouts, names)]
     models = [compile_model(L) for L in layouts]
     results = [envelope(m) for m in models]
     figure = make_folder(args.out, kind="--out") / "compare.png"
     # the figure is drawn while the ideal CVT is evaluated and the table printed
     painter.draw("compare_figure", [(L.name, {k: res[k] for k in plots.COMPARE_KEYS})
                                     for L, res in zip(layouts, results)], figure)
-    rows = [metrics(m, res) for m, res in zip(models, results)]
+    rows = [with_intervals(m, res, metrics(m, res) | basis.fields(m.layout)) for m, res in zip(models, results)]
     if len(files) == 1:
         ideal = ideal_model(layouts[-1])
-        row = metrics(ideal, envelope(ideal))
-        row["name"] = f"ideal ({layouts[-1].name})"
+        row = metrics(ideal, envelope(ideal)) | basis.fields(ideal.layout)
+        row |= {"name": f"ideal ({layouts[-1].name})", "contact_law": "rigid (ideal)",
+                "calibration": {"source": "none needed: rigid rolling", "uncalibrated": False, "std": {},
+                                "text": "none needed: rigid rolling", "cell": "none needed"}}
         rows.insert(0, row)
 
     if args.points:
@@ -80,12 +95,39 @@ def run(args):
     return 0
 
 
+def with_intervals(model, res: dict, row: dict) -> dict:
+    """The row with a 95 % interval on each figure from the calibration's uncertainty (core.uncertainty)."""
+    return row | intervals(model, res, row)
+
+
+def one_basis(layouts: list, first, args) -> list:
+    """The layouts on one basis: one contact law (different laws are refused unless --as-written) and one
+    envelope, the first file's or --envelope's (with --as-written each keeps its own)."""
+    if args.as_written:
+        return layouts
+    laws = {L.contact_law for L in layouts}
+    if len(laws) > 1:
+        which = ", ".join(f"{L.file}: {L.contact_law}" for L in layouts)
+        raise InputError(f"compare: the variants use different contact laws ({which}); compare them under one "
+                         "law (contact.law), or add --as-written to compare each as written")
+    reference = load_variant(args.envelope) if args.envelope else first
+    out = []
+    for L in layouts:
+        if not basis.same_envelope(L, reference):
+            L = basis.on_envelope(L, reference)
+            check_envelope_limits(L, f"{L.file}: on the envelope of {reference.file}")
+        out.append(L)
+    return out
+
+
 def comparison_blocks(rows: list[dict]) -> list:
     """The comparison table (one column per variant, the figures of COLUMNS as rows) and, per variant, its
     ideal law, the operating points left out of the figures and the contacts over their allowable pressure.
     The table never looks better than the run: when a variant has fewer than half its points ok, a first
     row says so in its column; a figure over no ok point is '—'; a pressure over the allowable is marked."""
     table = Table("CVT comparison over the operating envelope (γ × τ⊥)", ["figure", *[r["name"] for r in rows]])
+    for label, cell in _BASIS_ROWS:
+        table.add(label, *[cell(r) for r in rows])
     under = [2 * r["ok"] < r["points"] for r in rows]
     if any(under):
         table.add("operating points ok", *[f"{r['ok']} of {r['points']}" + (" (under half)" if u else "")
@@ -96,8 +138,13 @@ def comparison_blocks(rows: list[dict]) -> list:
                           "(it leaves at one shaft): " + "; ".join(_efficiency_points(r) for r in rows)),
               Note("² the largest power lost at a point that delivers none (zero load, γ = 0, or power entering "
                    "both shafts), where an efficiency means nothing")]
+    envelopes = {r["envelope"] for r in rows}
+    blocks.append(Note(f"envelope: {envelopes.pop()}" if len(envelopes) == 1 else
+                       "envelopes differ (--as-written): " + "; ".join(f"{r['name']} {r['envelope']}" for r in rows),
+                       "" if len(envelopes) <= 1 else "bad"))
     for r in rows:
-        blocks.append(Note(f"{r['name']}: {r['ideal_law']}"))
+        blocks.append(Note(f"{r['name']}: {r['ideal_law']}; calibration: {r['calibration']['text']}",
+                           "bad" if r["calibration"]["uncalibrated"] else ""))
         if r["ok"] < r["points"]:
             blocks.append(Note(f"{r['name']}: {r['points'] - r['ok']} of {r['points']} operating points left out "
                                f"of the figures: {left_out_text(r)}", "bad"))
@@ -109,14 +156,21 @@ def comparison_blocks(rows: list[dict]) -> list:
 
 
 def figure_cell(r: dict, key: str, fmt: str) -> str:
-    """A variant's figure as the table shows it: '—' where no point is ok to take it over, a Hertz pressure
-    over the allowable marked with it."""
+    """A variant's figure as the table shows it: '—' where no point is ok to take it over; with its 95 %
+    interval where the calibration's uncertainty is known; a Hertz pressure over the allowable marked with it."""
     if r[key] is None or not r["ok"]:
         return "—"
     text = fmt.format(r[key])
+    interval = r.get(f"{key}_interval")
+    if interval is not None and interval[1] - interval[0] > 0.5 * 10 ** -_decimals(fmt):
+        text += " [" + ", ".join(fmt.format(v) for v in interval) + "]"
     if key == "max_hertz_pressure_MPa" and r.get("max_hertz_pressure_over_allowable"):
         text += f" > {r['hertz_allowable_pressure_MPa']:.3g} allowed"
     return text
+
+
+def _decimals(fmt: str) -> int:
+    return int(fmt.split(".")[1][0])
 
 
 def _efficiency_points(row: dict) -> str:

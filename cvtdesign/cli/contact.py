@@ -3,15 +3,17 @@
 For each roller: the Hertz ellipse (a along the rolling direction, b across), its peak pressure, Kalker's
 coefficients C11, C22, C23, C33, μ, linear theory's creep constants, and the creep–force curves of the
 `kalker` law (core.contact.surface: Kalker's simplified theory FASTSIM with the Hertz traction bound) for
-longitudinal, lateral and spin creepage, with the pure-spin moment curve. The variant's own creep law is not used here: this is the contact physics the layout's
-radii, crowns, materials and preloads give.
+longitudinal, lateral and spin creepage, with the pure-spin moment curve. These are the contact physics the
+layout's radii, crowns, materials and preloads give by the theory alone; next to them, the compliance the
+variant's law actually uses (its calibration: the materials library's, its own constants, or none) and where
+it comes from.
 """
 from __future__ import annotations
 
 from rich.console import Console
 
 from cvtdesign.cli.printing import engineering, json_text, number, show
-from cvtdesign.core.contact.patch import curves, patch
+from cvtdesign.core.contact.patch import calibrated_compliance, curves, theory_patch
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_file
 from cvtdesign.io.report import Note, Table
@@ -19,8 +21,10 @@ from cvtdesign.io.variant import load_variant
 
 
 def roller_record(layout, roller) -> dict:
-    """The JSON record of a roller's contact at its preload (SI unless the key names a unit)."""
-    p = {k: float(v) for k, v in patch(layout, roller).items()}
+    """The JSON record of a roller's contact at its preload (SI unless the key names a unit): the theory's
+    patch, constants and curves, and the compliance the variant's law uses (`eps_calibrated_per_N`, in the
+    roller's own direction) with its `calibration` in words."""
+    p = {k: float(v) for k, v in theory_patch(layout, roller).items()}
     c = curves(p)
     return {"role": roller.role, "N": p["N"], "a_mm": p["a"] * 1e3, "b_mm": p["b"] * 1e3,
             "p0_MPa": p["p0"] * 1e-6, "G_MPa": p["G"] * 1e-6, "nu": p["nu"], "C11": p["C11"], "C22": p["C22"],
@@ -28,20 +32,31 @@ def roller_record(layout, roller) -> dict:
             "eps_lat_per_N": p["eps_lat"], "spin_coefficient_Nm": p["spin_coefficient"],
             "spin_moment_coefficient_Nm2": p["spin_moment_coefficient"], "pivot_lever_mm": p["pivot_lever"] * 1e3,
             "curve_longitudinal": c["longitudinal"], "curve_lateral": c["lateral"], "curve_spin": c["spin"],
-            "curve_spin_moment": c["spin_moment"]}
+            "curve_spin_moment": c["spin_moment"], "eps_calibrated_per_N": calibrated_compliance(layout, roller),
+            "calibration": roller.creep.source, "uncalibrated": roller.creep.uncalibrated}
 
 
 def patch_table(name: str, records: dict) -> Table:
     t = Table(f"{name}: contact patches at the preload (Hertz; Kalker's linear theory)",
               ["roller", "role", "N", "a", "b", "p0", "C11", "C22", "C23", "C33", "μ", "ε_long [1/N]",
-               "ε_lat [1/N]", "spin coeff. [N·m]", "μNℓ [N·mm]"])
+               "ε_lat [1/N]", "spin coeff. [N·m]", "μNℓ [N·mm]", "ε used [1/N]"])
     for n, r in records.items():
         t.add(n, r["role"], engineering(r["N"], "force"), engineering(r["a_mm"] / 1e3, "length"),
               engineering(r["b_mm"] / 1e3, "length"), engineering(r["p0_MPa"] * 1e6, "pressure"),
               *(number(r[k], 3) for k in ("C11", "C22", "C23", "C33", "mu", "eps_long_per_N", "eps_lat_per_N",
                                           "spin_coefficient_Nm")),
-              number(r["mu"] * r["N"] * r["pivot_lever_mm"], 3))
+              number(r["mu"] * r["N"] * r["pivot_lever_mm"], 3),
+              number(r["eps_calibrated_per_N"], 3) + (" (theory)" if r["uncalibrated"] else ""))
     return t
+
+
+def calibration_notes(records: dict) -> list:
+    """One line per distinct calibration: the rollers it applies to and where it comes from."""
+    by_source = {}
+    for n, r in records.items():
+        by_source.setdefault((r["calibration"], r["uncalibrated"]), []).append(n)
+    return [Note(f"ε used at {', '.join(names)}: {source}", "bad" if bad else "")
+            for (source, bad), names in by_source.items()]
 
 
 def run(args):
@@ -55,10 +70,14 @@ def run(args):
     if args.json:
         write_file(args.json, json_text({"variant": layout.name, "rollers": records}), kind="--json")
         written.append(f"contacts written to {args.json}")
-    show(console, [patch_table(layout.name, records),
+    show(console, [patch_table(layout.name, records), *calibration_notes(records),
                    Note("creep constants: ε_long = 1/(G a b C11), ε_lat = 1/(G a b C22); spin coeff. G (ab)^1.5 C23 "
-                        "(lateral force per unit spin creepage [1/m]); a patch that pivots (spins without rolling) carries the moment μNℓ, ℓ the Hertz pressure's mean lever; in the curves (--json, --plots) creepage saturates at μN, while "
-                        "pure spin's lateral force peaks and then falls as the traction comes to circulate")])
+                        "(lateral force per unit spin creepage [1/m]), all by the theory at the nominal moduli; ε used: "
+                        "the compliance the variant's law uses, along the rolling direction at drive and follower "
+                        "rollers, across it at steering rollers; a patch that pivots (spins without rolling) "
+                        "carries the moment μNℓ, ℓ the Hertz pressure's mean lever; in the curves (--json, --plots) "
+                        "creepage saturates at μN, while pure spin's lateral force peaks and then falls as the "
+                        "traction comes to circulate")])
     for line in written:
         console.print(line)
     return 0

@@ -80,6 +80,11 @@ def _add_compare(p):
     p.add_argument("--points", metavar="FILE.csv|FILE.parquet",
                    help="also write every contact's state at every operating point (one row per variant, point "
                         "and contact; columns in docs/comparing.md), as CSV or Parquet by the extension")
+    p.add_argument("--envelope", metavar="VARIANT.yaml",
+                   help="evaluate every column on this file's envelope (default: the first file's)")
+    p.add_argument("--as-written", action="store_true",
+                   help="evaluate each file as written, on its own envelope and contact law (refused otherwise "
+                        "when the laws differ); each column then says what it used")
 
 
 def _add_optimise(p):

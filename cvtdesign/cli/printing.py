@@ -125,7 +125,10 @@ def left_out_text(counts: dict) -> str:
     for key in ("lost_contact", "gross_slip", "not_converged", "reversed", "multiple_roots"):
         if counts.get(key):
             at = counts.get(f"{key}_at") or {}
-            where = f" ({', '.join(f'{k} ×{v}' for k, v in at.items())})" if at else ""
+            if isinstance(at, list):        # points (core.metrics: not_converged_at), the first few
+                at = {f"γ {p['gamma_deg']:g}° τ⊥ {p['tau_perp_Nm']:g} N·m": 1 for p in at[:3]} | \
+                    ({"…": len(at) - 3} if len(at) > 3 else {})
+            where = f" ({', '.join(f'{k} ×{v}' if v > 1 or k == '…' else k for k, v in at.items())})" if at else ""
             what = named.get(key, key.replace('_', ' '))
             parts.append(f"{what} at {counts[key]} points{where}")
     return "; ".join(parts)

@@ -19,6 +19,19 @@ class Material:
 
 
 @dataclass(frozen=True)
+class CreepSource:
+    """Where a contact's creep compliance comes from (io.materials decides it from the variant and the library)."""
+    kind: str                     # 'library', 'fitted' (kim's creep constants), 'factor' (kalker's), 'theory'
+    source: str                   # in words, with its provenance
+    std: float | None = None      # relative 1σ of the compliance (None: not stated)
+    creep_modulus: object = None  # the roller's Young's modulus in tangential creep [Pa], for kind 'library'
+
+    @property
+    def uncalibrated(self) -> bool:
+        return self.kind == "theory"
+
+
+@dataclass(frozen=True)
 class Roller:
     """One roller in SI; numeric fields are floats or CasADi expressions of design parameters."""
     name: str
@@ -35,6 +48,7 @@ class Roller:
     stiffness: object              # mount + contact normal stiffness [N/m]
     fork_axis: object = None       # steering fork axis through the sphere centre (unit), None if fixed
     fork_sign: int = 0
+    creep: CreepSource = CreepSource("theory", "theory only")   # where its creep compliance comes from
 
 
 @dataclass(frozen=True)
@@ -56,6 +70,7 @@ class Layout:
     parameters: dict = field(default_factory=dict)
     contact_law: str = "kim"       # a core.contact.laws.LAWS name: 'kim' (fitted constants) or 'kalker'
     calibration: dict = field(default_factory=lambda: {"drive": 1.0, "steering": 1.0})   # kalker compliance factors
+    effect_uncertainty: dict = field(default_factory=dict)   # effect -> {param: SI 1σ} of fitted parameters
     spec: object = None            # the io.schema.VariantSpec it was read from
 
     def with_effects(self, effects, parameters=None) -> "Layout":

@@ -28,6 +28,7 @@ it over is None, never NaN.
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -67,40 +68,79 @@ def delivers_power(res: dict) -> np.ndarray:
         return res["ok"] & (-np.minimum(p1, p2) > 1e-9 * np.maximum(np.maximum(p1, p2), 0.0))
 
 
-def metrics(model: CompiledModel, res: dict) -> dict:
-    """The figures of merit of an `envelope` result (module docstring), with the points' status counts."""
-    L = model.layout
-    deg = np.degrees
+@dataclass
+class Extreme:
+    """Where a figure is taken: its value, the operating point (flat index into the envelope's arrays) and,
+    for a contact's figure, the contact (index of the roller); None where no point is ok."""
+    value: float | None
+    point: int | None = None
+    contact: int | None = None
+
+
+def _extreme(x, mask=None, largest=True, per_contact=False) -> Extreme:
+    """The largest (or smallest) finite value of x (points; with `per_contact`, contacts × points) where
+    `mask` (points) holds."""
+    x = np.asarray(x, float)
+    if mask is not None:
+        x = np.where(np.broadcast_to(mask, x.shape), x, np.nan)
+    if not np.any(np.isfinite(x)):
+        return Extreme(None)
+    flat = x.reshape(x.shape[0] if per_contact else 1, -1)
+    c, k = np.unravel_index(np.nanargmax(flat) if largest else np.nanargmin(flat), flat.shape)
+    return Extreme(float(flat[c, k]), int(k), int(c) if per_contact else None)
+
+
+def extremes(model: CompiledModel, res: dict) -> dict[str, Extreme]:
+    """Every figure of the module docstring that is an extreme over the envelope, with where it is taken."""
+    L, deg = model.layout, np.degrees
     G, T = res["gamma_cmd"], res["load"]
     ideal = model.frame.ideal_ratio(G)
-    achieved = res["omega_2"] / res["omega_1"]
     in_range = (np.abs(ideal) >= 0.4) & (np.abs(ideal) <= 2.5)
     at_max = np.isclose(np.abs(T), np.max(np.abs(L.load_grid)))
     with np.errstate(invalid="ignore", divide="ignore"):
-        ratio_err = 100 * (ideal - achieved) / ideal
+        ratio_err = 100 * (ideal - res["omega_2"] / res["omega_1"]) / ideal
     eff_range = (np.abs(G) >= np.radians(5) - 1e-12) & (np.abs(T) >= 0.25 * np.max(np.abs(L.load_grid)))
     delivers = delivers_power(res)
-    no_output = res["ok"] & ~delivers
+    return {
+        "max_abs_alpha_deg": _extreme(np.abs(deg(res["alpha"]))),
+        "max_abs_alpha_steering_deg": _extreme(np.abs(deg(res["alpha_steering"]))),
+        "max_abs_alpha_drive_deg": _extreme(np.abs(deg(res["alpha_drive"]))),
+        "ratio_error_pct_at_max_load": _extreme(np.abs(ratio_err), in_range & at_max),
+        "min_efficiency": _extreme(res["efficiency"], eff_range & delivers, largest=False),
+        "max_loss_no_output_W": _extreme(res["power_loss"], res["ok"] & ~delivers),
+        "max_traction_utilisation": _extreme(res["utilisation"], res["ok"], per_contact=True),
+        "max_hertz_pressure_MPa": _extreme(res["p_max"] / 1e6, res["ok"], per_contact=True),
+    }
 
-    def nanmax(x, mask=None):
-        x = np.where(mask, x, np.nan) if mask is not None else x
-        return float(np.nanmax(x)) if np.any(np.isfinite(x)) else None
 
-    a = deg(res["alpha"])
-    min_eff = nanmax(-res["efficiency"], eff_range & delivers)
+def where_text(model: CompiledModel, res: dict, e: Extreme) -> dict | None:
+    """An Extreme's operating point and contact, for the JSON (`*_at`): γ [°], τ⊥ [N·m], contact name."""
+    if e.point is None:
+        return None
+    g, t = np.ravel(res["gamma_cmd"])[e.point], np.ravel(res["load"])[e.point]
+    return {"gamma_deg": round(float(np.degrees(g)), 6), "tau_perp_Nm": round(float(t), 6),
+            "contact": None if e.contact is None else model.roller_names[e.contact]}
+
+
+def metrics(model: CompiledModel, res: dict) -> dict:
+    """The figures of merit of an `envelope` result (module docstring), where each extreme is taken
+    (`<figure>_at`: γ, τ⊥ and the contact; `not_converged_at`: the points that did not converge), and the
+    points' status counts."""
+    L = model.layout
+    a = np.degrees(res["alpha"])
+    ext = extremes(model, res)
+    eff_range = (np.abs(res["gamma_cmd"]) >= np.radians(5) - 1e-12) & \
+        (np.abs(res["load"]) >= 0.25 * np.max(np.abs(L.load_grid)))
+    delivers = delivers_power(res)
+    failed = np.flatnonzero(np.ravel(res["status"]) == 1)
     return {
         "name": L.name, "file": L.file, "ideal_law": model.frame.law_text(),
-        "max_abs_alpha_deg": nanmax(np.abs(a)),
+        **{k: e.value for k, e in ext.items()},
         "rms_alpha_deg": float(np.sqrt(np.nanmean(a ** 2))) if np.any(np.isfinite(a)) else None,
-        "max_abs_alpha_steering_deg": nanmax(np.abs(deg(res["alpha_steering"]))),
-        "max_abs_alpha_drive_deg": nanmax(np.abs(deg(res["alpha_drive"]))),
-        "ratio_error_pct_at_max_load": nanmax(np.abs(ratio_err), in_range & at_max),
-        "min_efficiency": None if min_eff is None else -min_eff,
         "efficiency_points": int(np.sum(eff_range & delivers)),
-        "no_output_points": int(np.sum(eff_range & no_output)),
-        "max_loss_no_output_W": nanmax(res["power_loss"], no_output),
-        "max_traction_utilisation": nanmax(res["utilisation"]),
-        "max_hertz_pressure_MPa": None if nanmax(res["p_max"]) is None else nanmax(res["p_max"]) / 1e6,
+        "no_output_points": int(np.sum(eff_range & res["ok"] & ~delivers)),
+        **{f"{k}_at": where_text(model, res, e) for k, e in ext.items()},
+        "not_converged_at": [where_text(model, res, Extreme(0.0, int(k))) for k in failed],
         **pressure_against_allowable(model, res),
         "points": int(res["status"].size), **status_counts(res, model.roller_names),
     }

@@ -81,6 +81,7 @@ class MaterialSpec(Strict):
     allowable_pressure: Num | None = spec_field(
         "allowable Hertz peak pressure, a constraint of `cvtdesign optimise` (omitted: not checked)", None,
         kind="pressure", plausible="allowable_pressure")
+    description: str = spec_field("what the material is (free text)", "")
 
 
 class SphereSpec(Strict):
@@ -160,11 +161,21 @@ class SteeringSpec(Strict):
 
 
 class CalibrationSpec(Strict):
-    """Factors on the Kalker compliances of contact.law: kalker (1: the theory as it stands)."""
-    drive: Num = spec_field("factor on the compliances of the drive and follower contacts (fitted by diagnose "
-                            "as drive_longitudinal_creep.scale)", 1.0, kind="dimensionless", plausible="calibration")
-    steering: Num = spec_field("factor on the compliances of the steering contacts (fitted by diagnose as "
-                               "steering_lateral_creep.scale)", 1.0, kind="dimensionless", plausible="calibration")
+    """Factors on the Kalker compliances of contact.law: kalker (1: the theory as it stands). A factor given
+    here replaces the materials library's calibration of those contacts; an omitted one leaves it."""
+    drive: Num | None = spec_field("factor on the compliances of the drive and follower contacts (fitted by "
+                                   "diagnose as drive_longitudinal_creep.scale; omitted: the library's calibration, "
+                                   "else the theory)", None, kind="dimensionless", plausible="calibration")
+    steering: Num | None = spec_field("factor on the compliances of the steering contacts (fitted by diagnose as "
+                                      "steering_lateral_creep.scale; omitted: as for drive)", None,
+                                      kind="dimensionless", plausible="calibration")
+
+
+class UncertaintySpec(Strict):
+    """The relative standard deviation (1σ) of the creep compliance that the variant's own constants give
+    (creep_drive, creep_steering or calibration factors); a library calibration carries its own."""
+    drive: Num | None = spec_field("of the drive and follower contacts, e.g. '1.3 %'", None, kind="dimensionless")
+    steering: Num | None = spec_field("of the steering contacts", None, kind="dimensionless")
 
 
 class ContactSpec(Strict):
@@ -187,6 +198,9 @@ class ContactSpec(Strict):
     creep_reference_force: Num | None = spec_field(
         "normal force at which creep_drive and creep_steering hold (omitted: each roller's preload)", None,
         kind="force", plausible="creep_reference_force")
+    uncertainty: UncertaintySpec = spec_field(
+        "relative 1σ of the compliance the constants above give: drive, steering (omitted: none stated; a "
+        "library calibration carries its own)", UncertaintySpec())
 
 
 class RangeSpec(Strict):
@@ -247,7 +261,12 @@ class VariantSpec(Strict):
         "named values that other fields use in '= expr' and that optimisation studies may vary: name → a "
         "quantity ('63.5 mm'), a plain number (SI) or '= expr' over the parameters above it; held in SI", {})
     materials: dict[str, MaterialSpec] = spec_field(
-        "the materials by name; each: youngs_modulus, poisson_ratio, friction, allowable_pressure")
+        "the variant's own materials by name; each: youngs_modulus, poisson_ratio, friction, allowable_pressure, "
+        "description. A material it names but does not define comes from the materials library "
+        "(docs/materials.md)", {})
+    material_library: list[str] = spec_field(
+        "files of the user's own materials and calibrations (the library's format), relative to this file; "
+        "they add to the shipped library and take precedence over it", [])
     sphere: SphereSpec = spec_field("the sphere: radius, material")
     roller_defaults: RollerDefaults = spec_field(
         "values for every roller that omits them: radius, material, crown_radius, width, preload, "
@@ -264,6 +283,10 @@ class VariantSpec(Strict):
     effect_parameters: dict[str, dict[str, Num]] = spec_field(
         "effect parameters that differ from their defaults: effect → {parameter: value}, each in the "
         "parameter's unit (docs/effects.md)", {})
+    effect_uncertainty: dict[str, dict[str, Num]] = spec_field(
+        "the standard deviation (1σ) of effect parameters fitted to measurements (`cvtdesign diagnose` reports "
+        "them): effect → {parameter: σ}, in the parameter's unit; `compare` carries them into every figure's "
+        "interval", {})
     envelope: EnvelopeSpec = spec_field("the operating points `compare` and `optimise` evaluate: gamma, load, "
                                         "motor_speed", EnvelopeSpec())
     frame: FrameSpec | None = spec_field("a mounting plate drawn by `cvtdesign export`: side, distance, "

@@ -13,6 +13,7 @@ mean '45 mm'?"). docs/variant-reference.md lists the ranges.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from importlib import resources
 from pathlib import Path
@@ -26,7 +27,7 @@ from cvtdesign.core.checks import check_layout
 from cvtdesign.core.geometry import named_vector, spherical
 from cvtdesign.core.layout import Layout, Material, Roller
 from cvtdesign.errors import InputError, shorten, suggest
-from cvtdesign.io import machine
+from cvtdesign.io import machine, materials
 from cvtdesign.io.schema import RangeSpec, Spherical, VariantSpec
 from cvtdesign.io.units import (
     MAX_QUANTITY_TEXT,
@@ -256,7 +257,9 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
     mats = _materials(spec, where, names)
     R = quantity(spec.sphere.radius, "sphere_radius", f"{where}: sphere.radius", names, "a positive radius")
     forks = _forks(spec, where, names)
-    rollers = tuple(_roller(spec, rn, where, names, mats, forks, R) for rn in spec.rollers)
+    law, calibration = _contact_law(spec, where, names)
+    rollers = tuple(_with_creep_source(_roller(spec, rn, where, names, mats, forks, R), spec, where, law)
+                    for rn in spec.rollers)
     for s in (1, 2):
         if not any(r.role == "drive" and r.shaft == s for r in rollers):
             raise InputError(f"{where}: rollers: no drive roller on shaft {s} (role: drive, shaft: {s})")
@@ -267,7 +270,6 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         quantity(spec.frame.distance, "frame_distance", f"{where}: frame.distance", names, "a positive distance")
         quantity(spec.frame.thickness, "frame_thickness", f"{where}: frame.thickness", names, "a positive thickness")
     c, env = spec.contact, spec.envelope
-    law, calibration = _contact_law(spec, where, names)
 
     def creep(value, key, field):
         return None if value is None else quantity(value, key, f"{where}: contact.{field}", names, "a positive value")
@@ -279,6 +281,7 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         creep_steering=creep(c.creep_steering, "creep", "creep_steering"),
         creep_reference_force=creep(c.creep_reference_force, "creep_reference_force", "creep_reference_force"),
         effects=tuple(spec.effects), effect_parameters=eparams,
+        effect_uncertainty=_effect_parameters(spec, where, names, "effect_uncertainty"),
         gamma_grid=grid(env.gamma, "angle", f"{where}: envelope.gamma"),
         load_grid=grid(env.load, "torque", f"{where}: envelope.load"),
         motor_speed=quantity(env.motor_speed, "motor_speed", f"{where}: envelope.motor_speed", None, "a positive value"),
@@ -311,14 +314,15 @@ def _contact_law(spec: VariantSpec, where: str, names: dict) -> tuple[str, dict]
             raise InputError(f"{w}.{f}: a fitted creep constant belongs to law kim; under law kalker the contacts "
                              "follow Hertz and Kalker, scaled by contact.calibration: {drive, steering}")
     laws.check_effects(spec.effects, f"{where}: effects", "kalker")
-    return "kalker", {k: quantity(getattr(c.calibration, k), "calibration", f"{w}.calibration.{k}", names,
-                                  "a positive factor") for k in ("drive", "steering")}
+    factors = {k: getattr(c.calibration, k) for k in ("drive", "steering")}
+    return "kalker", {k: 1.0 if v is None else quantity(v, "calibration", f"{w}.calibration.{k}", names,
+                                                        "a positive factor") for k, v in factors.items()}
 
 
 def _materials(spec: VariantSpec, where: str, names: dict) -> dict:
+    """name → Material of every material the variant can name: its own, then the library's (io.materials)."""
     mats = {}
-    for k, m in spec.materials.items():
-        w = f"{where}: materials.{k}"
+    for k, (m, w) in materials.material_specs(where, spec).items():
         mats[k] = Material(
             E=quantity(m.youngs_modulus, "youngs_modulus", f"{w}.youngs_modulus", names, "a positive value"),
             nu=to_si(m.poisson_ratio, "dimensionless", f"{w}.poisson_ratio", names),
@@ -328,6 +332,13 @@ def _materials(spec: VariantSpec, where: str, names: dict) -> dict:
         if isinstance(mats[k].nu, float) and not 0 <= mats[k].nu < 0.5:
             raise InputError(f"{w}.poisson_ratio: expected 0 <= ν < 0.5, got {mats[k].nu:g}")
     return mats
+
+
+def _with_creep_source(roller: Roller, spec: VariantSpec, where: str, law: str) -> Roller:
+    """The roller with where its creep compliance comes from (io.materials.contact_calibration)."""
+    material, _ = _own_or_default(spec, roller.name, "material", where)
+    return dataclasses.replace(roller, creep=materials.contact_calibration(
+        where, spec, roller.role, material, spec.sphere.material, law))
 
 
 def _material(mats: dict, name: str, where: str) -> Material:
@@ -408,17 +419,18 @@ def _check_perpendicular(normal, axle, where: str):
                          "the axle must lie in the sphere's tangent plane at the contact")
 
 
-def _effect_parameters(spec: VariantSpec, where: str, names: dict) -> dict:
+def _effect_parameters(spec: VariantSpec, where: str, names: dict, key: str = "effect_parameters") -> dict:
+    """effect → {parameter: SI value} of the variant's `key` (effect_parameters, or effect_uncertainty: their σ)."""
     eparams = {}
-    for e, ps in spec.effect_parameters.items():
+    for e, ps in getattr(spec, key).items():
         if e not in fx.EFFECTS:
-            raise InputError(f"{where}: effect_parameters.{e}: unknown effect{suggest(e, fx.EFFECTS)}")
+            raise InputError(f"{where}: {key}.{e}: unknown effect{suggest(e, fx.EFFECTS)}")
         eparams[e] = {}
         for p, v in ps.items():
             known = fx.EFFECTS[e].params
             if p not in known:
-                raise InputError(f"{where}: effect_parameters.{e}.{p}: unknown parameter{suggest(p, known)}")
-            eparams[e][p] = effect_value(e, p, v, f"{where}: effect_parameters.{e}.{p}", names)
+                raise InputError(f"{where}: {key}.{e}.{p}: unknown parameter{suggest(p, known)}")
+            eparams[e][p] = effect_value(e, p, v, f"{where}: {key}.{e}.{p}", names)
     return eparams
 
 

@@ -288,8 +288,11 @@ vcase("envelope field typo", ("envelope.gama", "did you mean 'gamma'"), (ENV_G, 
       (("envelope", "gama"), {"start": "-80 deg", "stop": "80 deg", "step": "10 deg"}))
 vcase("fork field typo", ("steering.forks.0.axes", "did you mean 'axis'"), (FORK0 + ("axis",), DEL),
       (FORK0 + ("axes",), "c1"))
-for field in ("name", "materials", "sphere", "rollers", "steering"):
+for field in ("name", "sphere", "rollers", "steering"):
     vcase(f"missing {field}", f"{field}: missing required field", ((field,), DEL))
+vcase("material in neither the variant nor the library", ("unknown material 'urethane_99A'", "did you mean"),
+      (D1 + ("material",), "urethane_99A"))
+vcase("material library that is not there", "material_library[0]: no such file", (("material_library",), ["no.yaml"]))
 for field in ("role", "contact", "axle"):
     vcase(f"roller without {field}", f"rollers.D1.{field}: missing required field", (D1 + (field,), DEL))
 for field in ("radius", "material"):     # these may come from roller_defaults instead
@@ -435,7 +438,8 @@ vcase("a steering roller with a shaft", "rollers.S1.shaft", (S1 + ("shaft",), 1)
 vcase("a drive roller without a shaft", "rollers.D1.shaft", (D1 + ("shaft",), DEL))
 vcase("no drive roller on shaft 2", "shaft 2", (("rollers", "D2", "shaft"), 1))
 vcase("rollers: {}", "rollers", (("rollers",), {}))
-vcase("unknown roller material", ("rollers.D1.material", "unknown material 'steel'"), (D1 + ("material",), "steel"))
+vcase("unknown roller material", ("rollers.D1.material", "unknown material 'stel'", "did you mean 'steel'"),
+      (D1 + ("material",), "stel"))
 vcase("unknown sphere material", ("sphere.material", "did you mean 'bowling_ball'"), (("sphere", "material"), "bowlingball"))
 vcase("Poisson ratio 0.7", "urethane_82A.poisson_ratio", (M82 + ("poisson_ratio",), 0.7))
 # a parameter written with a unit of another kind than the field that takes it (it used to become SI silently:

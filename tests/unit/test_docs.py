@@ -100,7 +100,8 @@ def test_tutorial_variant_gives_the_figures_it_quotes(tmp_path):
                  "--out", str(tmp_path / "plots"), "--json", str(tmp_path / "f.json")]) == 0
     small, existing = sorted(json.loads((tmp_path / "f.json").read_text())["variants"], key=lambda r: r["name"] != "small")
     m = re.search(r"max \|α\| (\S+)° \((\S+)° of it at the steering rollers, (\S+)° at the drive rollers\), worst\s+"
-                  r"efficiency (\S+), max traction utilisation F/\(μN\) (\S+) and Hertz peak pressure (\S+) MPa", text)
+                  r"efficiency (\S+), max traction utilisation F/\(μN\) (\S+) and Hertz peak pressure (\S+) MPa",
+                  " ".join(text.split()))
     quoted = [float(x) for x in m.groups()]
     got = [small[k] for k in ("max_abs_alpha_deg", "max_abs_alpha_steering_deg", "max_abs_alpha_drive_deg",
                               "min_efficiency", "max_traction_utilisation", "max_hertz_pressure_MPa")]

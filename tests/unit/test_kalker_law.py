@@ -11,7 +11,7 @@ from conftest import variant_data, write_yaml
 
 from cvtdesign.cli import main
 from cvtdesign.core.model import compile_model
-from cvtdesign.core.contact.patch import patch
+from cvtdesign.core.contact.patch import theory_patch
 from cvtdesign.io.variant import load_variant, shipped_variant
 
 GAMMAS = np.radians(np.arange(-80, 81, 10.0))
@@ -43,9 +43,11 @@ def test_what_the_law_refuses(tmp_path, capsys, edit, message):
 
 def test_calibration_and_the_creep_effects_scale_are_one_factor(tmp_path):
     """contact.calibration.drive = 2 and drive_longitudinal_creep.scale = 2 (the parameter diagnose fits
-    under kalker) multiply the same compliances: identical α everywhere."""
+    under kalker) multiply the same compliances: identical α everywhere. (A factor given, even 1, replaces the
+    materials library's calibration of those contacts.)"""
     a = compile_model(load_variant(kalker(tmp_path, calibration={"drive": 2.0})))
-    b = compile_model(load_variant(kalker(tmp_path, effect_parameters={"drive_longitudinal_creep": {"scale": 2.0}})))
+    b = compile_model(load_variant(kalker(tmp_path, calibration={"drive": 1.0},
+                                          effect_parameters={"drive_longitudinal_creep": {"scale": 2.0}})))
     ra, rb = a.evaluate(GAMMAS, 0.7), b.evaluate(GAMMAS, 0.7)
     assert ra["ok"].all() and rb["ok"].all()
     np.testing.assert_allclose(ra["alpha"], rb["alpha"], rtol=0, atol=1e-13)
@@ -58,8 +60,8 @@ def test_spin_gives_an_axis_offset_at_zero_load(tmp_path):
     Measured on the existing CVT, calibrated: |α| up to 0.139°, steering part 0.201°, drive part 0.062°."""
     L = load_variant(shipped_variant("existing"))
     d, s = L.rollers[0], next(r for r in L.rollers if r.role == "steering")
-    cal = {"drive": 0.0038 / float(patch(L, d, 100.0)["eps_long"]),
-           "steering": 0.0049 / float(patch(L, s, 100.0)["eps_lat"])}
+    cal = {"drive": 0.0038 / float(theory_patch(L, d, 100.0)["eps_long"]),
+           "steering": 0.0049 / float(theory_patch(L, s, 100.0)["eps_lat"])}
     kim = compile_model(L).evaluate(GAMMAS, 0 * GAMMAS)
     kal = compile_model(load_variant(kalker(tmp_path, calibration=cal))).evaluate(GAMMAS, 0 * GAMMAS)
     assert kim["ok"].all() and kal["ok"].all()
@@ -76,8 +78,8 @@ def test_calibrated_box_follows_kims_fit_in_the_linear_range(tmp_path):
     −0.42 %: 4.1292 against 4.1468 °/(N·m); −0.07 % before the spin moment was in the law)."""
     L = load_variant(shipped_variant("box"))
     d, s = L.rollers[0], next(r for r in L.rollers if r.role == "steering")
-    cal = {"drive": 0.0038 / float(patch(L, d, 100.0)["eps_long"]),
-           "steering": 0.0049 / float(patch(L, s, 100.0)["eps_lat"])}
+    cal = {"drive": 0.0038 / float(theory_patch(L, d, 100.0)["eps_long"]),
+           "steering": 0.0049 / float(theory_patch(L, s, 100.0)["eps_lat"])}
     g = np.radians([40.0, 40.0])
     kim = compile_model(L).evaluate(g, np.array([0.05, -0.05]))
     kal = compile_model(load_variant(kalker(tmp_path, "box", calibration=cal))).evaluate(g, np.array([0.05, -0.05]))

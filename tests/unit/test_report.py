@@ -141,12 +141,15 @@ def test_compare_report(tmp_path, capsys):
     rows = doc.tables["CVT comparison over the operating envelope (γ × τ⊥)"]
     assert rows[0] == ["figure", "ideal (box)", "existing", "box"]
     box = column(rows, "box")
-    assert box["max |α| [°]"] == "4.166" and box["max Hertz p [MPa]"] == "2.60"
+    assert box["max |α| [°]"] == "4.166 [4.100, 4.232]" and box["max Hertz p [MPa]"] == "2.60"
     assert column(rows, "ideal (box)")["max |α| [°]"] == "0.000"
+    assert box["calibration"] == "own ε (fitted)" and box["contact law"] == "kim"
     # the same figures as the JSON and as printed
     js = json.loads((tmp_path / "c.json").read_text())["variants"]
-    assert column(rows, "existing")["max |α| [°]"] == f"{js[1]['max_abs_alpha_deg']:.3f}" == "10.761"
-    assert "│ max |α| [°]                 │       0.000 │   10.761 │ 4.166 │" in printed
+    lo, hi = js[1]["max_abs_alpha_deg_interval"]
+    assert column(rows, "existing")["max |α| [°]"] == f"{js[1]['max_abs_alpha_deg']:.3f} [{lo:.3f}, {hi:.3f}]" \
+        == "10.761 [10.597, 10.925]"
+    assert "│ max |α| [°]                   │         0.000 │ 10.761 [10.597, 10.925] │ 4.166 [4.100, 4.232] │" in printed
 
 
 def test_bad_report_path_refused_before_computing(tmp_path, capsys):

@@ -269,7 +269,7 @@ def test_a_port_that_is_not_a_dask_scheduler_is_refused(tmp_path, capsys, monkey
     ({"design": {"d": {"lower": "110 mm", "upper": "30 mm"}}}, "design.d: inverted bounds"),
     ({"batch": {"sweep": {"r_stear": ["30 mm"]}}}, "batch.sweep.r_stear: the variant box.yaml has no parameter"),
     ({"batch": {"variants": ["box.yaml", "nope.yaml"]}}, "batch.variants: no variant file 'nope.yaml'"),
-    ({"batch": {"variants": ["box.yaml", "broken.yaml"]}}, "broken.yaml: materials: missing required field"),
+    ({"batch": {"variants": ["box.yaml", "broken.yaml"]}}, "broken.yaml: sphere: missing required field"),
     ({"max_iter": 0}, "max_iter: expected an integer from 1 to 10000, got 0"),
     ({"effects": ["drive_longitudinal_creep", "bogus_creep"]}, "effects: unknown effect 'bogus_creep'"),
     ({"constraints": {"min_normal_force": "-5 N"}}, "constraints.min_normal_force: expected a positive force"),

@@ -43,11 +43,15 @@ class ContactRows:
 
 def patch_constants(layout: Layout, roller: Roller) -> dict:
     """The Hertz patch of `roller` at its preload P and Kalker's coefficients for it: a, b [m], p0 [Pa], G [Pa],
-    ν, E* [Pa], C11, C22, C23, C33 [-], μ [-] and the pivoting lever ℓ [m]."""
+    ν, E* [Pa], C11, C22, C23, C33 [-], μ [-] and the pivoting lever ℓ [m]. A calibrated roller (roller.creep
+    from the materials library) creeps with the combined G and ν of its creep modulus; its Hertz patch keeps
+    the nominal modulus."""
     sphere = layout.sphere_material
     A, B = hertz.curvature_sums(layout.sphere_radius, roller.radius, roller.crown_radius)
     E_star, G, nu = hertz.contact_material(roller.material.E, roller.material.nu, sphere.E, sphere.nu)
     a, b, p0, _ = hertz.hertz_ellipse(A, B, roller.preload, E_star)
+    if roller.creep.creep_modulus is not None:       # a calibration: the creep law's G and ν at the creep modulus
+        _, G, nu = hertz.contact_material(roller.creep.creep_modulus, roller.material.nu, sphere.E, sphere.nu)
     C11, C22, C23, C33 = kalker.kalker_coefficients(a / b, nu)
     return {"a": a, "b": b, "p0": p0, "G": G, "nu": nu, "E_star": E_star, "C11": C11, "C22": C22, "C23": C23,
             "C33": C33, "mu": ca.fmin(roller.material.mu, sphere.mu), "lever": hertz.pivot_lever(a, b)}

@@ -14,8 +14,8 @@ import dataclasses
 import numpy as np
 
 from cvtdesign.core.contact import kalker, surface
-from cvtdesign.core.contact.laws import patch_constants
-from cvtdesign.core.layout import Layout, Roller
+from cvtdesign.core.contact.laws import LAWS, patch_constants
+from cvtdesign.core.layout import CreepSource, Layout, Roller
 
 CURVE_POINTS = 41        # points of each creep–force curve
 CURVE_SPAN = 10.0        # the curves run to this many times the creepage whose linear force is μN
@@ -35,6 +35,24 @@ def patch(layout: Layout, roller: Roller, N=None) -> dict:
             "spin_coefficient": kalker.spin_force_coefficient(G, a, b, p["C23"]),
             "spin_moment_coefficient": kalker.spin_moment_coefficient(G, a, b, p["C33"]),
             "pivot_lever": p["lever"]}
+
+
+def theory_patch(layout: Layout, roller: Roller, N=None) -> dict:
+    """`patch` by Hertz and Kalker alone: the nominal moduli, whatever calibration the roller has."""
+    return patch(layout, dataclasses.replace(roller, creep=CreepSource("theory", "theory only")), N)
+
+
+def calibrated_compliance(layout: Layout, roller: Roller) -> float:
+    """The creep compliance [1/N] the layout's contact law gives `roller` at its preload, in the roller's own
+    direction (along the rolling direction for drive and follower rollers, across it for steering rollers):
+    under kim the fitted constant moved to the preload (ε ∝ N^(-2/3)) or the theory's, under kalker the
+    theory's at the roller's creep modulus (a library calibration) times contact.calibration."""
+    drive = roller.role != "steering"
+    if layout.contact_law == "kim":
+        c = LAWS["kim"].constants(layout, roller)
+        return float(c["eps0"] * (c["n_ref"] / roller.preload) ** (2.0 / 3.0))
+    p = patch(layout, roller)
+    return float((p["eps_long"] if drive else p["eps_lat"]) * layout.calibration["drive" if drive else "steering"])
 
 
 def forces(p: dict, xi, eta, phi) -> np.ndarray:

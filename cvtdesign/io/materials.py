@@ -1,0 +1,123 @@
+"""The materials library: materials by name, and the calibrations that make the contact theory match a measured
+machine, with their uncertainty and provenance (docs/materials.md).
+
+The shipped library is cvtdesign/materials.yaml. A variant adds files of its own (`material_library:`), in the
+same format, which take precedence; `cvtdesign diagnose --save-calibration FILE` writes one. A variant's own
+`materials:` entries take precedence over both.
+
+A calibration belongs to a roller material on a sphere material: the roller's creep modulus, the Young's
+modulus with which Hertz + Kalker give the measured creep compliance (the Hertz patch keeps the nominal
+modulus). It applies to a contact whose two materials are the calibration's, with the library's elastic
+constants (a variant that redefines a material under the same name with other values gets no calibration,
+and is told so). `contact_calibration` decides, per roller, where its creep compliance comes from.
+"""
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+from pydantic import Field
+
+from cvtdesign.core.layout import CreepSource
+from cvtdesign.errors import InputError
+from cvtdesign.io.schema import MaterialSpec, Num, Strict, VariantSpec, spec_field
+from cvtdesign.io.units import to_si
+from cvtdesign.io.yaml_file import read_spec
+
+SHIPPED = Path(__file__).resolve().parents[1] / "materials.yaml"
+THEORY_GAP = "Hertz + Kalker alone is 3.1–3.6× stiffer than Kim et al.'s CVT measured"
+
+
+class CalibrationSpec(Strict):
+    """A calibration of the contact law for a roller material on a sphere material."""
+    roller: str = spec_field("the roller's material, a name in the library")
+    sphere: str = spec_field("the sphere's material, a name in the library")
+    creep_modulus: Num = spec_field("the roller's Young's modulus in tangential creep", kind="pressure")
+    std: Num = spec_field("its relative standard deviation (1σ), e.g. '1.3 %'", kind="dimensionless")
+    machine: str = spec_field("the machine it was measured on")
+    data: str = spec_field("the data it was fitted to")
+    fit: str = spec_field("how it was fitted")
+
+
+class LibrarySpec(Strict):
+    """A materials library file."""
+    materials: dict[str, MaterialSpec] = Field(default_factory=dict)
+    calibrations: list[CalibrationSpec] = Field(default_factory=list)
+
+
+@functools.cache
+def _read(path: str, mtime: float) -> LibrarySpec:
+    return read_spec(path, LibrarySpec, "materials, calibrations")
+
+
+def library(variant_file: str, spec: VariantSpec) -> list[tuple[str, LibrarySpec]]:
+    """The libraries a variant sees, most particular first: its own files, then the shipped one."""
+    folder = Path(variant_file).parent
+    files = [folder / f for f in spec.material_library] + [SHIPPED]
+    out = []
+    for i, f in enumerate(files):
+        where = str(f) if f == SHIPPED else f"{variant_file}: material_library[{i}]"
+        if not f.is_file():
+            raise InputError(f"{where}: no such file {f}; expected a materials library (docs/materials.md)")
+        lib = _read(str(f), f.stat().st_mtime)
+        out.append(("cvtdesign's materials library" if f == SHIPPED else str(f), lib))
+    return out
+
+
+def material_specs(variant_file: str, spec: VariantSpec) -> dict[str, tuple[MaterialSpec, str]]:
+    """name → (spec, where it is defined) of every material the variant can name: its own first."""
+    out = {}
+    for origin, lib in reversed(library(variant_file, spec)):
+        out.update({k: (m, f"{origin}: materials.{k}") for k, m in lib.materials.items()})
+    out.update({k: (m, f"{variant_file}: materials.{k}") for k, m in spec.materials.items()})
+    return out
+
+
+def library_calibration(variant_file: str, spec: VariantSpec, roller_material: str, sphere_material: str):
+    """The first library calibration of (roller material, sphere material) with its source file, or
+    (None, a reason it does not apply or '')."""
+    own = spec.materials
+    for origin, lib in library(variant_file, spec):
+        for i, c in enumerate(lib.calibrations):
+            if (c.roller, c.sphere) != (roller_material, sphere_material):
+                continue
+            changed = [m for m in (c.roller, c.sphere) if m in own and m in lib.materials
+                       and _elastic(own[m]) != _elastic(lib.materials[m])]
+            if changed:
+                return None, (f"{', '.join(changed)} differs from the library's, so its calibration "
+                              f"({origin}) does not apply")
+            return (c, f"{origin}: calibrations[{i}]"), ""
+    return None, ""
+
+
+def _elastic(m: MaterialSpec) -> tuple:
+    return (to_si(m.youngs_modulus, "pressure", "E"), to_si(m.poisson_ratio, "dimensionless", "ν"))
+
+
+def contact_calibration(variant_file: str, spec: VariantSpec, role: str, roller_material: str,
+                        sphere_material: str, law: str) -> CreepSource:
+    """Where a contact's creep compliance comes from, in this order: the variant's own constants (kim's
+    creep_drive or creep_steering, kalker's calibration factors, with contact.uncertainty), a library
+    calibration of its two materials, else the theory alone (uncalibrated)."""
+    c, side = spec.contact, "drive" if role != "steering" else "steering"
+    std = getattr(c.uncertainty, side)
+    std = None if std is None else to_si(std, "dimensionless", f"{variant_file}: contact.uncertainty.{side}")
+    fitted = c.creep_drive if side == "drive" else c.creep_steering
+    if law == "kim" and fitted is not None:
+        return CreepSource("fitted", f"the variant's fitted creep_{side} = {fitted}", std)
+    factor = getattr(c.calibration, side)
+    if law != "kim" and factor is not None:
+        if isinstance(factor, (int, float)) and factor == 1:
+            return CreepSource("theory", f"theory only: contact.calibration.{side} = 1, the theory as it stands "
+                                         f"({THEORY_GAP})")
+        return CreepSource("factor", f"the variant's contact.calibration.{side} = {factor}", std)
+    found, reason = library_calibration(variant_file, spec, roller_material, sphere_material)
+    if found is None:
+        why = f"; {reason}" if reason else ""
+        return CreepSource("theory", f"theory only: no calibration of {roller_material} on {sphere_material}{why} "
+                                     f"({THEORY_GAP})")
+    cal, at = found
+    E = to_si(cal.creep_modulus, "pressure", f"{at}.creep_modulus")
+    s = to_si(cal.std, "dimensionless", f"{at}.std")
+    return CreepSource("library", f"{roller_material} on {sphere_material}: creep modulus {cal.creep_modulus} "
+                                  f"± {s:.1%} ({cal.machine}; {at})", s, E)
