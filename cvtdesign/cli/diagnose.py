@@ -12,7 +12,7 @@ from cvtdesign.cli.printing import degrees, engineering, json_text, number, prog
 from cvtdesign.core.effects import EFFECTS
 from cvtdesign.core.model import STATUS
 from cvtdesign.diagnosis import diagnose
-from cvtdesign.diagnosis.diagnose import model_efficiency, point_grid, residuals
+from cvtdesign.diagnosis.diagnose import Report, model_efficiency, point_grid, residuals
 from cvtdesign.diagnosis import measured
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_files
@@ -41,7 +41,7 @@ def run(args):
             console.print(f"plot: {f}")
     files, kinds = {}, {}
     if args.json:
-        files[Path(args.json)], kinds[Path(args.json)] = json_text(diagnose.public(rep)), "--json"
+        files[Path(args.json)], kinds[Path(args.json)] = json_text(rep.to_json()), "--json"
     if args.report:
         files[Path(args.report)], kinds[Path(args.report)] = report_text(args, "cvtdesign diagnose", blocks +
                                                                          report_figures(rep, figures)), "--report"
@@ -53,7 +53,7 @@ def run(args):
     return 0
 
 
-def report_figures(rep: dict, written: list) -> list:
+def report_figures(rep: Report, written: list) -> list:
     """The residual map and the fit plot as report Figures: those written to --plots, else drawn into a
     temporary folder that is removed once they are read."""
     captions = ("α residual (measured − model) over γ × τ⊥, base and diagnosed model; the gap's regions outlined",
@@ -70,37 +70,37 @@ def param_kind(name: str) -> str:
     return EFFECTS[effect].params[param].kind
 
 
-def report_blocks(rep: dict) -> list:
+def report_blocks(rep: Report) -> list:
     """What diagnose prints and reports: data and noise, the base fit, where the gap is, the ranking, the
     verdict and how far the gap shrinks."""
-    n = rep["noise"]
-    dropped = sum(rep["dropped_rows"].values())
-    blocks = [Note(f"{rep['rows']} rows, {rep['operating_points']} operating points"
-                   + (f", {dropped} bad rows dropped ({rep['dropped_rows']})" if dropped else "")
+    n = rep.noise
+    dropped = sum(rep.dropped_rows.values())
+    blocks = [Note(f"{rep.rows} rows, {rep.operating_points} operating points"
+                   + (f", {dropped} bad rows dropped ({rep.dropped_rows})" if dropped else "")
                    + f"; noise ({n['source']}): α {degrees(n['alpha']['rms'])}, "
                      f"τ∥ {engineering(n['tau_par']['rms'], 'torque')}"
                    + (f", axis {degrees(n['axis']['rms'])}" if "axis" in n else ""))]
-    t = Table(f"base model fit: {' + '.join(rep['base']) or 'ideal CVT'}", ["parameter", "value", "±1σ", "identifiable"])
-    for name, p in rep["base_fit"].items():
+    t = Table(f"base model fit: {' + '.join(rep.base) or 'ideal CVT'}", ["parameter", "value", "±1σ", "identifiable"])
+    for name, p in rep.base_fit.items():
         t.add(name, engineering(p["value"], param_kind(name)), engineering(p["std"], param_kind(name), 2),
               "yes" if p["identifiable"] else "no", style="" if p["identifiable"] else "bad")
-    blocks += [t] if rep["base_fit"] else []
-    return blocks + gap_blocks(rep) + [ranking_table(rep)] + verdict_blocks(rep) + [Note(f"({rep['seconds']:.1f} s)")]
+    blocks += [t] if rep.base_fit else []
+    return blocks + gap_blocks(rep) + [ranking_table(rep)] + verdict_blocks(rep) + [Note(f"({rep.seconds:.1f} s)")]
 
 
-def gap_blocks(rep: dict) -> list:
+def gap_blocks(rep: Report) -> list:
     """The gap between the base model and the data: its size, its regions, and by motor speed."""
-    g = rep["gap"]
+    g = rep.gap
     blocks = [Note(f"gap: RMS α residual {degrees(g['rms_alpha_deg'])} (held out {degrees(g['heldout_rms_alpha_deg'])}), "
                    f"efficiency {number(g['rms_efficiency'])}; spatial structure z = {g['structure_z']:.1f} "
                    f"({'structured' if g['structured'] else 'like noise'})")]
-    failed = rep["base_failed"]
+    failed = rep.base_failed
     if failed["points"]:
         kinds = [f"{k.replace('_', ' ')} {failed[k]}" + (f" ({', '.join(failed[k + '_at'])})" if failed.get(k + "_at") else "")
                  for k in STATUS[1:] if failed[k]]
         where = ", ".join(f"({degrees(p['gamma_cmd_deg'], 3)}, {p['tau_perp_Nm']:+.2f} N·m)" for p in failed["at"][:4])
         blocks.append(Note(f"the base model has no physical solution at {failed['points']} of "
-                           f"{rep['operating_points']} operating points ({'; '.join(kinds)}), e.g. (γ, τ⊥) = {where}"
+                           f"{rep.operating_points} operating points ({'; '.join(kinds)}), e.g. (γ, τ⊥) = {where}"
                            f"{', …' if failed['points'] > 4 else ''}: left out of the gap, its regions and the map",
                            style="bad"))
     if g["regions"]:
@@ -111,20 +111,20 @@ def gap_blocks(rep: dict) -> list:
                    f"{r['load_Nm'][0]:+.2f} .. {r['load_Nm'][1]:+.2f} N·m", str(r["points"]),
                    degrees(r["mean_residual_deg"], 3))
         blocks.append(rt)
-    if rep["by_speed"]:
+    if rep.by_speed:
         blocks.append(Note("by motor speed: " + "; ".join(
             f"ω1 = {engineering(b['omega_1'], 'speed', 3)}: RMS α residual {degrees(b['rms_residual_deg'][0])} → "
-            f"{degrees(b['rms_residual_deg'][1])}" for b in rep["by_speed"])))
+            f"{degrees(b['rms_residual_deg'][1])}" for b in rep.by_speed)))
     return blocks
 
 
-def ranking_table(rep: dict) -> Table:
+def ranking_table(rep: Report) -> Table:
     """The candidates, each added alone to the base: held-out RMS α and efficiency before → after, the
     shrink, the tests, and the fitted parameters in their units."""
     k = Table("candidates, added one at a time to the base (held-out, cross-validated by operating point)",
               ["effect", "RMS α before → after", "shrink", "RMS η before → after", "p", "ΔBIC", "fails at",
                "fitted", "accepted"])
-    for r in rep["ranking"]:
+    for r in rep.ranking:
         new = {n: p for n, p in r["params"].items() if n.split(".")[0] == r["effect"]}
         fitted = ", ".join(f"{n.split('.')[1]} = {engineering(p['value'], param_kind(n), 3)}"
                            + ("" if p["identifiable"] else " (n.i.)") for n, p in new.items())
@@ -135,20 +135,20 @@ def ranking_table(rep: dict) -> Table:
     return k
 
 
-def verdict_blocks(rep: dict) -> list:
+def verdict_blocks(rep: Report) -> list:
     """The confounded pairs, the verdict, a partial explanation, the form of what remains, and how far."""
     blocks = [Note(f"confounded: {c['effects'][0]} and {c['effects'][1]} change the predictions alike (cosine "
-                   f"{c['cosine']:.2f}); to separate them: {c['separate_by']}", "warn") for c in rep["confounded"]]
-    blocks.append(Note(f"verdict: {rep['verdict']}" + (f" (accepted: {', '.join(rep['accepted'])})"
-                                                        if len(rep["accepted"]) > 1 else ""), "bold"))
+                   f"{c['cosine']:.2f}); to separate them: {c['separate_by']}", "warn") for c in rep.confounded]
+    blocks.append(Note(f"verdict: {rep.verdict}" + (f" (accepted: {', '.join(rep.accepted)})"
+                                                        if len(rep.accepted) > 1 else ""), "bold"))
     blocks += [Note(f"{p['effect']} explains {max(p['shrink'], 0):.0%} of the gap; a structured gap remains", "warn")
-               for p in rep["partial"]]
-    form, h = rep["form"], rep["how_far"]
-    if form["lies_along"] and rep["verdict"] == "unexplained":
+               for p in rep.partial]
+    form, h = rep.form, rep.how_far
+    if form["lies_along"] and rep.verdict == "unexplained":
         blocks.append(Note(f"the remaining gap lies along {form['lies_along']} (p = {form['p'][form['lies_along']]:.1e}; "
                            "next: " + ", ".join(f"{k} {v:.1e}" for k, v in
                                                 sorted(form["p"].items(), key=lambda x: x[1])[1:4]) + ")"))
-    if rep["accepted"]:
+    if rep.accepted:
         reg = (f"; in the gap's regions {degrees(h['region_rms_alpha_deg'][0])} → {degrees(h['region_rms_alpha_deg'][1])} "
                f"(shrink {h['shrink_region']:.2f})" if h["region_rms_alpha_deg"] else "")
         blocks.append(Note(f"how far: held-out RMS α {degrees(h['heldout_rms_alpha_deg'][0])} → "
@@ -158,19 +158,19 @@ def verdict_blocks(rep: dict) -> list:
     return blocks
 
 
-def plot_report(rep: dict, out_dir) -> list:
+def plot_report(rep: Report, out_dir) -> list:
     """Residual maps (base and diagnosed model) and the fit curves; returns the files written."""
 
     out_dir = Path(out_dir)
-    data, base, final = rep["_data"], rep["_base"], rep["_final"]
+    data, base, final = rep.evidence.data, rep.evidence.base, rep.evidence.final
     rb, rf = residuals(data, base.fit.pred), residuals(data, final.fit.pred)     # blank where a model fails
     maps = [(f"α residual, base ({' + '.join(base.effects) or 'ideal'})",
              point_grid(data, np.where(base.fit.ok, rb["alpha"], np.nan)))]
     if final is not base:
-        maps.append((f"α residual, with {' + '.join(rep['accepted'])}",
+        maps.append((f"α residual, with {' + '.join(rep.accepted)}",
                      point_grid(data, np.where(final.fit.ok, rf["alpha"], np.nan))))
     f1 = out_dir / "residual_map.png"
-    plots.residual_map_figure(data.gamma_levels, data.load_levels, maps, rep["gap"]["regions"][:6], f1)
+    plots.residual_map_figure(data.gamma_levels, data.load_levels, maps, rep.gap["regions"][:6], f1)
     r = data.rows
     eb, ef = model_efficiency(data, base.pred), model_efficiency(data, final.pred)
     picks = sorted({int(np.argmin(np.abs(data.load_levels - x))) for x in

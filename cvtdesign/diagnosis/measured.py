@@ -22,7 +22,7 @@ GAMMA_TOL_DEG = 1e-6     # [deg] commanded angles closer than this are one opera
 IMPLAUSIBLE_ALPHA_DEG = 20.0   # [deg] a median |α| beyond this is no rolling contact's: the signs are checked
 WRONG_POWER_SHARE = 0.75       # rows breaking a passive transmission's energy balance beyond which torque signs are wrong
 
-FOLDS = 5                # the diagnosis's cross-validation folds (diagnose.FOLDS)
+FOLDS = 5                # the diagnosis's cross-validation folds, grouped by operating point (diagnose.crossval)
 
 
 MIN_POINTS = 2 * FOLDS   # operating points a fit needs: every fold holds out ≥ 2 and fits on ≥ 8 (merge_points)
