@@ -139,10 +139,9 @@ def run_case(case: dict, variant: str = EXISTING) -> dict:
                "pair": set(accepted) == set(case["withheld"])}[kind]
     return {"id": case["id"], "matrix": case["matrix"], "kind": kind, "withheld": "+".join(case["withheld"]) or "-",
             "noise": case["noise"], "verdict": rep.verdict, "accepted": "+".join(accepted) or "-",
-            "partial": rep.partial, "lies_along": rep.form["lies_along"],
-            "correct": bool(correct), "shrink": float(shrink), "shrink_alpha": rep.how_far["shrink_alpha"],
-            "shrink_efficiency": rep.how_far["shrink_efficiency"],
-            "signal_to_noise": snr, "signal_chi": chi, "seconds": rep.seconds, "not_measured": failed}
+            "shares": rep.shares, "lies_along": rep.form["lies_along"],
+            "correct": bool(correct), "shrink": float(shrink), "signal_to_noise": snr, "signal_chi": chi,
+            "seconds": rep.seconds, "not_measured": failed}
 
 
 def _dataset(case, layout):
@@ -241,8 +240,8 @@ def run(variant=EXISTING, quick=False, seeds=3, scheduler=None, workers=None, pr
             except Exception as e:  # recorded, never swallowed
                 r = {"id": c["id"], "matrix": c["matrix"], "kind": c["kind"], "withheld": "+".join(c["withheld"]) or "-",
                      "noise": c["noise"], "verdict": f"error: {type(e).__name__}: {e}", "accepted": "-",
-                     "correct": False, "shrink": None, "shrink_alpha": None, "shrink_efficiency": None, "signal_to_noise": 0.0,
-                     "signal_chi": 0.0, "partial": [], "lies_along": None, "seconds": None, "not_measured": {}}
+                     "correct": False, "shrink": None, "signal_to_noise": 0.0,
+                     "signal_chi": 0.0, "shares": [], "lies_along": None, "seconds": None, "not_measured": {}}
             results.append(r)
             if progress:
                 progress(len(results), len(cases), r)

@@ -10,7 +10,7 @@ from scipy.stats import wilcoxon
 from cvtdesign.diagnosis.diagnose.fitting import Fit, fit
 from cvtdesign.diagnosis.diagnose.predictor import (Predictor, efficiency_mask, model_efficiency, residuals, rms,
                                                     zscores)
-from cvtdesign.diagnosis.diagnose.spatial import neighbour_pairs, structured_power
+from cvtdesign.diagnosis.diagnose.spatial import Neighbours, neighbour_pairs, structured_power
 from cvtdesign.diagnosis.measured import FOLDS, Measured
 
 
@@ -80,7 +80,8 @@ class Comparison:
     power_se: float     # its standard error for white residuals: √(channels/neighbour pairs)
 
 
-def compare(before: Score, after: Score, channels: int, data: Measured) -> Comparison:
+def compare(before: Score, after: Score, channels: int, nb: Neighbours) -> Comparison:
+    """`after` against `before` on the points where both predict (held out)."""
     common = before.ok & after.ok
     b, a = before.per_point[common], after.per_point[common]
     if not common.any():
@@ -91,16 +92,9 @@ def compare(before: Score, after: Score, channels: int, data: Measured) -> Compa
     dk = len(after.fit.theta) - len(before.fit.theta)
     dbic = float(np.sum(after.fit_per_point[common]) - np.sum(before.fit_per_point[common]) + dk * np.log(n))
     msz = (float(b.sum() / n), float(a.sum() / n))
-    power = tuple(structured_power(data, np.where(common, x.z, np.nan)) for x in (before, after))
-    se = np.sqrt(channels / max(neighbour_pairs(data, common), 1))
+    power = tuple(float(structured_power(nb, np.where(common, x.z, np.nan)).sum()) for x in (before, after))
+    se = np.sqrt(channels / max(neighbour_pairs(nb, common), 1))
     return Comparison(int(common.sum()), msz, 1 - msz[1] / msz[0], p, dbic, power, float(se))
-
-
-def rms_shrink(before, after, floor):
-    """Fraction of the gap removed: the gap is the RMS error beyond the noise floor (in quadrature)."""
-    gb = np.sqrt(max(before ** 2 - floor ** 2, 0.0))
-    ga = np.sqrt(max(after ** 2 - floor ** 2, 0.0))
-    return float(1 - ga / gb) if gb > 0 else 0.0
 
 
 def gap_shrink(c: Comparison) -> float:

@@ -8,22 +8,27 @@ from scipy.stats import f_oneway
 from cvtdesign.diagnosis.diagnose.crossval import Score
 from cvtdesign.diagnosis.diagnose.fitting import Fit
 from cvtdesign.diagnosis.diagnose.predictor import CHANNELS, Models, residuals, zscores
-from cvtdesign.diagnosis.diagnose.search import signature
+from cvtdesign.diagnosis.diagnose.search import Candidate, signature
+from cvtdesign.diagnosis.diagnose.verdict import RESIDUE
 from cvtdesign.diagnosis.measured import Measured
 
 FORM_BINS = 8          # quantile bins of a variable in the model-form checks (one-way ANOVA of the residual)
+FORM_WORDS = {"gamma_cmd_deg": "the commanded γ", "tau_perp_Nm": "the load τ⊥", "omega_1_rad_s": "the motor speed ω1",
+              "drive_spin_ratio_1_m": "the drive rollers' spin ratio |Ω·n|/V", "rolling_speed_m_s": "the rolling speed",
+              "min_normal_force_N": "the smallest normal force", "max_utilisation": "the largest traction "
+              "utilisation F/(μN)"}   # the model-form checks' variables in words
 
 
-def confounded(first_rows, base: Score, noise, data, models: Models, cos_limit=0.9):
+def confounded(first_rows: list[Candidate], base: Score, noise, data, models: Models, cos_limit=0.9):
     """Pairs of candidates whose fitted signatures (changes of the predictions, z units, measured channels)
     are nearly parallel (cosine ≥ cos_limit) and both above noise, with their held-out scores, where they
     differ most and which measurement would tell them apart (`suggest_points`)."""
     out = []
-    sig = {r["effect"]: signature(base, r["score"], noise) for r in first_rows}
+    sig = {r.effect: signature(base, r.score, noise) for r in first_rows}
     meas = np.array([c in noise for c in CHANNELS])
     for i, a in enumerate(first_rows):
         for b in first_rows[i + 1:]:
-            sa, sb = sig[a["effect"]], sig[b["effect"]]
+            sa, sb = sig[a.effect], sig[b.effect]
             va, vb = sa[meas].ravel(), sb[meas].ravel()
             na, nb = np.linalg.norm(va), np.linalg.norm(vb)
             if na < 3 or nb < 3:        # a signature within noise is not a rival
@@ -33,12 +38,12 @@ def confounded(first_rows, base: Score, noise, data, models: Models, cos_limit=0
                 continue
             diff = np.abs(sa - sb)            # (channel, point)
             by_channel = {c: float(np.sqrt(np.mean(diff[k] ** 2))) for k, c in enumerate(CHANNELS)}
-            points = suggest_points(models, data, noise, a["score"].fit, b["score"].fit)
+            points = suggest_points(models, data, noise, a.score.fit, b.score.fit)
             axis = not data.has_axis and by_channel["axis"] > 2 * max(by_channel["alpha"], by_channel["tau_par"])
             hint = ("measure the axis angle (gamma_axis_deg), or " if axis else "") + "measure at " + "; ".join(
                 f"γ = {p['gamma_deg']:.0f}°, τ⊥ = {p['load_Nm']:+.2f} N·m" for p in points[:3])
-            out.append({"effects": [a["effect"], b["effect"]], "cosine": cos, "separation_z_rms": by_channel,
-                        "heldout_msz": [a["cmp"].msz[1], b["cmp"].msz[1]], "suggested_points": points,
+            out.append({"effects": [a.effect, b.effect], "cosine": cos, "separation_z_rms": by_channel,
+                        "heldout_msz": [a.cmp.msz[1], b.cmp.msz[1]], "suggested_points": points,
                         "separate_by": hint})
     return out
 
@@ -79,8 +84,11 @@ def form_checks(models: Models, data: Measured, final: Score, noise: dict) -> di
     each point (the drive rollers' spin ratio |Ω·n|/V [1/m], their rolling speed V [m/s], the smallest normal
     force [N] and the largest traction utilisation). Per variable and channel, the points are put in FORM_BINS
     quantile bins and the bin means compared by a one-way ANOVA F-test (scale-free, so a misestimated noise
-    level does not matter). Returns each variable's smallest p-value over the channels, and the variable
-    along which the gap lies: the smallest p, if it is below 0.001 after Bonferroni over every test."""
+    level does not matter), and the size of the dependence: the RMS of the bins' mean residual beyond what
+    noise gives, in units of one reading's noise (z of a point's mean × √count). Returns each variable's
+    smallest p-value over the channels and its size, and the variable along which the gap lies: the smallest
+    p, if it is below 0.001 after Bonferroni over every test (`lies_along`), and whether that dependence is
+    larger than RESIDUE of a reading's noise (`large`: it stops a name, verdict.py)."""
     r = data.rows
     ok = final.ok
     z = zscores(residuals(data, final.fit.pred), noise)[:, ok]
@@ -95,17 +103,28 @@ def form_checks(models: Models, data: Measured, final: Score, noise: dict) -> di
                  "drive_spin_ratio_1_m": np.nanmean(np.abs(ev["spin"][drive]), axis=0),
                  "rolling_speed_m_s": np.abs(ev["omega_2"]) * r2, "min_normal_force_N": np.nanmin(ev["N"], axis=0),
                  "max_utilisation": np.nanmax(ev["utilisation"], axis=0)}
-    p = {}
+    reading = np.sqrt(np.mean(r["count"].to_numpy()[ok]))
+    p, size = {}, {}
     for name, v in variables.items():
         bins = _quantile_bins(v)
         good = np.isfinite(v) & np.all(np.isfinite(z), axis=0)
+        p[name], size[name] = 1.0, 0.0
         if bins is None:
-            p[name] = 1.0
             continue
         groups = [[zc[good & (bins == k)] for k in np.unique(bins[good])] for zc in z]
-        p[name] = float(min(f_oneway(*g).pvalue for g in groups if len(g) > 1)) if len(groups[0]) > 1 else 1.0
+        if len(groups[0]) > 1:
+            p[name] = float(min(f_oneway(*g).pvalue for g in groups))
+            size[name] = max(_between_bins(g) for g in groups) / reading
     top = min(p, key=p.get)
-    return {"p": p, "lies_along": top if p[top] < 1e-3 / (len(p) * len(z)) else None}
+    along = top if p[top] < 1e-3 / (len(p) * len(z)) else None
+    return {"p": p, "size": size, "lies_along": along, "large": bool(along and size[along] > RESIDUE)}
+
+
+def _between_bins(groups: list) -> float:
+    """RMS over the points of their bin's mean z beyond the noise's share (1/n per bin): √(Σ n m² − B)/N."""
+    n = np.array([len(g) for g in groups])
+    m = np.array([np.mean(g) for g in groups])
+    return float(np.sqrt(max(np.sum(n * m ** 2) - len(groups), 0.0) / n.sum()))
 
 
 def _quantile_bins(v: np.ndarray):

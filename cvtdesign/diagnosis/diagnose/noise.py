@@ -1,130 +1,109 @@
-"""The noise level of each channel at each operating point.
+"""The noise level of each channel at each operating point, from the data's own structure.
 
-From replicates (pooled within-point scatter) or, without replicates, from second differences of the base
-fit's residuals along the load at each γ (a gap that is smooth in load cancels, noise does not), robust
-(MAD) and pooled over neighbouring γ, since the noise of α and τ1 depends on γ through the kinematics.
-Residuals divided by it are z-scores; they weight the fit.
+* Replicates (rows that repeat an operating point): each row's deviation from its point's mean. The model
+  predicts at the measured load, so a residual's noise also holds the load's noise carried through the
+  model's slope, σ² = σ_c² + (∂c/∂τ⊥)² σ_τ⊥² (errors in variables); the slope is read off local fits of the
+  model's predictions over each point's neighbours.
+* Otherwise, neighbours: each point's residual against a local quadratic fit of its neighbours' residuals in
+  (γ, τ⊥) (spatial.Neighbours.loo). A gap that is smooth at the scale of the neighbours cancels, noise does
+  not; where the gap bends sharply between neighbours the estimate is an upper bound, so once the diagnosis
+  has a model that removes the gap, the noise is estimated again from its residuals (`refine`).
+
+Either way the deviations are pooled over the POOL samples nearest in γ (the noise of α and τ∥ depends on γ
+through the kinematics) with a robust scale (MAD), so a few wild rows do not set it. Residuals divided by the
+noise are z-scores; they weight the fit.
 """
 from __future__ import annotations
 
 import numpy as np
 import pandas as pd
 
-from cvtdesign.diagnosis.diagnose.fitting import fit
-from cvtdesign.diagnosis.diagnose.predictor import Predictor, channels, efficiency_mask, residuals, rms
+from cvtdesign.diagnosis.diagnose.fitting import Fit
+from cvtdesign.diagnosis.diagnose.predictor import channels, residuals, rms
+from cvtdesign.diagnosis.diagnose.spatial import Neighbours
 from cvtdesign.diagnosis.measured import MEASURED_CHANNELS, Measured
 
-
-def _mad_std(x):
-    x = np.asarray(x, float)
-    x = x[np.isfinite(x)]
-    if x.size < 3:
-        return np.nan
-    return 1.4826 * float(np.median(np.abs(x - np.median(x))))
+POOL = 30              # deviations pooled for each point's noise: the ones nearest to it in γ
+REFINE = 0.8           # noise from the diagnosed model's residuals replaces the first estimate below this ratio
+REPLICATES = "replicates"
+NEIGHBOURS = "neighbours in (γ, τ⊥): local fits of the base model's residuals"
+REFINED = "neighbours in (γ, τ⊥): local fits of the diagnosed model's residuals"
 
 
-def noise_levels(data: Measured, resid: dict) -> dict:
-    """σ per channel and row [channel units]: from replicates if there are any (each row's deviation from
-    its point's mean, √(n/(n−1)) scaled), else from second differences of `resid` along the load at each
-    γ level (÷√6 for white noise); robust (MAD), pooled over the γ level and its two neighbours, then
-    floored at 1e-9 of the largest so no row gets an infinite weight."""
-    r = data.rows
-    gb = r["gamma_bin"].to_numpy()
-    levels = np.unique(gb)
+def pooled_scale(gamma: np.ndarray, samples: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """Robust σ (1.4826 × median |x|, the samples having zero mean) of the POOL finite `samples` nearest
+    in γ to each γ of `at` [deg]; floored at 1e-9 of the largest, so no point gets an infinite weight."""
+    ok = np.isfinite(samples)
+    g, x = np.asarray(gamma, float)[ok], np.abs(np.asarray(samples, float)[ok])
+    if x.size == 0:
+        return np.full(len(at), np.nan)
+    order = np.argsort(g, kind="stable")
+    g, x = g[order], x[order]
+    want = min(POOL, x.size)
+    lo = np.clip(np.searchsorted(g, at) - want // 2, 0, x.size - want)
+    s = 1.4826 * np.median(x[lo[:, None] + np.arange(want)], axis=1)
+    return np.maximum(s, 1e-9 * np.max(s) + 1e-15)
+
+
+def neighbour_noise(points: Measured, resid: dict, fits: dict[str, Neighbours]) -> dict:
+    """σ of each channel at each point from the local-fit deviations of `resid` (NaN where a model fails),
+    each channel over its own neighbourhoods (spatial.local_fits)."""
+    g = points.rows["gamma_cmd_deg"].to_numpy()
+    return {c: pooled_scale(g, fits[c].loo(v), g) for c, v in resid.items()}
+
+
+def replicate_noise(raw: Measured, values: dict) -> dict:
+    """σ of one row of each channel of `values` (per raw row) from its scatter about its operating point's
+    mean (√(n/(n−1)) scaled), pooled over the replicated rows nearest in γ; per raw row."""
+    r = raw.rows
     count = r.groupby("point")["point"].transform("size").to_numpy()
+    g = r["gamma_cmd_deg"].to_numpy()
     out = {}
-    for ch, res in resid.items():
-        if data.replicated:
-            dev = np.asarray(res, float) - pd.Series(res).groupby(r["point"].to_numpy()).transform("mean").to_numpy()
-            dev = dev * np.sqrt(count / np.maximum(count - 1, 1))
-            samples = {gl: dev[(gb == gl) & (count > 1)] for gl in levels}
-        else:
-            samples = {gl: _second_differences(r, res, np.flatnonzero(gb == gl)) for gl in levels}
-        sig = {}
-        for k, gl in enumerate(levels):
-            pool = np.concatenate([samples[levels[j]] for j in range(max(0, k - 1), min(len(levels), k + 2))])
-            sig[gl] = _mad_std(pool)
-        s = np.array([sig[g] for g in gb])
-        if not np.all(np.isfinite(s)):   # a γ level with too few samples near it: the pooled estimate
-            # (over every replicate's deviation; never the scatter of the values themselves, which is the
-            # whole signal: 4.3° for α where replicates at other γ gave 0.1°)
-            pooled = np.concatenate(list(samples.values())) if data.replicated else res
-            s = np.where(np.isfinite(s), s, _mad_std(pooled))
-        out[ch] = np.maximum(s, 1e-9 * np.nanmax(s) + 1e-15)
+    for c, v in values.items():
+        v = np.asarray(v, float)
+        dev = v - pd.Series(v).groupby(r["point"].to_numpy()).transform("mean").to_numpy()
+        dev = np.where(count > 1, dev * np.sqrt(count / np.maximum(count - 1, 1)), np.nan)
+        out[c] = pooled_scale(g, dev, g)
     return out
 
 
-def noise_source(points: Measured, raw: Measured) -> str:
-    """Where the noise estimate comes from (noise_levels): replicates, second differences along the load, or,
-    where no γ level has 3 loads, the residuals' own scatter, which holds any gap as well."""
-    if raw.replicated:
-        return "replicates"
-    loads = points.rows.groupby(["gamma_bin", "speed_bin"]).size()
-    if (loads >= 3).any():
-        return "second differences along load"
-    return "scatter of the residuals, an upper bound: no replicates, and no γ with 3 loads"
-
-
-def _second_differences(r, res, idx) -> np.ndarray:
-    """(v[k] − 2 v[k+1] + v[k+2])/√6 of the residuals along the load, per motor-speed level, at rows idx."""
-    parts = []
-    for sb in np.unique(r["speed_bin"].to_numpy()[idx]):
-        sub = idx[r["speed_bin"].to_numpy()[idx] == sb]
-        v = res[sub[np.argsort(r["tau_perp"].to_numpy()[sub])]]
-        if v.size >= 3:
-            parts.append((v[:-2] - 2 * v[1:-1] + v[2:]) / np.sqrt(6))
-    return np.concatenate(parts) if parts else np.array([])
-
-
-def estimate_noise(P: Predictor, points: Measured, raw: Measured | None = None) -> dict:
-    """σ of each channel at each operating point of `points` (merged replicates, measured.merge_points).
-
-    The model predicts at the measured load, so the noise of a residual is the channel's own noise plus the
-    load's noise carried through the model's slope, σ² = σ_c² + (∂c/∂τ⊥)² σ_τ⊥² (errors in variables).
-    With replicates in `raw`, σ_c and σ_τ⊥ are the pooled scatter of the rows about their point's mean, the
-    slope that of an unweighted first fit of P along the load, and the point's σ is divided by √count;
-    without replicates, the second differences of that fit's residuals along the load hold both terms."""
-    prelim = fit(P, points, {c: np.ones(P.n) for c in channels(points)})
-    if raw is None or not raw.replicated:
-        return noise_levels(points, residuals(points, prelim.pred))
+def estimate_noise(prelim: Fit, points: Measured, raw: Measured, fits: dict[str, Neighbours]) -> dict:
+    """σ of each channel at each operating point of `points` (merged replicates of `raw`, measured.merge_points),
+    the noise of the point's mean: a row's σ over √count (module docstring). `prelim`: a first (unweighted)
+    fit of the base model."""
+    if not raw.replicated:
+        return neighbour_noise(points, held(points, prelim), fits)
     cols = {c: col for c, col in MEASURED_CHANNELS.items() if c in channels(raw)} | {"load": "tau_perp"}
-    per_row = noise_levels(raw, {c: raw.rows[col].to_numpy() for c, col in cols.items()})
+    per_row = replicate_noise(raw, {c: raw.rows[col].to_numpy() for c, col in cols.items()})
     first = raw.rows.reset_index(drop=True).groupby("point").head(1)
     idx = first.index.to_numpy()[np.argsort(first["point"].to_numpy())]
     n = points.rows["count"].to_numpy()
-    out = {}
-    for c in cols:
-        if c != "load":
-            slope = _load_slope(points, prelim.pred[c])
-            out[c] = np.sqrt(per_row[c][idx] ** 2 + (slope * per_row["load"][idx]) ** 2) / np.sqrt(n)
-    return out
+    return {c: np.sqrt(per_row[c][idx] ** 2 + (fits[c].slope(prelim.pred[c], "tau_perp_Nm") * per_row["load"][idx]) ** 2)
+            / np.sqrt(n) for c in cols if c != "load"}
 
 
-def _load_slope(points: Measured, values: np.ndarray) -> np.ndarray:
-    """∂values/∂τ⊥ at each point, by finite differences along the load at its γ and speed level."""
-    r = points.rows
-    out = np.zeros(len(r))
-    for _, idx in r.groupby(["gamma_bin", "speed_bin"]).indices.items():
-        if idx.size > 1:
-            order = idx[np.argsort(r["tau_perp"].to_numpy()[idx])]
-            t = r["tau_perp"].to_numpy()[order]
-            if np.all(np.diff(t) > 0):
-                out[order] = np.gradient(np.nan_to_num(values[order]), t)
-    return out
+def refine(points: Measured, raw: Measured, fits: dict[str, Neighbours], noise: dict, final: Fit) -> tuple[dict, bool]:
+    """The noise from the diagnosed model's residuals where that is clearly lower (below REFINE of the
+    first estimate's RMS in some channel): (noise, whether it changed). Replicates' noise does not depend on
+    a model and stays."""
+    if raw.replicated:
+        return noise, False
+    new = neighbour_noise(points, held(points, final), fits)
+    lower = any(rms(new[c]) < REFINE * rms(noise[c]) for c in noise)
+    return (new, True) if lower else (noise, False)
+
+
+def noise_source(raw: Measured, refined: bool) -> str:
+    """Where the noise estimate comes from (module docstring)."""
+    return REPLICATES if raw.replicated else REFINED if refined else NEIGHBOURS
+
+
+def held(points: Measured, f: Fit) -> dict:
+    """A fit's residuals where its physics holds (NaN elsewhere: an unconverged solve is no prediction)."""
+    return {c: np.where(f.ok, v, np.nan) for c, v in residuals(points, f.pred).items()}
 
 
 def row_noise(points: Measured, noise: dict) -> dict:
     """The noise of one row (σ of a point's mean × √count): what the report calls the rig's noise."""
     n = np.sqrt(points.rows["count"].to_numpy())
     return {c: v * n for c, v in noise.items()}
-
-
-def efficiency_noise(data, noise):
-    """Noise floor of the efficiency residual, propagated from the torque noise: |∂η/∂τ1| σ with σ the
-    τ∥ channel's noise (both torque components see the same torque noise)."""
-    r = data.rows
-    m = efficiency_mask(data)
-    eta = r["efficiency"].to_numpy()
-    with np.errstate(divide="ignore", invalid="ignore"):
-        d = np.abs(eta / r["tau_1"].to_numpy()) * noise["tau_par"]
-    return rms(d, m)

@@ -15,7 +15,7 @@ import numpy as np
 
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.metrics import efficiency
-from cvtdesign.core.model import compile_model
+from cvtdesign.core.model import CompiledModel, compile_model
 from cvtdesign.diagnosis.measured import Measured
 
 CHANNELS = ("alpha", "tau_par", "axis")        # [deg], [N m], [deg]
@@ -25,9 +25,9 @@ UNITS = {"alpha": "deg", "tau_par": "N*m", "axis": "deg"}
 class Predictor:
     """The model with `effects` evaluated at a dataset's rows: θ → predictions and their Jacobian."""
 
-    def __init__(self, layout: Layout, effects, data: Measured):
+    def __init__(self, layout: Layout, effects, data: Measured, model: CompiledModel | None = None):
         self.effects = tuple(effects)
-        self.model = compile_model(layout, self.effects)
+        self.model = model or compile_model(layout, self.effects)
         self.names = list(self.model.param_names)
         self.defaults = np.array(self.model.param_values, float)
         r = data.rows

@@ -1,20 +1,43 @@
-"""Which effect: each candidate added in turn and refitted, scored held out (crossval), the best significant
-one accepted and the search repeated (greedy), so two effects can be found; and the verdict."""
+"""Which effect: each candidate added in turn and refitted, scored held out (crossval); the one that removes
+the most of the gap is accepted when it is also significant, and the search repeats (greedy), so two effects
+can be found, each accepted only for what it adds."""
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
-from cvtdesign.diagnosis.diagnose.crossval import Score, compare, gap_shrink, score
+from cvtdesign.diagnosis.diagnose.crossval import Comparison, Score, compare, gap_shrink, score
 from cvtdesign.diagnosis.diagnose.fitting import Fit
 from cvtdesign.diagnosis.diagnose.predictor import CHANNELS, Models, Predictor, channels
-from cvtdesign.diagnosis.diagnose.spatial import AUTO_Z
+from cvtdesign.diagnosis.diagnose.spatial import Neighbours
 from cvtdesign.diagnosis.measured import Measured
 
 P_ACCEPT = 0.01        # family-wise significance of accepting an effect (Bonferroni over candidates)
 MIN_GAIN = 0.05        # and at least this relative drop of the held-out mean squared z
 MAX_ADDED = 2          # greedy rounds: at most two effects are accepted (each round refits every candidate)
-SHRINK_MIN = 0.8       # an effect is named only if the accepted effects remove this much of the gap beyond noise
 MAX_FAIL = 0.05        # a candidate that fails (gross slip, lost contact) at more of the points is not accepted
+MIN_SHARE = 0.1        # a candidate is accepted only if it removes at least this share of the base model's gap
+
+
+@dataclass
+class Candidate:
+    """A candidate effect added to the current model in a round of the search."""
+    effect: str
+    score: Score            # the model with it, fitted and scored held out
+    cmp: Comparison         # against the current model
+    share: float            # the share of the base model's structured gap it removes on top of the current model
+    reason: str             # why it is not accepted ('' if it could be)
+
+
+@dataclass
+class Search:
+    """The search's outcome: the accepted effects in order, every round's candidates (best first), the final
+    model's score and the score after each accepted effect."""
+    accepted: list
+    rounds: list            # [[Candidate]]
+    final: Score
+    steps: list             # [Score]
 
 
 def _x0(P: Predictor, prev: Fit | None):
@@ -36,34 +59,50 @@ def signature(base: Score, cand: Score, noise) -> np.ndarray:
     return np.nan_to_num(np.array(out))
 
 
-def search(models: Models, data: Measured, noise: dict, fold, base: Score, candidates, tick) -> tuple:
-    """Greedy forward search: each remaining candidate added to the current model and scored held out; the
-    best one is accepted when its held-out gain is significant (Wilcoxon p below P_ACCEPT/candidates), above
-    MIN_GAIN, lowers the BIC, the candidate fails at no more than MAX_FAIL of the points (where the rig
-    measured a steady state), and no channel gets clearly worse (worsens_a_channel). Returns (accepted
-    effects, rounds, the final score, the score after each accepted effect)."""
+def search(models: Models, data: Measured, nb: Neighbours, noise: dict, fold, base: Score, candidates,
+           tick) -> Search:
+    """Greedy forward search: each remaining candidate added to the current model, refitted and scored held
+    out. The one that removes the largest share of the base model's structured gap (gap_shrink) is accepted
+    when it could be (`refusal`: significant, adds at least MIN_SHARE, fails nowhere the rig measured, spoils
+    no channel); then the search repeats from the model with it, at most MAX_ADDED times."""
     nch = len(channels(data))
     current, accepted, rounds, steps = base, [], [], []
     remaining = list(candidates)
     while remaining and len(accepted) < MAX_ADDED:
+        before = gap_shrink(compare(base, current, nch, nb)) if current is not base else 0.0
         rows = []
         for e in remaining:
             P = models.get(current.effects + (e,))
             sc = score(P, data, noise, fold, x0=_x0(P, current.fit))
-            c = compare(current, sc, nch, data)
-            rows.append({"effect": e, "score": sc, "cmp": c, "significant": bool(
-                c.p < P_ACCEPT / len(remaining) and c.gain > MIN_GAIN and c.dbic < 0 and sc.failed <= MAX_FAIL
-                and not worsens_a_channel(current, sc))})
+            c = compare(current, sc, nch, nb)
+            share = gap_shrink(compare(base, sc, nch, nb)) - before
+            rows.append(Candidate(e, sc, c, share, refusal(current, sc, c, share, len(remaining))))
             tick(f"round {len(rounds) + 1}: {e}")
-        rows.sort(key=lambda r: (not r["significant"], -r["cmp"].gain))
+        rows.sort(key=lambda r: (bool(r.reason), -r.share))
         rounds.append(rows)
-        if not rows[0]["significant"]:
+        if rows[0].reason:
             break
-        accepted.append(rows[0]["effect"])
-        current = rows[0]["score"]
+        accepted.append(rows[0].effect)
+        current = rows[0].score
         steps.append(current)
-        remaining.remove(rows[0]["effect"])
-    return accepted, rounds, current, steps
+        remaining.remove(rows[0].effect)
+    return Search(accepted, rounds, current, steps)
+
+
+def refusal(current: Score, sc: Score, c: Comparison, share: float, tried: int) -> str:
+    """Why a candidate is not accepted, in words ('' when it can be): its held-out gain must be significant
+    (one-sided Wilcoxon p below P_ACCEPT over the `tried` candidates, gain above MIN_GAIN, lower BIC), it must
+    remove at least MIN_SHARE of the base model's gap, fail (gross slip, lost contact) at no more than MAX_FAIL
+    of the points where the rig measured a steady state, and make no channel clearly worse."""
+    if sc.failed > MAX_FAIL:
+        return f"no physical solution at {sc.failed:.0%} of the points"
+    if worsens_a_channel(current, sc):
+        return "fits one channel by spoiling another"
+    if share < MIN_SHARE:
+        return f"removes only {max(share, 0.0):.0%} of the gap"
+    if not (c.p < P_ACCEPT / tried and c.gain > MIN_GAIN and c.dbic < 0):
+        return "its gain is not significant (it may be noise)"
+    return ""
 
 
 def worsens_a_channel(before: Score, after: Score, factor: float = 2.0) -> bool:
@@ -76,23 +115,3 @@ def worsens_a_channel(before: Score, after: Score, factor: float = 2.0) -> bool:
         return False
     msz_before, msz_after = (np.mean(s.z[:, both] ** 2, axis=1) for s in (before, after))
     return bool(np.any((msz_after > factor * msz_before) & (msz_after > factor)))
-
-
-def verdict(data: Measured, accepted, base: Score, steps, structured_after: float, nch: int,
-            form_structured: bool) -> tuple[str, list]:
-    """The verdict and the partial explanation. An effect is named only when the accepted effects leave no
-    structured gap: the spatial structure z of the final residuals is ≤ AUTO_Z, the model-form checks find
-    no variable the residual depends on (form_checks), and they remove at least SHRINK_MIN of the
-    structured gap (gap_shrink, held out) unless what remains is within 3 standard errors of none.
-    Otherwise a structured gap remains: `unexplained`, with each accepted effect's cumulative share of the
-    gap (`partial`). Without accepted effects: `unexplained` if the base residual is spatially structured in
-    any channel (structured_after, the base being the final model), else `none` (the gap is noise). The form
-    checks only stop a name: alone, their nominal p-values proved too optimistic on null data to call a gap."""
-    if not accepted:
-        return ("unexplained" if structured_after > AUTO_Z else "none"), []
-    c = compare(base, steps[-1], nch, data)
-    remains = c.power[1] > 3 * c.power_se
-    if structured_after <= AUTO_Z and not form_structured and (gap_shrink(c) >= SHRINK_MIN or not remains):
-        return accepted[0], []
-    return "unexplained", [{"effect": e, "shrink": gap_shrink(compare(base, st, nch, data))}
-                           for e, st in zip(accepted, steps)]
