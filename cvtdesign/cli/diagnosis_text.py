@@ -14,7 +14,8 @@ from cvtdesign.core.effects import EFFECTS
 from cvtdesign.core.model import STATUS
 from cvtdesign.diagnosis.diagnose import Report
 from cvtdesign.diagnosis.diagnose.explain import FORM_WORDS
-from cvtdesign.diagnosis.diagnose.verdict import RESIDUE
+from cvtdesign.diagnosis.diagnose.spatial import AUTO_Z
+from cvtdesign.diagnosis.diagnose.verdict import GAP, RESIDUE
 from cvtdesign.io.report import Note, Table
 
 CHANNEL_WORDS = {"alpha": "α", "tau_par": "τ∥", "axis": "γ_axis"}
@@ -26,8 +27,9 @@ GLOSSARY = [
     "mean product of neighbouring points' held-out residuals over the channels, each in units of its noise.",
     "held out: each operating point predicted by the model fitted without it (5-fold cross-validation by "
     "operating point), so no point scores its own fit.",
-    "a reading's noise: the scatter of one row of data about the truth, as estimated from the data (source "
-    "above); a remaining gap smaller than half of it does not stop a name (docs/diagnosis.md).",
+    f"a reading's noise: the scatter of one row of data about the truth, as estimated from the data (source "
+    f"above). What an effect leaves of the gap stops its name only beyond {RESIDUE:g}× it; without an effect, a "
+    f"gap beyond {GAP:g}× it is a gap (docs/diagnosis.md).",
     "structure z: how surely the residuals are smoother than noise (their correlation between neighbouring "
     "points, in standard errors; about 0 ± 1 without a gap). It grows with the amount of data for the same "
     "gap, so it is information, not the verdict's gate.",
@@ -110,9 +112,10 @@ def answer_blocks(rep: Report) -> list:
 def _residue(rep: Report) -> str:
     """What remains of the gap after the named effects, in the channel's unit against a reading's noise."""
     g, at = rep.gap["channels"], rep.how_far["residue_largest_at"]
-    worst = max(g, key=lambda c: g[c]["after"] / g[c]["noise"] if g[c]["noise"] else 0.0)
-    if not g[worst]["after"] > 0:
+    real = [c for c in g if g[c]["after"] > 0 and g[c]["structure_z_after"] > AUTO_Z]
+    if not real:
         return f"nothing smoother than the noise remains ({degrees(g['alpha']['noise'], 2)} in α for a reading)"
+    worst = max(real, key=lambda c: g[c]["after"] / g[c]["noise"])
     where = (f", largest near γ = {degrees(at['gamma_deg'], 2)}, τ⊥ = {at['load_Nm']:+.2f} N·m"
              if worst == "alpha" and at else "")
     return (f"a residue of {quantity(g[worst]['after'], worst)} remains in {CHANNEL_WORDS[worst]}{where}, against "
@@ -123,6 +126,11 @@ def _unexplained(rep: Report) -> str:
     """The answer when no effect of the vocabulary explains the gap: its size and where, what explains part
     of it, and along what it lies."""
     g, n = rep.gap["channels"], rep.noise
+    unsteady = [k for k, s in rep.sequence.items() if s and s["found"]]
+    if unsteady and not rep.gap["structured"]:
+        return ("Unexplained: the readings " + " and ".join({"direction": "depend on the direction γ was approached",
+                                                             "drift": "drift over the test"}[k] for k in unsteady)
+                + " (below), which no steady-state model of the vocabulary has.")
     worst = max(g, key=lambda c: g[c]["before"] / g[c]["noise"] if g[c]["noise"] else 0.0)
     text = (f"Unexplained: no effect of the vocabulary removes the gap. The base model misses {CHANNEL_WORDS[worst]} "
             f"by {quantity(g[worst]['before'], worst)} (RMS of the gap, {g[worst]['before'] / n[worst]['rms']:.1f}× "
@@ -285,7 +293,7 @@ def statistics_blocks(rep: Report) -> list:
     if drift and not drift["testable"]:
         blocks.append(Note(f"drift over the test: not testable, {drift['why_not']}"))
     blocks += [Note(f"remaining gap along {FORM_WORDS[v]}: p = {_p(rep.form['p'][v])}, "
-                    f"{rep.form['size'][v]:.2f}× a reading's noise (named above only beyond {RESIDUE:g}×)")
+                    f"{rep.form['size'][v]:.2f}× a reading's noise")
                for v in [rep.form["lies_along"]] if v]
     return blocks + [Note("terms: " + " ".join(f"({k + 1}) {d}" for k, d in enumerate(GLOSSARY)))]
 

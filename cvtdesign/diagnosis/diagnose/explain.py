@@ -9,7 +9,6 @@ from cvtdesign.diagnosis.diagnose.crossval import Score
 from cvtdesign.diagnosis.diagnose.fitting import Fit
 from cvtdesign.diagnosis.diagnose.predictor import CHANNELS, Models, residuals, zscores
 from cvtdesign.diagnosis.diagnose.search import Candidate, signature
-from cvtdesign.diagnosis.diagnose.verdict import RESIDUE
 from cvtdesign.diagnosis.measured import Measured
 
 FORM_BINS = 8          # quantile bins of a variable in the model-form checks (one-way ANOVA of the residual)
@@ -87,8 +86,7 @@ def form_checks(models: Models, data: Measured, final: Score, noise: dict) -> di
     level does not matter), and the size of the dependence: the RMS of the bins' mean residual beyond what
     noise gives, in units of one reading's noise (z of a point's mean × √count). Returns each variable's
     smallest p-value over the channels and its size, and the variable along which the gap lies: the smallest
-    p, if it is below 0.001 after Bonferroni over every test (`lies_along`), and whether that dependence is
-    larger than RESIDUE of a reading's noise (`large`: it stops a name, verdict.py)."""
+    p, if it is below 0.001 after Bonferroni over every test (`lies_along`; its size decides, verdict.py)."""
     r = data.rows
     ok = final.ok
     z = zscores(residuals(data, final.fit.pred), noise)[:, ok]
@@ -117,7 +115,7 @@ def form_checks(models: Models, data: Measured, final: Score, noise: dict) -> di
             size[name] = max(_between_bins(g) for g in groups) / reading
     top = min(p, key=p.get)
     along = top if p[top] < 1e-3 / (len(p) * len(z)) else None
-    return {"p": p, "size": size, "lies_along": along, "large": bool(along and size[along] > RESIDUE)}
+    return {"p": p, "size": size, "lies_along": along}
 
 
 def _between_bins(groups: list) -> float:

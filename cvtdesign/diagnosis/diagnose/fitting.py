@@ -33,7 +33,8 @@ class Fit:
                 for n, v, s, i in zip(self.names, self.theta, self.std, self.identifiable)}
 
 
-def _bounds(names):
+def bounds(names):
+    """(lower, upper) bounds of the parameters `names` ('effect.param'), from core.effects."""
     lo, hi = [], []
     for n in names:
         e, p = n.split(".")
@@ -45,7 +46,7 @@ def _bounds(names):
 
 def _starts(P: Predictor, x0):
     """Start points: the given one, and each parameter that may take either sign started on the other side."""
-    lo, _ = _bounds(P.names)
+    lo, _ = bounds(P.names)
     starts = [np.array(x0, float)]
     for j in range(len(x0)):
         if lo[j] < 0 and x0[j] != 0:
@@ -61,7 +62,7 @@ def fit(P: Predictor, data: Measured, noise: dict, rows=None, x0=None, multistar
     rows = np.arange(P.n) if rows is None else np.asarray(rows)
     chans = [c for c in CHANNELS if c in noise]
     x0 = P.defaults if x0 is None else np.asarray(x0, float)
-    lo, hi = _bounds(P.names)
+    lo, hi = bounds(P.names)
 
     def zfun(theta, jac=False):
         out = P(theta, jacobian=jac)

@@ -46,10 +46,12 @@ def pooled_scale(gamma: np.ndarray, samples: np.ndarray, at: np.ndarray) -> np.n
 
 
 def neighbour_noise(points: Measured, resid: dict, fits: dict[str, Neighbours]) -> dict:
-    """σ of each channel at each point from the local-fit deviations of `resid` (NaN where a model fails),
-    each channel over its own neighbourhoods (spatial.local_fits)."""
+    """σ of each channel's point means from the local-fit deviations of `resid` (NaN where a model fails),
+    each channel over its own neighbourhoods (spatial.local_fits); pooled as a row's noise (× √count), so
+    points of one row and means of a few are read alike."""
     g = points.rows["gamma_cmd_deg"].to_numpy()
-    return {c: pooled_scale(g, fits[c].loo(v), g) for c, v in resid.items()}
+    n = np.sqrt(points.rows["count"].to_numpy())
+    return {c: pooled_scale(g, fits[c].loo(v) * n, g) / n for c, v in resid.items()}
 
 
 def replicate_noise(raw: Measured, values: dict) -> dict:

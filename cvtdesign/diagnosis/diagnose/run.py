@@ -19,7 +19,7 @@ from cvtdesign.diagnosis.diagnose.report import Evidence, Report, by_speed, how_
 from cvtdesign.diagnosis.diagnose.search import MAX_ADDED, Search, search
 from cvtdesign.diagnosis.diagnose.sequence import Direction, direction_test, drift_test, split_by_direction
 from cvtdesign.diagnosis.diagnose.spatial import Neighbours, local_fits, neighbours, regions
-from cvtdesign.diagnosis.diagnose.verdict import structured_gap, verdict
+from cvtdesign.diagnosis.diagnose.verdict import GAP, structured_gap, verdict
 from cvtdesign.diagnosis.measured import Measured, from_rows, merge_points
 
 
@@ -118,7 +118,8 @@ def _report(s: Prepared, noise: dict, refined: bool, base_score: Score, found: S
     form = form_checks(s.models, data, final, noise)
     hysteresis = bool(s.direction and s.direction.found)
     drift = None if hysteresis else drift_test(s.models, s.raw, final.fit, rown, data)
-    name, shares = verdict(found, base_score, gap, nb, form["large"], hysteresis or drift.found, nch)
+    form_size = form["size"][form["lies_along"]] if form["lies_along"] else 0.0
+    name, shares = verdict(found, base_score, gap, nb, form_size, hysteresis or drift.found, nch)
     # the base model's gap only where its physics holds: elsewhere its "prediction" is an unconverged or
     # slipping solve's last iterate (a region of 14.1° at a point the model had in gross slip)
     res_fit = held(data, base_score.fit)
@@ -133,7 +134,7 @@ def _report(s: Prepared, noise: dict, refined: bool, base_score: Score, found: S
         base_failed=failed_points(s.models.get(base), data, base_score.fit),
         gap={"rms_alpha_deg": rms(res_fit["alpha"]), "heldout_rms_alpha_deg": base_score.rms_alpha,
              "rms_efficiency": base_score.rms_efficiency, "channels": gap.to_json(),
-             "structure_z": max(gap.z_before.values()), "structured": any(gap.large(c, "before") for c in gap.before),
+             "structure_z": max(gap.z_before.values()), "structured": any(gap.large(c, "before", GAP) for c in gap.before),
              "structure_z_after": max(gap.z_after.values()), "structured_after": any(gap.large(c) for c in gap.after),
              "regions": [r.to_json() for r in regs]},
         ranking=ranking(found, data, base_score), rounds=rounds(found),

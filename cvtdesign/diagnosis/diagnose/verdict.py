@@ -9,8 +9,10 @@ estimate. The rule:
   gap (over every channel, in units of each channel's noise; or what remains is within 3 standard errors of
   none) and what remains is small: in every channel at most RESIDUE of one reading's noise, and no
   dependence on a variable of the model-form checks larger than that;
-* nothing is accepted, the base model's gap is that small and the readings depend neither on the direction
-  γ was approached from nor on the time (sequence.py): `none`;
+* nothing is accepted, the base model's gap is below GAP of a reading's noise in every channel (and along
+  every model-form variable), and the readings depend neither on the direction γ was approached from nor on
+  the time (sequence.py): `none` (a gap of 0.6 to 0.9 of a reading, real at z 6 to 8, is no noise: two
+  effects outside the vocabulary leave one);
 * otherwise `unexplained`, with what each accepted effect explains.
 
 A remaining gap counts only where it is also real: its spatial structure significant (z > AUTO_Z). The
@@ -32,6 +34,7 @@ from cvtdesign.diagnosis.measured import Measured
 
 SHRINK_MIN = 0.8       # an effect is named only if the accepted effects remove this share of the structured gap
 RESIDUE = 1.0          # and what remains is at most one reading's noise, in every channel
+GAP = 0.5              # without an accepted effect, a gap of half a reading's noise is a gap: not `none`
 
 
 @dataclass
@@ -44,10 +47,10 @@ class Gap:
     z_after: dict
     noise: dict            # channel -> RMS noise of one reading [unit]
 
-    def large(self, c: str, which: str = "after") -> bool:
-        """Whether channel c's gap is real (structure z > AUTO_Z) and larger than RESIDUE of the noise."""
+    def large(self, c: str, which: str = "after", limit: float = RESIDUE) -> bool:
+        """Whether channel c's gap is real (structure z > AUTO_Z) and larger than `limit` of a reading's noise."""
         size, z = (self.after, self.z_after) if which == "after" else (self.before, self.z_before)
-        return bool(z[c] > AUTO_Z and size[c] > RESIDUE * self.noise[c])
+        return bool(z[c] > AUTO_Z and size[c] > limit * self.noise[c])
 
     def to_json(self) -> dict:
         return {c: {"before": self.before[c], "after": self.after[c], "structure_z_before": self.z_before[c],
@@ -69,19 +72,19 @@ def structured_gap(data: Measured, nb: Neighbours, noise: dict, row_noise: dict,
                {c: rms(row_noise[c]) for c in channels(data)})
 
 
-def verdict(search: Search, base: Score, gap: Gap, nb: Neighbours, form_large: bool, unsteady: bool,
+def verdict(search: Search, base: Score, gap: Gap, nb: Neighbours, form_size: float, unsteady: bool,
             nch: int) -> tuple[str, list]:
     """(the verdict, each accepted effect's own share of the base model's structured gap): the rule of the
-    module docstring. `form_large`: the model-form checks found a dependence larger than RESIDUE;
-    `unsteady`: the readings depend on the direction of approach or drift over the test (sequence.py), which
-    no steady-state model has, so the data are never `none` then."""
+    module docstring. `form_size`: the dependence the model-form checks found, in a reading's noise (0 if
+    none); `unsteady`: the readings depend on the direction of approach or drift over the test
+    (sequence.py), which no steady-state model has, so the data are never `none` then."""
     shares = effect_shares(search, base, nb, nch)
     if not search.accepted:
-        large = any(gap.large(c, "before") for c in gap.before) or form_large or unsteady
+        large = any(gap.large(c, "before", GAP) for c in gap.before) or form_size > GAP or unsteady
         return ("unexplained" if large else "none"), []
     c = compare(base, search.final, nch, nb)
     remains = c.power[1] > 3 * c.power_se
-    small = not any(gap.large(ch) for ch in gap.after) and not form_large
+    small = not any(gap.large(ch) for ch in gap.after) and form_size <= RESIDUE
     return (search.accepted[0] if small and (gap_shrink(c) >= SHRINK_MIN or not remains) else "unexplained"), shares
 
 
