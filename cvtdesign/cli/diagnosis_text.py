@@ -90,7 +90,7 @@ def answer_blocks(rep: Report) -> list:
     h, n = rep.how_far, rep.noise
     if rep.verdict == "none":
         text = (f"No gap beyond the noise: the base model ({' + '.join(rep.base) or 'ideal CVT'}) fits the data to "
-                f"{degrees(h['heldout_rms_alpha_deg'][0], 2)} RMS in α (held out), against "
+                f"{degrees(h['heldout_rms_alpha_deg'][0], 3)} RMS in α (held out), against "
                 f"{degrees(n['alpha']['rms'], 2)} of noise in a reading; no effect needs adding.")
     elif rep.verdict == "unexplained":
         text = _unexplained(rep)
@@ -100,7 +100,7 @@ def answer_blocks(rep: Report) -> list:
                 f"{named['share']:.0%} of the gap" + "".join(f", and {s['effect'].replace('_', ' ')} a further "
                                                              f"{s['share']:.0%}" for s in rep.shares[1:])
                 + f" (held-out RMS α {degrees(h['heldout_rms_alpha_deg'][0], 3)} → "
-                  f"{degrees(h['heldout_rms_alpha_deg'][1], 2)}); " + _residue(rep) + ".")
+                  f"{degrees(h['heldout_rms_alpha_deg'][1], 3)}); " + _residue(rep) + ".")
     blocks = [Note(text, "bold")] + _sequence_notes(rep)
     if rep.outliers:
         blocks.append(Note(f"{len(rep.outliers)} row{'s' if len(rep.outliers) > 1 else ''} left out as gross "
