@@ -30,9 +30,12 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
+from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.diagnosis import diagnose
 from cvtdesign.diagnosis import measured
 from cvtdesign.diagnosis import rig
+from cvtdesign.diagnosis.diagnose.fitting import bounds
+from cvtdesign.diagnosis.diagnose.run import prepare
 from cvtdesign.io.variant import load_variant
 from timing import best_of
 
@@ -89,7 +92,7 @@ def whole_diagnosis(L, rounds):
         t, rep = diagnose_csv(L, text)
         t_diag.append(t)
     ratio = min(t_diag) / min(t_ref)
-    print(f"1. diagnose, {rep['rows']} rows, {len(rep['candidates'])} candidates, verdict {rep['verdict']}: "
+    print(f"1. diagnose, {rep.rows} rows, {len(rep.candidates)} candidates, verdict {rep.verdict}: "
           f"{min(t_diag):.1f} s; reference {1e3 * min(t_ref):.1f} ms, ratio {ratio:.0f}; one base-model "
           f"evaluation at the rows {1e3 * min(t_eval):.2f} ms, ratio {min(t_diag) / min(t_eval):.0f}")
     goal_line("whole diagnosis", ratio, DIAGNOSE_GOAL, " references")
@@ -97,9 +100,9 @@ def whole_diagnosis(L, rounds):
 
 def exact_jacobian(L):
     """2. A weighted base fit with the model's exact Jacobian against finite differences."""
-    data = measured.merge_points(load(L, dataset(L)))
-    P2 = diagnose.Predictor(L, KIM, data)
-    noise = diagnose.estimate_noise(P2, data)
+    s = prepare(L, shaft_frame(L), load(L, dataset(L)), KIM)
+    data, noise = s.points, s.noise
+    P2 = s.models.get(KIM)
     t_exact, f_exact = best_of(lambda: diagnose.fit(P2, data, noise, multistart=False), 3)
 
     def z(theta):
@@ -107,7 +110,7 @@ def exact_jacobian(L):
         res = diagnose.residuals(data, pred)
         return np.concatenate([res[c] / noise[c] for c in res])
 
-    lo, hi = diagnose._bounds(P2.names)
+    lo, hi = bounds(P2.names)
     t_fd, sol = best_of(lambda: least_squares(z, P2.defaults, jac="2-point", bounds=(lo, hi), method="trf",
                                               x_scale=np.abs(P2.defaults), xtol=1e-10, ftol=1e-10), 3)
     agree = np.max(np.abs(sol.x - f_exact.theta) / np.abs(f_exact.theta))

@@ -115,7 +115,8 @@ def _add_rig(p):
                    help="an effect parameter, e.g. steering_lateral_creep.scale=1.2 or 'rolling_resistance.offset=0.2 mm'")
     p.add_argument("--noise", help="measurement noise σ, e.g. 'speed=0.01 rad/s,torque=0.005 N*m,axis=0.05 deg' "
                                    "(these are the defaults; plain numbers are SI)")
-    p.add_argument("--protocol", help="protocol YAML (gamma, load, load_kind, motor_speed, replicates); default Kim's")
+    p.add_argument("--protocol", help="protocol YAML (gamma, load, load_kind, motor_speed, replicates, random, seed), "
+                                      "or 'random' (Kim's ranges, 187 points drawn at random with --seed); default Kim's")
     p.add_argument("--replicates", type=int, help="repeat every operating point this many times")
     p.add_argument("--seed", type=int, default=0, help="random seed of the noise (default 0)")
     p.add_argument("--no-axis", action="store_true", help="do not record the axis angle gamma_axis_deg")

@@ -1,6 +1,8 @@
 """`cvtdesign rig`: the virtual test rig, measured-like data from the full model."""
 from __future__ import annotations
 
+import dataclasses
+
 from rich.console import Console
 
 from cvtdesign.cli.arguments import effects_arg
@@ -19,9 +21,9 @@ def run(args):
     layout = load_variant(args.variant)
     effects = effects_arg(args.effects, layout.effects, "--effects")
     params = rig.parse_settings(args.set, effects)
-    protocol = rig.read_protocol(args.protocol, layout) if args.protocol else rig.kim_protocol(layout)
+    protocol = rig.read_protocol(args.protocol, layout, args.seed) if args.protocol else rig.kim_protocol(layout)
     if args.replicates is not None:
-        protocol = rig.Protocol(protocol.gammas, protocol.loads, protocol.speeds, protocol.load_kind, args.replicates)
+        protocol = dataclasses.replace(protocol, replicates=args.replicates)
     noise = rig.parse_noise(args.noise)
     rows, failed = rig.simulate(layout, effects, params, protocol, noise, args.seed, axis=not args.no_axis)
     write_file(args.out, rig.to_csv_text(rows), kind="--out")

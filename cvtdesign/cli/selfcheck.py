@@ -50,7 +50,7 @@ def print_summary(s: dict, results: list[dict], console):
             p.add_column(c)
         for r in rows:
             if r["kind"] != "single":
-                part = "; ".join(f"{x['effect']} {x['shrink']:.0%}" for x in r["partial"])
+                part = "; ".join(f"{x['effect']} {x['share']:.0%}" for x in r["shares"]) if r["verdict"] == "unexplained" else ""
                 p.add_row(r["id"], f"{r['signal_to_noise']:.2f}", f"{r['signal_chi']:.1f}", r["verdict"],
                           r["accepted"] + (f" (partial: {part})" if part else ""), r["lies_along"] or "-",
                           "yes" if r["correct"] else "[red]no[/red]")

@@ -498,22 +498,77 @@ def simulate(effects: dict[str, float], gammas_deg=range(-80, 81, 10), loads=KIM
     by reason: not_converged, lost_contact, gross_slip (only reasons that occurred)."""
     G, T = np.meshgrid(np.radians(np.asarray(list(gammas_deg), float)), np.asarray(loads, float), indexing="ij")
     res = solve(G, T, effects, omega_1)
-    ok = res["ok"]
     rng = np.random.default_rng(seed)
+    blocks = [_measured(res, res["ok"], rng, noise, axis) for _ in range(int(replicates))]
+    return pd.concat(blocks, ignore_index=True), _left_out(res["status"])
+
+
+def simulate_sequence(effects: dict[str, float], gammas_deg, loads, omega_1=10.0, noise=NOISE, seed=0,
+                      axis=True, backlash=0.0, drift=None, seconds_per_row=0.0) -> tuple[pd.DataFrame, dict]:
+    """Rig-like data at the operating points (γ_cmd [deg], τ⊥ [N m]) in the order given, the order the rig
+    measured them, with two things a steady-state model does not have:
+
+    * `backlash` [rad]: lost motion in the steering linkage. The forks stop short of the commanded angle by
+      half of it in the sense they were moving: φ − b/2 when γ_cmd was approached from below (rising since
+      the last different γ), φ + b/2 from above (the first point counts as approached from below).
+    * `drift` {effect: relative change}: the effect's strength grows linearly over the test, by that fraction
+      from the first row to the last (e.g. {'drive_longitudinal_creep': 0.4}: the urethane warming up); the
+      rows are solved in 32 groups of consecutive rows, each at its mean strength.
+
+    With `seconds_per_row` > 0 a `time_s` column gives each row's time. Returns (rows, left_out) as
+    `simulate`."""
+    g = np.radians(np.asarray(gammas_deg, float))
+    t = np.asarray(loads, float)
+    n = g.size
+    direction = _approach(g)
+    offset = effects.get("steering_offset", 0.0)
+    res = {}
+    groups = np.array_split(np.arange(n), 32 if drift else 1)
+    for idx in groups:
+        for sense in (1, -1):
+            sel = idx[direction[idx] == sense]
+            if not sel.size:
+                continue
+            eff = dict(effects)
+            for e, rel in (drift or {}).items():
+                eff[e] = effects.get(e, 0.0) * (1 + rel * float(np.mean(sel)) / max(n - 1, 1))
+            if backlash:
+                eff["steering_offset"] = offset - sense * backlash / 2
+            part = solve(g[sel], t[sel], eff, omega_1)
+            for k, v in part.items():
+                res.setdefault(k, np.zeros(np.shape(v)[:-1] + (n,), np.asarray(v).dtype))[..., sel] = v
+    rows = _measured(res, res["ok"], np.random.default_rng(seed), noise, axis)
+    if seconds_per_row > 0:
+        rows["time_s"] = np.flatnonzero(res["ok"]) * seconds_per_row
+    return rows, _left_out(res["status"])
+
+
+def _approach(g: np.ndarray) -> np.ndarray:
+    """+1 where a commanded γ was approached from below (rising since the last different γ), −1 from above."""
+    out = np.ones(g.size, int)
+    for k in range(1, g.size):
+        d = g[k] - g[k - 1]
+        out[k] = out[k - 1] if d == 0 else (1 if d > 0 else -1)
+    return out
+
+
+def _measured(res: dict, ok: np.ndarray, rng, noise, axis: bool) -> pd.DataFrame:
+    """One measurement of each `ok` point of a solve: its speeds, torques and (with `axis`) axis angle plus
+    Gaussian noise σ = noise (speed [rad/s], torque [N m], axis angle [deg])."""
     s_w, s_t, s_ax = noise
-    blocks = []
-    for _ in range(int(replicates)):
-        n = int(ok.sum())
-        b = {"gamma_cmd_deg": np.degrees(res["gamma_cmd"][ok]),
-             "omega_1": res["omega_1"][ok] + s_w * rng.standard_normal(n),
-             "omega_2": res["omega_2"][ok] + s_w * rng.standard_normal(n),
-             "tau_1": res["tau_1"][ok] + s_t * rng.standard_normal(n),
-             "tau_2": res["tau_2"][ok] + s_t * rng.standard_normal(n)}
-        if axis:
-            b["gamma_axis_deg"] = np.degrees(res["gamma_axis"][ok]) + s_ax * rng.standard_normal(n)
-        blocks.append(pd.DataFrame(b))
-    left_out = {STATUS[k]: int(np.sum(res["status"] == k)) for k in (1, 2, 3) if np.any(res["status"] == k)}
-    return pd.concat(blocks, ignore_index=True), left_out
+    n = int(ok.sum())
+    b = {"gamma_cmd_deg": np.degrees(res["gamma_cmd"][ok]),
+         "omega_1": res["omega_1"][ok] + s_w * rng.standard_normal(n),
+         "omega_2": res["omega_2"][ok] + s_w * rng.standard_normal(n),
+         "tau_1": res["tau_1"][ok] + s_t * rng.standard_normal(n),
+         "tau_2": res["tau_2"][ok] + s_t * rng.standard_normal(n)}
+    if axis:
+        b["gamma_axis_deg"] = np.degrees(res["gamma_axis"][ok]) + s_ax * rng.standard_normal(n)
+    return pd.DataFrame(b)
+
+
+def _left_out(status: np.ndarray) -> dict:
+    return {STATUS[k]: int(np.sum(status == k)) for k in (1, 2, 3) if np.any(status == k)}
 
 
 def signal_to_noise(effects: dict, reference: dict, noise=NOISE, omega_1=10.0) -> dict:

@@ -22,7 +22,7 @@ GAMMA_TOL_DEG = 1e-6     # [deg] commanded angles closer than this are one opera
 IMPLAUSIBLE_ALPHA_DEG = 20.0   # [deg] a median |α| beyond this is no rolling contact's: the signs are checked
 WRONG_POWER_SHARE = 0.75       # rows breaking a passive transmission's energy balance beyond which torque signs are wrong
 
-FOLDS = 5                # the diagnosis's cross-validation folds (diagnose.FOLDS)
+FOLDS = 5                # the diagnosis's cross-validation folds, grouped by operating point (diagnose.crossval)
 
 
 MIN_POINTS = 2 * FOLDS   # operating points a fit needs: every fold holds out ≥ 2 and fits on ≥ 8 (merge_points)
@@ -42,7 +42,11 @@ class Measured:
 
     @property
     def replicated(self) -> bool:
-        return bool(self.rows.groupby("point").size().max() > 1)
+        """Whether replicates are the rule: at least half the rows repeat an operating point (as _group asks
+        of them); a few repeated rows (a sweep's turning point measured twice) say too little of the noise
+        at every other γ."""
+        size = self.rows.groupby("point")["point"].transform("size")
+        return bool(np.mean(size > 1) >= 0.5)
 
 
 def load_measured(path, layout, drop_bad: bool = False) -> Measured:
@@ -194,8 +198,10 @@ def _group(m: Measured):
             steps.append(np.min(np.diff(means)))
     if np.sum(np.bincount(point)[point] > 1) < 0.5 * len(tp):   # replicates are the rule or there are none:
         point, loads = np.arange(len(tp)), tp                   # loads drawn at random meet by chance
-    # the levels every γ shares: the points' mean loads chained closer than half the typical load step
-    load_of_point, llev = _levels(np.array(loads), 0.5 * float(np.median(steps)) if steps else tol)
+    # the levels every γ shares: the points' mean loads chained closer than half the typical load step;
+    # with no γ measured at two loads (a random protocol) there is no step, and each point's load is its own
+    # level (chaining them by a fixed tolerance made one level of 187 random loads)
+    load_of_point, llev = _levels(np.array(loads), 0.5 * float(np.median(steps)) if steps else 0.0)
     r["gamma_bin"], r["load_bin"], r["speed_bin"] = gl, load_of_point[point], sl
     r["point"] = pd.factorize(pd.Series(point))[0]
     m.gamma_levels, m.load_levels, m.speed_levels = glev, llev, slev
@@ -206,8 +212,9 @@ MEASURED_CHANNELS = {"alpha": "alpha_deg", "tau_par": "tau_par", "axis": "gamma_
 
 def merge_points(data: Measured) -> Measured:
     """The dataset with its replicates merged: one row per operating point, with the mean of every measured
-    and derived column (α, τ⊥, τ∥ and the axis angle averaged as measured; efficiency from the mean powers),
-    its `count` of replicates, and the point's levels. A diagnosis predicts and fits at these points, so
+    and derived column (α, τ⊥, τ∥ and the axis angle averaged as measured; efficiency from the mean powers;
+    the mean time), its `count` of replicates, and the point's levels (and, for data split by the direction
+    of approach, its `approach` and `origin`, the point it was split from). A diagnosis predicts and fits at these points, so
     its cost grows with the operating points, not the rows; the noise of a mean is σ/√count.
 
     A fit and its FOLDS-fold cross-validation (grouped by operating point) need at least MIN_POINTS = 10
@@ -222,8 +229,9 @@ def merge_points(data: Measured) -> Measured:
     cols = [c for c in ("gamma_cmd_deg", "omega_1", "omega_2", "tau_1", "tau_2", "gamma_axis_deg", "alpha_deg",
                         "tau_perp", "tau_par") if c in r.columns]
     g = r.groupby("point", sort=True)
-    merged = g[cols].mean()
-    merged[["gamma_bin", "load_bin", "speed_bin"]] = g[["gamma_bin", "load_bin", "speed_bin"]].first()
+    merged = g[cols + [c for c in ("time_s",) if c in r.columns]].mean()
+    levels = ["gamma_bin", "load_bin", "speed_bin"] + [c for c in ("approach", "origin") if c in r.columns]
+    merged[levels] = g[levels].first()
     merged["count"] = g.size()
     merged["line"] = g["line"].first()
     merged["efficiency"] = efficiency(merged["tau_1"] * merged["omega_1"], merged["tau_2"] * merged["omega_2"])

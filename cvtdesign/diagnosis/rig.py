@@ -2,8 +2,10 @@
 
 Kim's protocol (sec. 4.2) by default: commanded γ −80°..80° in 10° steps, lateral load τ⊥ −1..1 N·m in
 0.2 N·m steps (17 × 11 = 187 operating points), shaft 1 held at the variant's motor speed, shaft 2 loaded.
-The model is solved at each point once; each replicate then adds independent Gaussian noise to what a rig
-measures: both shaft speeds, both torques and (if recorded) the axis angle.
+A random protocol draws its points (γ, τ⊥) uniformly over the same ranges instead, in the order drawn, so
+that neither the grid nor the row order lines up with anything. The model is solved at each point once;
+each replicate then adds independent Gaussian noise to what a rig measures: both shaft speeds, both torques
+and (if recorded) the axis angle. Rows are written in the order a rig would measure them.
 """
 from __future__ import annotations
 
@@ -33,15 +35,29 @@ class ProtocolSpec(Strict):
     load_kind: Literal["tau_perp", "tau_2"] = "tau_perp"
     motor_speed: Quantity | list[Quantity] | None = None     # default: the variant's
     replicates: Annotated[int, BeforeValidator(no_bool)] = 1
+    random: Annotated[int, BeforeValidator(no_bool)] | None = None   # this many points drawn over the ranges
+    seed: Annotated[int, BeforeValidator(no_bool)] = 0               # of the random draw
 
 
 @dataclass(frozen=True)
 class Protocol:
+    """The operating points a rig runs: every γ with every load (a grid), or, with `points`, those (γ, load)
+    pairs in their order; each at every motor speed, `replicates` times over."""
     gammas: np.ndarray      # [rad]
     loads: np.ndarray       # [N m]
     speeds: np.ndarray      # [rad/s]
     load_kind: str = "tau_perp"
     replicates: int = 1
+    points: np.ndarray | None = None    # (n, 2): γ [rad], load [N m], instead of the grid
+
+    def pairs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(ω1, γ, load) of every operating point in the order the rig runs them (speed, then γ, then load)."""
+        if self.points is None:
+            W, G, T = np.meshgrid(self.speeds, self.gammas, self.loads, indexing="ij")
+            return W.ravel(), G.ravel(), T.ravel()
+        n = len(self.points)
+        return np.repeat(self.speeds, n), np.tile(self.points[:, 0], len(self.speeds)), \
+            np.tile(self.points[:, 1], len(self.speeds))
 
 
 @dataclass(frozen=True)
@@ -64,8 +80,24 @@ def kim_protocol(layout: Layout, replicates: int = 1) -> Protocol:
                     np.array([layout.motor_speed]), "tau_perp", replicates)
 
 
-def read_protocol(path, layout: Layout) -> Protocol:
-    spec = read_spec(path, ProtocolSpec, "gamma, load, load_kind, motor_speed, replicates")
+def random_protocol(protocol: Protocol, n: int, seed: int = 0) -> Protocol:
+    """`n` points (γ, load) drawn uniformly over the ranges of `protocol`'s γ and loads, in the order drawn."""
+    if not 1 <= n <= MAX_COUNT:
+        raise InputError(f"random: expected from 1 to {MAX_COUNT} points, got {n}")
+    rng = np.random.default_rng(seed)
+    g = rng.uniform(protocol.gammas.min(), protocol.gammas.max(), n)
+    t = rng.uniform(protocol.loads.min(), protocol.loads.max(), n)
+    return Protocol(protocol.gammas, protocol.loads, protocol.speeds, protocol.load_kind, protocol.replicates,
+                    np.column_stack([g, t]))
+
+
+def read_protocol(path, layout: Layout, seed: int = 0) -> Protocol:
+    """A protocol file, or 'random': Kim's ranges drawn at random (as many points as his grid, seeded by
+    `seed`)."""
+    if str(path) == "random":
+        kim = kim_protocol(layout)
+        return random_protocol(kim, len(kim.gammas) * len(kim.loads), seed)
+    spec = read_spec(path, ProtocolSpec, "gamma, load, load_kind, motor_speed, replicates, random, seed")
     where = str(path)
 
     def values(v, kind, field):
@@ -85,9 +117,11 @@ def read_protocol(path, layout: Layout) -> Protocol:
     ranged = isinstance(spec.load, RangeSpec)
     check_loads([(f"{where}: load.start", loads[0]), (f"{where}: load.stop", loads[-1])] if ranged
                 else [(f"{where}: load[{i}]", v) for i, v in enumerate(loads)], layout)
-    check_points(speeds.size * gammas.size * loads.size, len(layout.rollers), where,
-                 f"operating points ({speeds.size} speeds × {gammas.size} γ × {loads.size} loads)")
-    return Protocol(gammas, loads, speeds, spec.load_kind, spec.replicates)
+    n = spec.random if spec.random is not None else gammas.size * loads.size
+    check_points(speeds.size * n, len(layout.rollers), where,
+                 f"operating points ({speeds.size} speeds × {n} (γ, load) pairs)")
+    protocol = Protocol(gammas, loads, speeds, spec.load_kind, spec.replicates)
+    return protocol if spec.random is None else random_protocol(protocol, spec.random, spec.seed)
 
 
 def parse_noise(text: str | None, where="--noise") -> Noise:
@@ -138,15 +172,15 @@ def simulate(layout: Layout, effects, parameters: dict | None = None, protocol: 
                          f"{protocol.replicates}")
     if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0):
         raise InputError(f"seed: expected an integer >= 0 for the noise generator, got {seed}")
-    points = protocol.speeds.size * protocol.gammas.size * protocol.loads.size
+    points = protocol.pairs()[0].size
     check_points(points * protocol.replicates, len(layout.rollers), "replicates",
                  f"rows ({points} operating points × {protocol.replicates} replicates)")
     model = compile_model(layout.with_effects(effects, parameters))
-    W, G, T = np.meshgrid(protocol.speeds, protocol.gammas, protocol.loads, indexing="ij")
+    W, G, T = protocol.pairs()
     res = model.evaluate(G, T, speeds=W, load_kind=protocol.load_kind)
     ok = res["ok"].ravel()
     truth = {k: res[k].ravel()[ok] for k in ("omega_1", "omega_2", "tau_1", "tau_2", "gamma_axis")}
-    gam = G.ravel()[ok]
+    gam = G[ok]
     rng = np.random.default_rng(seed)
     blocks = []
     for _ in range(protocol.replicates):

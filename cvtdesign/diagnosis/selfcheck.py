@@ -130,19 +130,18 @@ def run_case(case: dict, variant: str = EXISTING) -> dict:
     rows, failed, (snr, chi) = _dataset(case, L)
     kind = "weak" if case["kind"] == "single" and chi < WEAK_CHI else case["kind"]
     rep = diagnose.diagnose(L, measured.from_rows(rows, shaft_frame(L), case["id"]), case["base"])
-    accepted = rep["accepted"]
-    shrink = rep["how_far"]["shrink"]
-    correct = {"null": rep["verdict"] == "none",
-               "weak": rep["verdict"] in ("none", *case["withheld"]),
-               "single": case["withheld"] and rep["verdict"] == case["withheld"][0],
-               "out_of_vocabulary": rep["verdict"] == "unexplained",
+    accepted = rep.accepted
+    shrink = rep.how_far["shrink"]
+    correct = {"null": rep.verdict == "none",
+               "weak": rep.verdict in ("none", *case["withheld"]),
+               "single": case["withheld"] and rep.verdict == case["withheld"][0],
+               "out_of_vocabulary": rep.verdict == "unexplained",
                "pair": set(accepted) == set(case["withheld"])}[kind]
     return {"id": case["id"], "matrix": case["matrix"], "kind": kind, "withheld": "+".join(case["withheld"]) or "-",
-            "noise": case["noise"], "verdict": rep["verdict"], "accepted": "+".join(accepted) or "-",
-            "partial": rep["partial"], "lies_along": rep["form"]["lies_along"],
-            "correct": bool(correct), "shrink": float(shrink), "shrink_alpha": rep["how_far"]["shrink_alpha"],
-            "shrink_efficiency": rep["how_far"]["shrink_efficiency"],
-            "signal_to_noise": snr, "signal_chi": chi, "seconds": rep["seconds"], "not_measured": failed}
+            "noise": case["noise"], "verdict": rep.verdict, "accepted": "+".join(accepted) or "-",
+            "shares": rep.shares, "lies_along": rep.form["lies_along"],
+            "correct": bool(correct), "shrink": float(shrink), "signal_to_noise": snr, "signal_chi": chi,
+            "seconds": rep.seconds, "not_measured": failed}
 
 
 def _dataset(case, layout):
@@ -242,8 +241,8 @@ def run(variant=EXISTING, quick=False, seeds=3, scheduler=None, workers=None, pr
             except Exception as e:  # recorded, never swallowed
                 r = {"id": c["id"], "matrix": c["matrix"], "kind": c["kind"], "withheld": "+".join(c["withheld"]) or "-",
                      "noise": c["noise"], "verdict": f"error: {type(e).__name__}: {e}", "accepted": "-",
-                     "correct": False, "shrink": None, "shrink_alpha": None, "shrink_efficiency": None, "signal_to_noise": 0.0,
-                     "signal_chi": 0.0, "partial": [], "lies_along": None, "seconds": None, "not_measured": {}}
+                     "correct": False, "shrink": None, "signal_to_noise": 0.0,
+                     "signal_chi": 0.0, "shares": [], "lies_along": None, "seconds": None, "not_measured": {}}
             results.append(r)
             if progress:
                 progress(len(results), len(cases), r)

@@ -2,7 +2,8 @@
 
 One operating point per CSV row: `gamma_cmd_deg` [deg], `omega_1`, `omega_2` [rad/s], `tau_1`, `tau_2`
 [N m] (external torques, positive in the sense of positive ω), optionally `gamma_axis_deg` [deg] (the
-measured axis angle). Other columns are ignored. Rows that repeat an operating point are replicates.
+measured axis angle) and `time_s` [s] (when the row was measured; else the rows' order is their order in
+time). Other columns are ignored. Rows that repeat an operating point are replicates.
 
 docs/measured-data.md describes the format.
 """
@@ -16,7 +17,7 @@ import pandas as pd
 from cvtdesign.errors import InputError, shorten, suggest
 
 REQUIRED = ("gamma_cmd_deg", "omega_1", "omega_2", "tau_1", "tau_2")
-OPTIONAL = ("gamma_axis_deg",)
+OPTIONAL = ("gamma_axis_deg", "time_s")
 CAPACITY_MARGIN = 10.0   # a measured shaft torque may be at most this many times what its contacts carry at preload
 # the largest magnitude a measurement can have: beyond it a cell is a corrupt or mis-scaled value, not a rig's
 PLAUSIBLE = {"omega_1": (1e4, "rad/s", "shaft speed"), "omega_2": (1e4, "rad/s", "shaft speed"),

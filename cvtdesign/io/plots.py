@@ -453,26 +453,29 @@ def pareto_figure(chains: list[tuple[str, list[dict], int]], path: Path):
     save(fig, path, dpi=110)
 
 
-def residual_map_figure(gamma_levels, load_levels, maps: list[tuple[str, np.ndarray]], regions: list[dict],
-                        path: Path, unit="deg"):
-    """Residual maps over commanded γ [deg] × lateral load τ⊥ [N·m] (mean over replicates per operating point),
-    one panel per (title, grid); the gap's regions outlined on the first panel."""
+def residual_map_figure(maps: list[tuple], regions: list[dict], path: Path, unit="deg"):
+    """Residual maps over commanded γ [deg] × lateral load τ⊥ [N·m], one panel per (title, γ, τ⊥, values):
+    each operating point a square coloured by its residual (mean over replicates), wherever the protocol put
+    it (a grid, random points); the gap's regions boxed on the first panel by the γ and τ⊥ of their points."""
     mpl = _mpl()
     fig, axes = mpl.subplots(1, len(maps), figsize=(6 * len(maps), 4.6), squeeze=False)
-    lim = max(float(np.nanmax(np.abs(m))) for _, m in maps) or 1.0
-    for ax, (title, grid) in zip(axes[0], maps):
-        pc = ax.pcolormesh(gamma_levels, load_levels, grid.T, cmap="RdBu_r", vmin=-lim, vmax=lim, shading="nearest")
+    lim = max(float(np.nanmax(np.abs(v))) if np.isfinite(v).any() else 0.0 for *_, v in maps) or 1.0
+    for ax, (title, g, t, v) in zip(axes[0], maps):
+        ok = np.isfinite(v)
+        sc = ax.scatter(g[ok], t[ok], c=v[ok], cmap="RdBu_r", vmin=-lim, vmax=lim, marker="s",
+                        s=max(8.0, 6000.0 / max(ok.sum(), 1)), edgecolors="none")
+        ax.scatter(g[~ok], t[~ok], marker="x", c="k", s=12, lw=0.8)      # no prediction (the model fails)
         ax.set_title(title, fontsize=10)
         ax.set_xlabel("commanded γ [deg]")
         ax.set_ylabel("τ⊥ [N·m]")
-        fig.colorbar(pc, ax=ax, label=f"measured − model [{unit}]")
-    dg = np.min(np.diff(gamma_levels)) / 2 if len(gamma_levels) > 1 else 1
-    dl = np.min(np.diff(load_levels)) / 2 if len(load_levels) > 1 else 0.05
+        fig.colorbar(sc, ax=ax, label=f"measured − model [{unit}]")
+    g0, t0 = maps[0][1], maps[0][2]
+    dg, dl = 0.02 * (np.ptp(g0) or 1.0), 0.03 * (np.ptp(t0) or 0.1)
     for k, r in enumerate(regions):
-        (g0, g1), (l0, l1) = r["gamma_deg"], r["load_Nm"]
-        axes[0][0].add_patch(mpl.Rectangle((g0 - dg, l0 - dl), g1 - g0 + 2 * dg, l1 - l0 + 2 * dl, fill=False,
+        (ga, gb), (la, lb) = r["gamma_deg"], r["load_Nm"]
+        axes[0][0].add_patch(mpl.Rectangle((ga - dg, la - dl), gb - ga + 2 * dg, lb - la + 2 * dl, fill=False,
                                            ec="k", lw=1.5, ls="--"))
-        axes[0][0].annotate(f"R{k + 1}: {r['mean_residual_deg']:+.2f}°", (g0 - dg, l1 + dl), fontsize=8)
+        axes[0][0].annotate(f"R{k + 1}: {r['mean_residual_deg']:+.2f}°", (ga - dg, lb + dl), fontsize=8)
     fig.tight_layout()
     save(fig, path, dpi=100)
 

@@ -132,8 +132,8 @@ def test_pareto_front_of_the_box_study(tmp_path):
 # (a real selfcheck run, on a Dask cluster and from another working directory: test_diagnose.py)
 
 NULL = {"id": "null-noise1-seed0", "matrix": "rig", "kind": "null", "withheld": "-", "noise": 1.0, "verdict": "none",
-        "accepted": "-", "partial": [], "lies_along": None, "correct": True, "shrink": 0.0, "shrink_alpha": 0.0,
-        "shrink_efficiency": 0.0, "signal_to_noise": 0.0, "signal_chi": 0.0, "seconds": 1.0, "not_measured": {}}
+        "accepted": "-", "shares": [], "lies_along": None, "correct": True, "shrink": 0.0, "signal_to_noise": 0.0,
+        "signal_chi": 0.0, "seconds": 1.0, "not_measured": {}}
 
 
 def test_selfcheck_exit_status_follows_the_targets(cli, monkeypatch, tmp_path):
@@ -153,8 +153,8 @@ def test_selfcheck_summary_of_a_failed_dataset(cli, monkeypatch, tmp_path):
     counts it as a missed single, and the command prints it and exits 1."""
     failed = {"id": "single-steering_offset-offset=0.008727-noise1", "matrix": "rig", "kind": "single",
               "withheld": "steering_offset", "noise": 1.0, "verdict": "error: ValueError: boom", "accepted": "-",
-              "correct": False, "shrink": None, "shrink_efficiency": None, "signal_to_noise": 0.0,
-              "signal_chi": 0.0, "partial": [], "lies_along": None, "seconds": None, "not_measured": {}}
+              "correct": False, "shrink": None, "signal_to_noise": 0.0,
+              "signal_chi": 0.0, "shares": [], "lies_along": None, "seconds": None, "not_measured": {}}
     s = selfcheck.summary([failed])
     assert s["rig"]["top1_single"] == 0.0 and s["rig"]["per_effect"]["steering_offset"]["cases"] == 1
     monkeypatch.setattr(selfcheck, "run", lambda *a, **k: [failed])

@@ -10,6 +10,7 @@ import pytest
 
 from cvtdesign.diagnosis import diagnose
 from cvtdesign.diagnosis import measured
+from cvtdesign.diagnosis.diagnose.run import prepare
 from cvtdesign.diagnosis import resteer
 from cvtdesign.diagnosis import rig
 from cvtdesign.cli import main
@@ -50,8 +51,8 @@ def test_replay_kim_steering_creep_is_named(tmp_path):
     assert {"gamma_deg", "load_Nm", "mean_residual_deg"} <= set(rep["gap"]["regions"][0])
     top = rep["ranking"][0]
     assert top["effect"] == "steering_lateral_creep" and top["accepted"]
-    assert {"heldout_rms_before", "heldout_rms_after", "shrink", "params"} <= set(top)
-    assert top["shrink"] > 0.8
+    assert {"heldout_rms_before", "heldout_rms_after", "share", "params"} <= set(top)
+    assert top["share"] > 0.8 and rep["how_far"]["shrink"] == pytest.approx(top["share"])
     # the fitted ε_S multiplier recovers Kim's value (truth 1.0) within 3σ of its own standard error
     p = top["params"]["steering_lateral_creep.scale"]
     print(f"[measured] ε_S scale {p['value']:.5f} ± {p['std']:.5f}")
@@ -68,10 +69,10 @@ def test_replay_rolling_resistance_from_efficiency(layout, tmp_path):
     rolling_resistance, and the efficiency gap shrinks."""
     path = dataset(layout, tmp_path, KIM + ("rolling_resistance",), {"rolling_resistance": {"offset": 1e-4}}, seed=12)
     rep = diagnose.diagnose(layout, measured.load_measured(path, layout), KIM)
-    assert rep["verdict"] == "rolling_resistance"
-    h = rep["how_far"]
-    assert h["shrink_efficiency"] > 0.5 and h["heldout_rms_efficiency"][1] < 0.5 * h["heldout_rms_efficiency"][0]
-    off = rep["final_fit"]["rolling_resistance.offset"]
+    assert rep.verdict == "rolling_resistance"
+    h = rep.how_far
+    assert h["shrink"] > 0.8 and h["heldout_rms_efficiency"][1] < 0.5 * h["heldout_rms_efficiency"][0]
+    off = rep.final_fit["rolling_resistance.offset"]
     print(f"[measured] offset {off['value']:.4e} ± {off['std']:.2e} m")
     assert abs(off["value"] - 1e-4) < 3 * off["std"] and off["std"] < 3e-6   # measured 1.0068e-4 ± 6.2e-7 m
 
@@ -84,9 +85,9 @@ def test_null_data_with_replicates_gives_none(layout, tmp_path):
     data = measured.load_measured(path, layout)
     assert data.replicated and data.rows["point"].nunique() == 45
     rep = diagnose.diagnose(layout, data, KIM)
-    assert rep["verdict"] == "none" and rep["accepted"] == []
-    assert rep["noise"]["source"] == "replicates"
-    assert not any(r["accepted"] for r in rep["ranking"])
+    assert rep.verdict == "none" and rep.accepted == []
+    assert rep.noise["source"] == "replicates"
+    assert not any(r["accepted"] for r in rep.ranking)
 
 
 def test_gap_no_candidate_removes_is_unexplained(layout, tmp_path):
@@ -94,7 +95,7 @@ def test_gap_no_candidate_removes_is_unexplained(layout, tmp_path):
     path = dataset(layout, tmp_path, KIM + ("steering_offset",), {"steering_offset": {"offset": np.radians(1.0)}}, seed=14)
     rep = diagnose.diagnose(layout, measured.load_measured(path, layout), KIM,
                             candidates=["rolling_resistance", "traction_saturation"])
-    assert rep["verdict"] == "unexplained" and rep["gap"]["structured"] and rep["gap"]["regions"]
+    assert rep.verdict == "unexplained" and rep.gap["structured"] and rep.gap["regions"]
 
 
 def test_resteer_fitted_model_and_lookup_beat_the_ideal(layout, tmp_path):
@@ -156,7 +157,7 @@ def test_confounded_pair_is_reported_and_the_suggested_points_separate_it(layout
         return diagnose.diagnose(layout, measured.from_rows(rows, shaft_frame(layout)), KIM)
 
     rep = run(rows)
-    pair = [c for c in rep["confounded"] if set(c["effects"]) == {"steering_offset", "drive_radius_mismatch"}]
+    pair = [c for c in rep.confounded if set(c["effects"]) == {"steering_offset", "drive_radius_mismatch"}]
     assert pair and pair[0]["cosine"] > 0.99
     pts = pair[0]["suggested_points"]
     assert len(pts) >= 3 and all(not 30 <= p["gamma_deg"] <= 50 for p in pts[:3])
@@ -164,8 +165,8 @@ def test_confounded_pair_is_reported_and_the_suggested_points_separate_it(layout
     extra = rig.Protocol(np.radians([p["gamma_deg"] for p in pts[:3]]), loads, np.array([10.0]), "tau_perp", 3)
     more, _ = rig.simulate(layout, truth, params, extra, seed=6, axis=False)
     rep2 = run(pd.concat([rows, more], ignore_index=True))
-    assert rep2["verdict"] == "steering_offset" and rep2["confounded"] == []
-    msz = {r["effect"]: r["heldout_msz_after"] for r in rep2["ranking"]}
+    assert rep2.verdict == "steering_offset" and rep2.confounded == []
+    msz = {r["effect"]: r["heldout_msz_after"] for r in rep2.ranking}
     assert msz["drive_radius_mismatch"] > 20 * msz["steering_offset"]
 
 
@@ -177,14 +178,14 @@ def test_replicates_are_merged_into_operating_points(layout, tmp_path):
     assert len(data.rows) == 5049
     points = measured.merge_points(data)
     assert len(points.rows) == 187 and (points.rows["count"] == 27).all()
-    P = diagnose.Predictor(layout, ("drive_longitudinal_creep",), points)
-    assert P.n == 187
-    noise = diagnose.estimate_noise(P, points, data)
+    s = prepare(layout, shaft_frame(layout), data, ("drive_longitudinal_creep",))
+    assert s.models.get(("drive_longitudinal_creep",)).n == 187
+    noise = s.noise
     row_sigma = rig.Noise().speed / 10.0           # α noise of a row from the speed noise at ω1 = 10 rad/s
     assert 0.3 < np.median(noise["alpha"]) * np.sqrt(27) / np.degrees(row_sigma) < 3
     rep = diagnose.diagnose(layout, data, ("drive_longitudinal_creep",))
-    assert rep["verdict"] == "steering_lateral_creep" and rep["rows"] == 5049 and rep["operating_points"] == 187
-    p = rep["final_fit"]["steering_lateral_creep.scale"]
+    assert rep.verdict == "steering_lateral_creep" and rep.rows == 5049 and rep.operating_points == 187
+    p = rep.final_fit["steering_lateral_creep.scale"]
     print(f"[measured] ε_S scale (27 replicates) {p['value']:.5f} ± {p['std']:.5f}")
     assert abs(p["value"] - 1.0) < 3 * p["std"] and p["std"] < 0.001   # measured 1.00029 ± 0.00020
 
@@ -193,16 +194,16 @@ def test_a_failing_model_counts_as_failing_not_as_a_misfit(layout, tmp_path):
     """Where a candidate has no physical solution (here traction saturation with μ too small for the high
     loads: gross slip), its points have no prediction: they are counted in `failed`, left out of its
     held-out RMS and of the per-point comparison, instead of entering as huge (or garbage) residuals."""
-    data = measured.merge_points(measured.load_measured(dataset(layout, tmp_path, KIM, seed=21), layout))
+    s = prepare(layout, shaft_frame(layout), measured.load_measured(dataset(layout, tmp_path, KIM, seed=21), layout), KIM)
+    data, noise = s.points, s.noise
     slippery = dataclasses.replace(layout, sphere_material=dataclasses.replace(layout.sphere_material, mu=0.05))
     P = diagnose.Predictor(slippery, KIM + ("traction_saturation",), data)   # μN ≤ 5 × 5 N even at the bound
-    noise = diagnose.estimate_noise(diagnose.Predictor(layout, KIM, data), data)
     sc = diagnose.score(P, data, noise, diagnose.folds(data))
     assert 0 < sc.failed < 0.9 and np.isnan(sc.per_point[~sc.ok]).all() and np.isfinite(sc.per_point[sc.ok]).all()
     res = diagnose.residuals(data, sc.pred)["alpha"]
     assert sc.rms_alpha == pytest.approx(np.sqrt(np.mean(res[sc.ok] ** 2)), rel=1e-12)
     base = diagnose.score(diagnose.Predictor(layout, KIM, data), data, noise, diagnose.folds(data))
-    c = diagnose.compare(base, sc, 3, data)
+    c = diagnose.compare(base, sc, 3, s.nb)
     assert c.points == int((base.ok & sc.ok).sum()) < len(data.rows)
 
 
@@ -216,8 +217,8 @@ def test_independent_simulators_moderate_spin_creep_is_named(layout):
     case = next(c for c in selfcheck.make_cases(matrices=("independent",)) if c["id"].endswith("spin_creep-moderate"))
     rows, left_out = independent_sim.simulate(case["effects"], seed=case["seed"])
     rep = diagnose.diagnose(layout, measured.from_rows(rows, shaft_frame(layout)), case["base"])
-    assert left_out == {} and rep["verdict"] == "drive_spin_creep" and rep["partial"] == []
-    assert rep["how_far"]["shrink"] >= diagnose.SHRINK_MIN and not rep["gap"]["structured_after"]
+    assert left_out == {} and rep.verdict == "drive_spin_creep" and [x["effect"] for x in rep.shares] == ["drive_spin_creep"]
+    assert rep.how_far["shrink"] >= diagnose.SHRINK_MIN and not rep.gap["structured_after"]
 
 
 def test_one_typo_row_leaves_the_verdict(layout, tmp_path):
@@ -233,7 +234,7 @@ def test_one_typo_row_leaves_the_verdict(layout, tmp_path):
     data = measured.load_measured(path, layout)
     assert data.rows["point"].nunique() == 188
     rep = diagnose.diagnose(layout, data, ("drive_longitudinal_creep",), ("steering_lateral_creep", "steering_offset"))
-    assert rep["verdict"] == "steering_lateral_creep"
+    assert rep.verdict == "steering_lateral_creep"
 
 
 def test_where_the_base_model_fails_it_is_counted_and_left_out_of_the_gap(layout, tmp_path):
@@ -246,11 +247,11 @@ def test_where_the_base_model_fails_it_is_counted_and_left_out_of_the_gap(layout
     path.write_text(path.read_text() + "\n".join(extra) + "\n")
     data = measured.load_measured(path, layout)
     rep = diagnose.diagnose(layout, data, KIM, ("steering_offset",))
-    failed = rep["base_failed"]
+    failed = rep.base_failed
     assert failed["points"] == 2 and failed["gross_slip"] == 2 and set(failed["gross_slip_at"]) <= {"S1", "S2"}
     assert sorted((p["gamma_cmd_deg"], round(p["tau_perp_Nm"], 1)) for p in failed["at"]) == [(50.0, -2.5), (60.0, 2.0)]
-    assert rep["gap"]["regions"] == [] and rep["verdict"] == "none"
-    assert all(p["std"] < 0.01 for p in rep["base_fit"].values())      # 0.27 and 0.11 with the penalty in χ²
+    assert rep.gap["regions"] == [] and rep.verdict == "none"
+    assert all(p["std"] < 0.01 for p in rep.base_fit.values())      # 0.27 and 0.11 with the penalty in χ²
     text = "\n".join(str(getattr(b, "text", "")) for b in report_blocks(rep))
     assert "the base model has no physical solution at 2 of 189 operating points (gross slip 2" in text
 
@@ -264,15 +265,15 @@ def test_a_candidate_that_fits_one_channel_by_spoiling_another_is_not_accepted(l
     rows["gamma_axis_deg"] += 1.0
     rows.to_csv(path, index=False)
     rep = diagnose.diagnose(layout, measured.load_measured(path, layout), KIM, ("steering_offset",))
-    offset = next(r for r in rep["ranking"] if r["effect"] == "steering_offset")
-    assert rep["accepted"] == [] and rep["verdict"] == "unexplained"
+    offset = next(r for r in rep.ranking if r["effect"] == "steering_offset")
+    assert rep.accepted == [] and rep.verdict == "unexplained"
     assert offset["heldout_rms_after"] > 5 * offset["heldout_rms_before"]      # what accepting it would cost
 
 
 def test_the_noise_source_is_named_as_it_was_estimated(layout, tmp_path):
     """Every row at its own γ (as a simulator sampling γ at random writes it): no replicates and no load
-    sweep, so the noise is the residuals' own scatter, an upper bound. It was labelled "second differences
-    along load"."""
+    sweep. It was labelled "second differences along load", then estimated as the residuals' own scatter (an
+    upper bound, 10× the truth on a gap); it now comes from local fits over the neighbours in (γ, τ⊥)."""
     rng = np.random.default_rng(8)
     frames = [rig.simulate(layout, KIM, protocol=rig.Protocol(np.radians([g]), np.array([t]), np.array([10.0]),
                                                               "tau_perp", 1), seed=k)[0]
@@ -280,7 +281,7 @@ def test_the_noise_source_is_named_as_it_was_estimated(layout, tmp_path):
     path = tmp_path / "random.csv"
     path.write_text(rig.to_csv_text(pd.concat(frames, ignore_index=True)))
     rep = diagnose.diagnose(layout, measured.load_measured(path, layout), KIM, ("steering_offset",))
-    assert rep["noise"]["source"].startswith("scatter of the residuals, an upper bound")
+    assert rep.noise["source"].startswith("neighbours in (γ, τ⊥): local fits")
 
 
 def test_noisy_replicates_keep_their_load_levels_and_the_verdict(layout, tmp_path):
@@ -295,4 +296,4 @@ def test_noisy_replicates_keep_their_load_levels_and_the_verdict(layout, tmp_pat
     data = measured.load_measured(path, layout)
     assert len(data.load_levels) in (11, 12) and data.replicated
     rep = diagnose.diagnose(layout, data, ("drive_longitudinal_creep",), ("steering_lateral_creep", "steering_offset"))
-    assert rep["verdict"] == "steering_lateral_creep" and rep["gap"]["structured"]
+    assert rep.verdict == "steering_lateral_creep" and rep.gap["structured"]

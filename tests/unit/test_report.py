@@ -14,6 +14,7 @@ import pytest
 import yaml
 
 from cvtdesign.cli import main
+from cvtdesign.cli.diagnosis_text import value_pm
 from cvtdesign.cli.printing import degrees, engineering, kind_of, number
 from cvtdesign.cli.study import best_optima, optima_table, pareto_blocks
 from cvtdesign.core.effects import EFFECTS
@@ -208,17 +209,20 @@ def test_diagnose_report(tmp_path, capsys):
     fit = column(doc.tables["base model fit: drive_longitudinal_creep + steering_lateral_creep"], "value")
     for name, p in rep["base_fit"].items():
         assert fit[name] == engineering(p["value"], "dimensionless") and abs(p["value"] - 1) < 0.1
-    ranking = doc.tables["candidates, added one at a time to the base (held-out, cross-validated by operating point)"]
+    ranking = doc.tables["candidates, each added alone to the base model (held out)"]
     fitted = column(ranking, "fitted")
-    offset = rep["ranking"][0]["params"]["rolling_resistance.offset"]["value"]
-    assert EFFECTS["rolling_resistance"].params["offset"].kind == "length" and abs(offset - 1e-4) < 1e-5
-    assert fitted["rolling_resistance"] == f"offset = {engineering(offset, 'length', 3)}"
+    off = rep["ranking"][0]["params"]["rolling_resistance.offset"]
+    assert EFFECTS["rolling_resistance"].params["offset"].kind == "length" and abs(off["value"] - 1e-4) < 1e-5
+    assert fitted["rolling_resistance"] == f"offset = {value_pm(off['value'], off['std'], 'length')}"
     assert fitted["rolling_resistance"].endswith(" mm") and 0.09 <= float(fitted["rolling_resistance"].split()[2]) <= 0.11
     assert fitted["steering_offset"].startswith("offset = ") and fitted["steering_offset"].endswith("°")
     assert column(ranking, "accepted")["rolling_resistance"] == "yes"
-    h = rep["how_far"]["heldout_rms_alpha_deg"]
-    assert f"how far: held-out RMS α {degrees(h[0])} → {degrees(h[1])}" in printed.replace("\n", " ")
-    assert "verdict: rolling_resistance" in printed
+    # one set of numbers: the share of the gap is the JSON's, in the same words, printed and in the HTML
+    share = f"removes {rep['how_far']['shrink']:.0%} of the gap"
+    assert rep["shares"][0]["share"] == pytest.approx(rep["how_far"]["shrink"])
+    text = report.read_text()
+    assert share in " ".join(printed.split()) and share in text
+    assert printed.lstrip().startswith("Mostly rolling resistance: offset = ")      # the answer comes first
 
 
 def test_study_summary_names_designs_in_units():

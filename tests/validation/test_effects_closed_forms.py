@@ -198,12 +198,17 @@ def kalker_c22(a_over_b, nu):
 
 
 def test_hertz_kalker_creep_when_the_variant_gives_no_constants(make_variant):
-    """existing.yaml without `contact` (no Kim constants): the steering rollers' ε_S is Hertz + Kalker,
+    """existing.yaml without `contact` (no Kim constants), its ball's material renamed so that the materials
+    library has no calibration for it (theory only): the steering rollers' ε_S is Hertz + Kalker,
     1/(G a b C22) at the preload, and the model's steering slip is Kim's eqs 19-24 with that ε_S (to the
     6e-6; measured 6.2e-7). That ε_S is 0.28× Kim's fitted one, so a model that kept Kim's would fail."""
-    path = make_variant("existing", lambda d: d.pop("contact"), file="no_constants")
-    lay = load_variant(path)
+    def edit(d):
+        d.pop("contact")
+        d["materials"]["resin"] = d["materials"].pop("bowling_ball")
+        d["sphere"]["material"] = "resin"
+    lay = load_variant(make_variant("existing", edit, file="no_constants"))
     assert lay.creep_drive is None and lay.creep_steering is None
+    assert all(r.creep.uncalibrated for r in lay.rollers)
     E1, nu1, E2, nu2 = 12.3e6, 0.48, 2e9, 0.35                 # urethane 84A on the bowling ball
     e_star = 1 / ((1 - nu1 ** 2) / E1 + (1 - nu2 ** 2) / E2)
     G1, G2 = E1 / (2 * (1 + nu1)), E2 / (2 * (1 + nu2))

@@ -1,0 +1,113 @@
+"""The model evaluated at a dataset's operating points: predictions, residuals and z-scores.
+
+Every operating point is (γ_cmd, ω1 and the lateral load τ⊥ = −τ1 sin γ + τ2 cos γ from the measured torques,
+Kim et al., "Causes of microslip in a continuously variable transmission", eq 17: the load the rig
+controls). The model with a set of effects predicts the slip angle α, the parallel torque τ∥ = τ1 cos γ +
+τ2 sin γ (ω1 τ∥ / cos γ is the power loss, so it carries the efficiency) and the axis angle γ_axis.
+Residuals = measured − predicted, in ° and N·m.
+"""
+from __future__ import annotations
+
+import functools
+
+import casadi as ca
+import numpy as np
+
+from cvtdesign.core.layout import Layout
+from cvtdesign.core.metrics import efficiency
+from cvtdesign.core.model import CompiledModel, compile_model
+from cvtdesign.diagnosis.measured import Measured
+
+CHANNELS = ("alpha", "tau_par", "axis")        # [deg], [N m], [deg]
+UNITS = {"alpha": "deg", "tau_par": "N*m", "axis": "deg"}
+
+
+class Predictor:
+    """The model with `effects` evaluated at a dataset's rows: θ → predictions and their Jacobian."""
+
+    def __init__(self, layout: Layout, effects, data: Measured, model: CompiledModel | None = None):
+        self.effects = tuple(effects)
+        self.model = model or compile_model(layout, self.effects)
+        self.names = list(self.model.param_names)
+        self.defaults = np.array(self.model.param_values, float)
+        r = data.rows
+        g = np.radians(r["gamma_cmd_deg"].to_numpy())
+        n = len(r)
+        phi0, _ = self.model.steering_guess(g)
+        th = ca.MX.sym("theta", len(self.names))
+        F = self.model.point.map(n, "thread", 2)
+        out = dict(zip(self.model.point.name_out(), F(g, r["omega_1"].to_numpy(), r["tau_perp"].to_numpy(), 0.0,
+                                                     phi0, th, np.zeros(0))))
+        _, tau_par = self.model.frame.load_split(g, out["tau_1"].T, out["tau_2"].T)
+        y = ca.vertcat(out["alpha"].T, tau_par, out["gamma_axis"].T, out["omega_2"].T, out["tau_1"].T, out["tau_2"].T)
+        self.n = n
+        self._f = ca.Function("predict", [th], [y, out["status"].T])
+        self._fj = ca.Function("predict_jac", [th], [y, out["status"].T, ca.jacobian(y, th)])
+
+    def __call__(self, theta, jacobian=False):
+        """Predictions {alpha [deg], tau_par [N m], axis [deg], omega_2 [rad/s], tau_1, tau_2 [N m]}, converged
+        mask: the points where the model's physics holds (and dY/dθ, shape (6, n, p), with `jacobian`)."""
+        theta = np.asarray(theta, float)
+        outs = (self._fj if jacobian else self._f)(theta)
+        y = np.asarray(outs[0]).reshape(6, self.n)
+        ok = np.asarray(outs[1]).ravel() == 0      # the model's status: converged, in contact, no gross slip
+        pred = {"alpha": np.degrees(y[0]), "tau_par": y[1], "axis": np.degrees(y[2]), "omega_2": y[3],
+                "tau_1": y[4], "tau_2": y[5]}
+        if not jacobian:
+            return pred, ok
+        J = np.asarray(outs[2]).reshape(6, self.n, -1)
+        J[[0, 2]] = np.degrees(J[[0, 2]])
+        return pred, ok, J
+
+
+def _wrap_deg(x):
+    return (x + 90.0) % 180.0 - 90.0
+
+
+def residuals(data: Measured, pred: dict) -> dict:
+    """Measured − predicted per channel (the axis only when measured)."""
+    r = data.rows
+    out = {"alpha": _wrap_deg(r["alpha_deg"].to_numpy() - pred["alpha"]),
+           "tau_par": r["tau_par"].to_numpy() - pred["tau_par"]}
+    if data.has_axis:
+        out["axis"] = _wrap_deg(r["gamma_axis_deg"].to_numpy() - pred["axis"])
+    return out
+
+
+def zscores(resid: dict, noise: dict) -> np.ndarray:
+    """(channels, rows) residuals in units of their noise."""
+    return np.array([resid[c] / noise[c] for c in resid])
+
+
+def channels(data: Measured):
+    return [c for c in CHANNELS if c != "axis" or data.has_axis]
+
+
+def rms(x, mask=None):
+    x = np.asarray(x, float)
+    if mask is not None:
+        x = x[mask]
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x ** 2))) if x.size else float("nan")
+
+
+def efficiency_mask(data: Measured):
+    r = data.rows
+    big = np.abs(r["tau_perp"].to_numpy()) >= 0.25 * np.abs(r["tau_perp"]).max()
+    return big & (np.abs(r["gamma_cmd_deg"].to_numpy()) >= 5)
+
+
+def model_efficiency(data: Measured, pred: dict):
+    r = data.rows
+    return efficiency(pred["tau_1"] * r["omega_1"].to_numpy(), pred["tau_2"] * pred["omega_2"])
+
+
+class Models:
+    """Predictors of one dataset, compiled once per effect set."""
+
+    def __init__(self, layout, data):
+        self.layout, self.data = layout, data
+
+    @functools.lru_cache(maxsize=None)
+    def get(self, effects: tuple) -> Predictor:
+        return Predictor(self.layout, effects, self.data)
