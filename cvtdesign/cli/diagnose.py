@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import tempfile
+from datetime import date
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,7 @@ from cvtdesign.diagnosis import diagnose
 from cvtdesign.diagnosis import measured
 from cvtdesign.diagnosis.diagnose import Report, model_efficiency, residuals
 from cvtdesign.errors import InputError
-from cvtdesign.io import plots
+from cvtdesign.io import materials, plots
 from cvtdesign.io.output import make_folder, write_files
 from cvtdesign.io.report import png_figure
 from cvtdesign.io.variant import load_variant
@@ -31,6 +32,9 @@ def run(args):
     if set(candidates) & set(base):
         raise InputError(f"--candidates: {', '.join(e for e in candidates if e in base)} is already in the base model "
                          f"({', '.join(base)}); expected effects to add to it")
+    if args.save_calibration and not set(SCALES.values()) & set(base):
+        raise InputError(f"--save-calibration: the base model ({', '.join(base) or 'no effects'}) fits no creep "
+                         f"compliance; expected {' or '.join(SCALES.values())} in --base")
     data = measured.load_measured(args.data, layout, args.drop_bad)
     console = Console(width=140)
     with progress_bar(console, "diagnosis", str, transient=True) as progress:
@@ -43,6 +47,9 @@ def run(args):
     if args.report:
         files[Path(args.report)], kinds[Path(args.report)] = report_text(
             args, "cvtdesign diagnose", report_blocks(rep, report_figures(rep, written))), "--report"
+    if args.save_calibration:
+        path = Path(args.save_calibration)
+        files[path], kinds[path] = saved_calibration(args, layout, rep), "--save-calibration"
     write_files(files, kind=kinds)
     show(console, report_blocks(rep))
     for f in written:
@@ -51,7 +58,41 @@ def run(args):
         console.print(f"report written to {args.json}")
     if args.report:
         console.print(f"HTML report: {args.report}")
+    if args.save_calibration:
+        console.print(f"calibration written to {args.save_calibration} (a variant uses it with "
+                      f"material_library: [{Path(args.save_calibration).name}]){other_fits(rep)}", markup=False)
     return 0
+
+
+SCALES = {"drive": "drive_longitudinal_creep", "steering": "steering_lateral_creep"}
+
+
+def saved_calibration(args, layout, rep: Report) -> str:
+    """The library file --save-calibration writes: the diagnosed model's fitted creep scales as creep moduli
+    of the rollers' materials (io.materials.fitted_calibrations), with their σ and provenance."""
+    scales = {role: (rep.final_fit[f"{e}.scale"]["value"], rep.final_fit[f"{e}.scale"]["std"])
+              for role, e in SCALES.items() if f"{e}.scale" in rep.final_fit}
+    fitted = ", ".join(f"{SCALES[r]}.scale {v:.4g} ± {s:.2g}" for r, (v, s) in scales.items())
+    effects = " + ".join(rep.base + rep.accepted)
+    entries = materials.fitted_calibrations(
+        layout, scales, machine=f"{layout.name} ({args.variant})", data=f"{args.data} ({rep.rows} rows)",
+        fit=f"cvtdesign diagnose, {date.today().isoformat()}: {effects}; {fitted} on the variant's compliances")
+    return materials.saved_library(args.save_calibration, layout, entries)
+
+
+def other_fits(rep: Report) -> str:
+    """The diagnosed model's other fitted parameters, as the variant lines that carry them with their σ."""
+    other = {k: v for k, v in rep.final_fit.items() if k.split(".")[0] not in SCALES.values()}
+    if not other:
+        return ""
+    values = {}
+    for k, v in other.items():
+        e, p = k.split(".")
+        values.setdefault(e, {})[p] = (v["value"], v["std"])
+    params = ", ".join(f"{e}: {{{', '.join(f'{p}: {x:.4g}' for p, (x, _) in ps.items())}}}" for e, ps in values.items())
+    stds = ", ".join(f"{e}: {{{', '.join(f'{p}: {s:.2g}' for p, (_, s) in ps.items())}}}" for e, ps in values.items())
+    return (f"; the other fitted effects go in the variant (SI): effect_parameters: {{{params}}}, "
+            f"effect_uncertainty: {{{stds}}}")
 
 
 def report_figures(rep: Report, written: list) -> list:

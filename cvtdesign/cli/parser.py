@@ -132,6 +132,10 @@ def _add_diagnose(p):
     p.add_argument("--json", help="write the report to this JSON file")
     p.add_argument("--plots", help="folder for the residual-map and fit plots")
     p.add_argument("--report", help="also write an HTML report (the tables, the residual map and the fit) to this file")
+    p.add_argument("--save-calibration", metavar="FILE.yaml",
+                   help="write the fitted drive and steering compliances as calibrations of the rollers' materials "
+                        "on the sphere's, in the materials library's format (an existing library file keeps its "
+                        "other entries); a variant uses it with material_library: [FILE.yaml]")
 
 
 def _add_selfcheck(p):
@@ -198,7 +202,8 @@ def check_outputs(args):
     """Refuse an output path that cannot be written before any computation (each write checks again):
     --json, --report and the --out of rig and new are files, none of them an input of the command; --plots and
     the other commands' --out are folders."""
-    files = [(k, getattr(args, k[2:], None)) for k in ("--json", "--report", "--points")]
+    files = [(k, getattr(args, k[2:].replace("-", "_"), None))
+             for k in ("--json", "--report", "--points", "--save-calibration")]
     if args.command in ("rig", "new"):
         files.append(("--out", getattr(args, "out", None)))
     elif getattr(args, "out", None):

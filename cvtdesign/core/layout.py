@@ -25,6 +25,7 @@ class CreepSource:
     source: str                   # in words, with its provenance
     std: float | None = None      # relative 1σ of the compliance (None: not stated)
     creep_modulus: object = None  # the roller's Young's modulus in tangential creep [Pa], for kind 'library'
+    materials: tuple = ()         # (roller material, sphere material) by name
 
     @property
     def uncalibrated(self) -> bool:

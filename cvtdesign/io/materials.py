@@ -16,9 +16,12 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
+import numpy as np
+import yaml
 from pydantic import Field
 
-from cvtdesign.core.layout import CreepSource
+from cvtdesign.core.contact.patch import calibrated_compliance, creep_modulus_for
+from cvtdesign.core.layout import CreepSource, Layout
 from cvtdesign.errors import InputError
 from cvtdesign.io.schema import MaterialSpec, Num, Strict, VariantSpec, spec_field
 from cvtdesign.io.units import to_si
@@ -100,24 +103,71 @@ def contact_calibration(variant_file: str, spec: VariantSpec, role: str, roller_
     creep_drive or creep_steering, kalker's calibration factors, with contact.uncertainty), a library
     calibration of its two materials, else the theory alone (uncalibrated)."""
     c, side = spec.contact, "drive" if role != "steering" else "steering"
+    source = functools.partial(CreepSource, materials=(roller_material, sphere_material))
     std = getattr(c.uncertainty, side)
     std = None if std is None else to_si(std, "dimensionless", f"{variant_file}: contact.uncertainty.{side}")
     fitted = c.creep_drive if side == "drive" else c.creep_steering
     if law == "kim" and fitted is not None:
-        return CreepSource("fitted", f"the variant's fitted creep_{side} = {fitted}", std)
+        return source("fitted", f"the variant's fitted creep_{side} = {fitted}", std)
     factor = getattr(c.calibration, side)
     if law != "kim" and factor is not None:
         if isinstance(factor, (int, float)) and factor == 1:
-            return CreepSource("theory", f"theory only: contact.calibration.{side} = 1, the theory as it stands "
-                                         f"({THEORY_GAP})")
-        return CreepSource("factor", f"the variant's contact.calibration.{side} = {factor}", std)
+            return source("theory", f"theory only: contact.calibration.{side} = 1, the theory as it stands "
+                                    f"({THEORY_GAP})")
+        return source("factor", f"the variant's contact.calibration.{side} = {factor}", std)
     found, reason = library_calibration(variant_file, spec, roller_material, sphere_material)
     if found is None:
         why = f"; {reason}" if reason else ""
-        return CreepSource("theory", f"theory only: no calibration of {roller_material} on {sphere_material}{why} "
-                                     f"({THEORY_GAP})")
+        return source("theory", f"theory only: no calibration of {roller_material} on {sphere_material}{why} "
+                                f"({THEORY_GAP})")
     cal, at = found
     E = to_si(cal.creep_modulus, "pressure", f"{at}.creep_modulus")
     s = to_si(cal.std, "dimensionless", f"{at}.std")
-    return CreepSource("library", f"{roller_material} on {sphere_material}: creep modulus {cal.creep_modulus} "
-                                  f"± {s:.1%} ({cal.machine}; {at})", s, E)
+    return source("library", f"{roller_material} on {sphere_material}: creep modulus {cal.creep_modulus} "
+                             f"± {s:.1%} ({cal.machine}; {at})", s, E)
+
+
+def fitted_calibrations(layout: Layout, scales: dict, machine: str, data: str, fit: str) -> list[dict]:
+    """Library calibrations (one per roller material on the sphere's) from a diagnosis's fitted compliance
+    scales {role: (scale, σ)} ('drive', 'steering'; the scales of drive_longitudinal_creep and
+    steering_lateral_creep): each roller's fitted compliance is scale × the compliance its law used
+    (core.contact.patch.calibrated_compliance), and its creep modulus the one that gives it. A material
+    whose rollers give different moduli (several roles, or fitted constants that ignored their geometry) gets
+    their mean, the spread added to its σ."""
+    moduli: dict = {}
+    for r in layout.rollers:
+        role = "steering" if r.role == "steering" else "drive"
+        if role not in scales:
+            continue
+        s, sd = scales[role]
+        E = creep_modulus_for(layout, r, s * calibrated_compliance(layout, r))
+        moduli.setdefault(r.creep.materials, []).append((E, sd / s, role))
+    out = []
+    for (roller, sphere), found in moduli.items():
+        E = np.array([f[0] for f in found])
+        std = float(np.hypot(max(f[1] for f in found), np.std(E) / np.mean(E)))
+        roles = sorted({f[2] for f in found})
+        out.append({"roller": roller, "sphere": sphere, "creep_modulus": f"{np.mean(E) / 1e6:.4g} MPa",
+                    "std": f"{100 * std:.2g} %", "machine": machine, "data": data,
+                    "fit": f"{fit}; from the {' and '.join(roles)} contacts ({len(found)} rollers)"})
+    return out
+
+
+def saved_library(path, layout: Layout, entries: list[dict]) -> str:
+    """The text of library file `path` with `entries` added: an existing library keeps its other entries (one
+    of the same pair is replaced); the variant's own definitions of the entries' materials are written with
+    them, so that a variant naming the file gets the same materials the calibration was fitted with."""
+    path = Path(path)
+    old = read_spec(str(path), LibrarySpec, "materials, calibrations") if path.is_file() else LibrarySpec()
+    data = old.model_dump(exclude_defaults=True, exclude_none=True)
+    pairs = {(e["roller"], e["sphere"]) for e in entries}
+    data["calibrations"] = [c for c in data.get("calibrations", []) if (c["roller"], c["sphere"]) not in pairs]
+    data["calibrations"] += entries
+    own = layout.spec.materials if layout.spec is not None else {}
+    for name in sorted({m for e in entries for m in (e["roller"], e["sphere"])} & set(own)):
+        data.setdefault("materials", {})[name] = own[name].model_dump(exclude_defaults=True, exclude_none=True)
+    return HEADER + yaml.safe_dump(data, sort_keys=False, allow_unicode=True, width=110)
+
+
+HEADER = ("# A materials library (docs/materials.md), written by `cvtdesign diagnose --save-calibration`.\n"
+          "# A variant uses it with `material_library: [this file]`.\n")

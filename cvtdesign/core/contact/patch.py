@@ -55,6 +55,21 @@ def calibrated_compliance(layout: Layout, roller: Roller) -> float:
     return float((p["eps_long"] if drive else p["eps_lat"]) * layout.calibration["drive" if drive else "steering"])
 
 
+def creep_modulus_for(layout: Layout, roller: Roller, compliance: float) -> float:
+    """The creep modulus [Pa] (core.layout.CreepSource) with which Hertz + Kalker give `roller` the creep
+    compliance [1/N] at its preload, in its own direction (as calibrated_compliance): the Hertz patch at the
+    nominal moduli, the creep law's G and ν at this modulus (1-D root; ε ∝ 1/G to within ν's change)."""
+    drive = roller.role != "steering"
+
+    def eps(E):
+        creep = CreepSource("library", "", None, E)
+        p = patch(layout, dataclasses.replace(roller, creep=creep))
+        return float(p["eps_long"] if drive else p["eps_lat"])
+    from scipy.optimize import brentq         # ε falls monotonically with E: one root in log E
+    return float(np.exp(brentq(lambda x: np.log(eps(np.exp(x)) / compliance), np.log(1e3), np.log(1e13),
+                               xtol=1e-12)))
+
+
 def forces(p: dict, xi, eta, phi) -> np.ndarray:
     """(Fx, Fy [N], Mz [N m]) on the sphere, in the patch frame, of a numeric patch `p` at creepages ξ, η [-] and
     spin φ [1/m] (arrays), by the `kalker` law's surface with no calibration."""
