@@ -68,8 +68,9 @@ def _add_new(p):
 
 def _add_show(p):
     p.add_argument("variant", help="variant YAML file")
-    p.add_argument("--gamma", type=float, default=0.0, help="commanded γ [deg] the forks are drawn at (default 0)")
-    p.add_argument("--out", default="out/show", help="folder for <name>_layout.png (default: out/show)")
+    p.add_argument("--gamma", type=float, help="commanded γ [deg] the forks are drawn at (default 45, as export's)")
+    p.add_argument("--out", default="out/show", help="folder for <file stem>_layout.png (<file stem>_layout_gamma<γ>.png "
+                   "at another γ; default folder: out/show)")
 
 
 def _add_compare(p):

@@ -11,8 +11,6 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from cvtdesign.core.geometry import FRAME, pose
-from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.io.output import OutputError, write_file
 
 PNG_COMPRESSION = 1     # zlib level of the PNG files: 40 % faster than the default 6, files 5 % larger
@@ -38,6 +36,11 @@ def _mpl():
     return SimpleNamespace(figure=figure, subplots=subplots, Line2D=lines.Line2D, Rectangle=patches.Rectangle,
                            Circle=patches.Circle, PatchCollection=collections.PatchCollection,
                            Normalize=colors.Normalize, get_cmap=colormaps.get_cmap)
+
+
+def figure_parts() -> SimpleNamespace:
+    """The parts of matplotlib that figures drawn in other modules use (io.layout_drawing): see `_mpl`."""
+    return _mpl()
 
 
 def save(fig, path: Path, dpi=80):
@@ -191,151 +194,6 @@ def compare_figure(results: list[tuple[str, dict]], path: Path, loads=(-1.0, -0.
                  "against commanded γ (Kim Figs 20-21)", fontsize=12, y=0.995)
     save(fig, path)
     return limits
-
-
-ROLE_COLOURS = {"drive": "tab:blue", "follower": "tab:cyan", "steering": "tab:orange"}
-SHAFT_COLOURS = ("tab:red", "tab:green")
-# orthographic views: (title, horizontal axis, vertical axis, axis pointing at the viewer, its sense)
-VIEWS = (("top view (from +z)", 0, 1, 2, 1.0), ("front view (from −y)", 0, 2, 1, -1.0),
-         ("side view (from +x)", 1, 2, 0, 1.0))
-
-
-def layout_scene(layout, phi: float, gamma: float) -> dict:
-    """What the layout drawing shows, lengths in mm: the sphere radius R, each roller at steering angle φ
-    [rad] (rim circle, centre, contact normal, axle, role, fork axis), Kim's frame vectors, the shafts' axes
-    and the commanded sphere axis u(γ) at γ [rad] (kinematics.shaft_frame)."""
-    frame = shaft_frame(layout)
-    R = 1000 * float(layout.sphere_radius)
-    rollers = []
-    for r in layout.rollers:
-        n, a = pose(r, phi)
-        rad = 1000 * float(r.radius)
-        centre = (R + rad) * n
-        th = np.linspace(0, 2 * np.pi, 73)[:, None]
-        rim = centre + rad * (np.cos(th) * n + np.sin(th) * np.cross(n, a))
-        fork = None if r.fork_axis is None else np.asarray(r.fork_axis, float).ravel()
-        rollers.append({"name": r.name, "role": r.role, "shaft": r.shaft, "radius": rad, "centre": centre,
-                        "rim": rim, "normal": n, "axle": a, "fork": fork})
-    e1 = np.asarray(frame.u1, float)
-    e2 = frame.c * e1 + frame.s * np.asarray(frame.u2, float)
-    forks = {}
-    for r in rollers:
-        if r["fork"] is not None:
-            key = tuple(np.round(r["fork"] * np.sign(r["fork"][np.argmax(np.abs(r["fork"]))]), 9))
-            forks.setdefault(key, []).append(r["name"])
-    return {"R": R, "rollers": rollers, "frames": {k: FRAME[k] for k in ("d1", "d2", "c1", "c2", "c3")},
-            "shafts": (e1, e2), "command": np.asarray(frame.axis(gamma), float).ravel(),
-            "forks": [(np.array(k), names) for k, names in forks.items()], "law": frame.law_text()}
-
-
-def _arrow(ax, p0, p1, colour, text=None, lw=1.2):
-    """A 2-D arrow from p0 to p1, its text just beyond the tip."""
-    ax.annotate("", xy=p1, xytext=p0, arrowprops={"arrowstyle": "->", "color": colour, "lw": lw})
-    if text:
-        at = np.asarray(p0) + 1.18 * (np.asarray(p1) - np.asarray(p0))
-        ax.text(*at, text, color=colour, fontsize=7, ha="center", va="center",
-                bbox={"fc": "white", "ec": "none", "alpha": 0.6, "pad": 0.5})
-
-
-def _view(ax, scene, view, mpl):
-    """One orthographic view of the scene: horizontal/vertical axes i, j; rollers whose centre lies behind
-    the sphere's mid-plane drawn dashed and faint."""
-    title, i, j, k, sense = view
-    R = scene["R"]
-    ax.add_patch(mpl.Circle((0, 0), R, fc="lightgrey", ec="k", alpha=0.35, lw=1, zorder=1))
-    for v, names in scene["forks"]:
-        ax.plot([-1.5 * R * v[i], 1.5 * R * v[i]], [-1.5 * R * v[j], 1.5 * R * v[j]], ":", color="purple",
-                lw=1.2, zorder=2)
-        if np.hypot(v[i], v[j]) > 0.2:
-            ax.text(1.5 * R * v[i], 1.5 * R * v[j], f"fork ({', '.join(names)})", color="purple", fontsize=7)
-    for name, v in scene["frames"].items():
-        if np.hypot(v[i], v[j]) > 0.2:
-            _arrow(ax, (0, 0), (0.7 * R * v[i], 0.7 * R * v[j]), "dimgrey", name, lw=0.8)
-    for s, (e, colour) in enumerate(zip(scene["shafts"], SHAFT_COLOURS)):
-        ax.plot([-1.9 * R * e[i], 1.9 * R * e[i]], [-1.9 * R * e[j], 1.9 * R * e[j]], "-.", color=colour, lw=1)
-        if np.hypot(e[i], e[j]) > 0.2:
-            ax.text(1.9 * R * e[i], 1.9 * R * e[j], f"shaft {s + 1}", color=colour, fontsize=7)
-    u = scene["command"]
-    if np.hypot(u[i], u[j]) > 0.1:
-        _arrow(ax, (0, 0), (1.0 * R * u[i], 1.0 * R * u[j]), "k", "u(γ)", lw=2)
-    for r in sorted(scene["rollers"], key=lambda r: sense * r["centre"][k]):
-        front = sense * r["centre"][k] >= -1e-9
-        c, colour = r["centre"], ROLE_COLOURS[r["role"]]
-        ax.fill(r["rim"][:, i], r["rim"][:, j], color=colour, alpha=0.35 if front else 0.1, zorder=3 if front else 0)
-        ax.plot(r["rim"][:, i], r["rim"][:, j], "-" if front else "--", color=colour, lw=1.4 if front else 0.8,
-                zorder=3 if front else 0)
-        tip = c + 0.8 * r["radius"] * r["axle"]
-        if np.hypot(*(tip - c)[[i, j]]) > 0.15 * r["radius"]:
-            _arrow(ax, (c[i], c[j]), (tip[i], tip[j]), "navy" if front else "lightsteelblue")
-        label = c + 1.1 * r["radius"] * r["normal"]
-        role = r["role"] + (f" {r['shaft']}" if r["shaft"] else "")
-        ax.text(label[i], label[j], f"{r['name']}\n{role}", fontsize=7, ha="center", va="center",
-                alpha=1 if front else 0.5, zorder=4)
-    ax.set_title(title, fontsize=10)
-    ax.set_xlabel(f"{'xyz'[i]} [mm]")
-    ax.set_ylabel(f"{'xyz'[j]} [mm]")
-    ax.set_aspect("equal")
-    ax.grid(alpha=0.2)
-
-
-def _view_3d(ax, scene):
-    """The scene in perspective: sphere wireframe, roller rims, axles, frame vectors, shaft axes, u(γ)."""
-    R = scene["R"]
-    a, b = np.meshgrid(np.linspace(0, 2 * np.pi, 25), np.linspace(0, np.pi, 13))
-    ax.plot_wireframe(R * np.cos(a) * np.sin(b), R * np.sin(a) * np.sin(b), R * np.cos(b), color="grey", lw=0.3)
-    for r in scene["rollers"]:
-        c = r["centre"]
-        ax.plot(*r["rim"].T, color=ROLE_COLOURS[r["role"]], lw=1.6)
-        ax.quiver(*c, *(0.8 * r["radius"] * r["axle"]), color="navy", lw=1.2)
-        ax.text(*(c + 1.1 * r["radius"] * r["normal"]), r["name"], fontsize=8)
-    for name, v in scene["frames"].items():
-        ax.quiver(0, 0, 0, *(0.7 * R * v), color="dimgrey", lw=0.8)
-        ax.text(*(0.75 * R * v), name, color="dimgrey", fontsize=7)
-    for s, (e, colour) in enumerate(zip(scene["shafts"], SHAFT_COLOURS)):
-        ax.plot(*np.outer([-1.9 * R, 1.9 * R], e).T, "-.", color=colour, lw=1)
-        ax.text(*(1.9 * R * e), f"shaft {s + 1}", color=colour, fontsize=7)
-    for v, names in scene["forks"]:
-        ax.plot(*np.outer([-1.5 * R, 1.5 * R], v).T, ":", color="purple", lw=1.2)
-    ax.quiver(0, 0, 0, *(R * scene["command"]), color="k", lw=2)
-    reach = R + 2 * max(r["radius"] for r in scene["rollers"])
-    for set_lim, name in ((ax.set_xlim, "x"), (ax.set_ylim, "y"), (ax.set_zlim, "z")):
-        set_lim(-reach, reach)
-    ax.set_box_aspect((1, 1, 1))
-    ax.set_xlabel("x [mm]")
-    ax.set_ylabel("y [mm]")
-    ax.set_zlabel("z [mm]")
-    ax.set_title("3-D view", fontsize=10)
-
-
-def layout_figure(layout, phi: float, gamma: float, path: Path):
-    """The layout before anything is solved: a 3-D view and three orthogonal views (mm) of the sphere, every
-    roller at its contact (rim circle, axle arrow, name and role; steered rollers turned to the steering
-    angle φ [rad] that realises the commanded γ [rad]), the fork axes, Kim's frame vectors d1 d2 c1 c2 c3,
-    both shafts' axes and the commanded sphere axis u(γ). Written to `path` (PNG)."""
-    mpl = _mpl()
-    scene = layout_scene(layout, phi, gamma)
-    fig = mpl.figure(figsize=(13, 13))
-    _view_3d(fig.add_subplot(2, 2, 1, projection="3d"), scene)
-    for k, view in enumerate(VIEWS):
-        _view(fig.add_subplot(2, 2, k + 2), scene, view, mpl)
-    reach = scene["R"] + 2 * max(r["radius"] for r in scene["rollers"])
-    for ax in fig.axes[1:]:
-        ax.set_xlim(-reach, reach)
-        ax.set_ylim(-reach, reach)
-    handles = [mpl.Line2D([], [], color=c, lw=4, alpha=0.6, label=f"{role} roller") for role, c in ROLE_COLOURS.items()
-               if any(r["role"] == role for r in scene["rollers"])]
-    handles += [mpl.Line2D([], [], color="navy", label="roller axle (positive spin)"),
-                mpl.Line2D([], [], color="k", lw=2, label="commanded sphere axis u(γ)"),
-                mpl.Line2D([], [], color=SHAFT_COLOURS[0], ls="-.", label="shaft 1 axis"),
-                mpl.Line2D([], [], color=SHAFT_COLOURS[1], ls="-.", label="shaft 2 axis"),
-                mpl.Line2D([], [], color="purple", ls=":", label="fork axis"),
-                mpl.Line2D([], [], color="dimgrey", label="frame vectors d1 d2 c1 c2 c3"),
-                mpl.Line2D([], [], color="grey", ls="--", label="behind the sphere (dashed, faint)")]
-    fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8, frameon=False)
-    fig.suptitle(f"{layout.name}: layout at commanded γ = {np.degrees(gamma):g}° (steering angle "
-                 f"φ = {np.degrees(phi):.2f}°); ideal law {scene['law']}", fontsize=11)
-    fig.subplots_adjust(left=0.06, right=0.97, bottom=0.08, top=0.94, wspace=0.2, hspace=0.18)
-    save(fig, path, dpi=90)
 
 
 def worker(conn, parent_end):
