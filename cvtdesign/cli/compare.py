@@ -10,7 +10,7 @@ from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
 from cvtdesign.core.metrics import envelope, ideal_model, metrics
 from cvtdesign.core.model import compile_model
 from cvtdesign.io import plots
-from cvtdesign.io.output import make_folder, write_file
+from cvtdesign.io.output import make_folder, named_after, write_file
 from cvtdesign.io.points import check_points_path, contact_points, write_points
 from cvtdesign.io.report import Note, Table, png_figure
 from cvtdesign.io.variant import load_variant, shipped_variant
@@ -43,7 +43,8 @@ def run(args):
             layouts.insert(0, load_variant(existing))
     models = [compile_model(L) for L in layouts]
     results = [envelope(m) for m in models]
-    figure = make_folder(args.out, kind="--out") / "compare.png"
+    figure = make_folder(args.out, kind="--out") / named_after(files, ".png")     # another set, another file
+    replaced = figure.exists()
     # the figure is drawn while the ideal CVT is evaluated and the table printed
     painter.draw("compare_figure", [(L.name, {k: res[k] for k in plots.COMPARE_KEYS})
                                     for L, res in zip(layouts, results)], figure)
@@ -72,7 +73,7 @@ def run(args):
     if error:
         print(f"cvtdesign: error: plotting failed: {error}", file=sys.stderr)
         return 1
-    console.print(f"plots: {figure}")
+    console.print(f"plots: {figure}" + (" (replaced the earlier figure of these variants)" if replaced else ""))
     if args.points:
         console.print(f"contact states: {args.points}")
     if args.report:
