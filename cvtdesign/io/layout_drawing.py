@@ -10,8 +10,8 @@ What is drawn is what the machine has:
   in other directions they would mean nothing;
 - the commanded sphere axis u(γ).
 
-Labels are placed one after another where they overlap no label already placed (`place_labels`), so
-that no two overlap at the drawing's default size.
+Labels are placed one after another where they overlap no label already placed (`plots.place_labels`),
+so that no two overlap at the drawing's default size.
 """
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ import numpy as np
 
 from cvtdesign.core.geometry import FRAME, pose
 from cvtdesign.core.kinematics import shaft_frame
-from cvtdesign.io.plots import figure_parts, save
+from cvtdesign.io.plots import figure_parts, place_labels, save
 
 KIM_FRAME = ("d1", "d2", "d3", "c1", "c2", "c3")
 SHAFT_NAMES = {1: "motor shaft 1", 2: "brake shaft 2"}
@@ -33,10 +33,7 @@ FORK_COLOUR = "purple"
 # orthographic views: (title, horizontal axis, vertical axis, axis pointing at the viewer, its sense)
 VIEWS = (("top view (from +z)", 0, 1, 2, 1.0), ("front view (from −y)", 0, 2, 1, -1.0),
          ("side view (from +x)", 1, 2, 0, 1.0))
-# where a label may go, in points from its anchor, tried in this order (`place_labels`)
-OFFSETS = [(0, 0)] + [(dx, dy) for r in (1, 2, 3) for dx, dy in
-                      ((0, 13 * r), (0, -13 * r), (34 * r, 0), (-34 * r, 0), (28 * r, 13 * r), (-28 * r, 13 * r),
-                       (28 * r, -13 * r), (-28 * r, -13 * r))]
+
 
 
 def frames_used(spec) -> list[str]:
@@ -99,7 +96,7 @@ def shaft_line(r: dict) -> np.ndarray | None:
 
 def _view(ax, scene, view, mpl) -> list:
     """One orthographic view of the scene: horizontal/vertical axes i, j; rollers whose centre lies behind
-    the sphere's mid-plane drawn dashed and faint. Returns its labels for `place_labels`: (anchor (x, y),
+    the sphere's mid-plane drawn dashed and faint. Returns its labels for `plots.place_labels`: (anchor (x, y),
     text, colour, alpha), the front rollers' first."""
     title, i, j, k, sense = view
     R = scene["R"]
@@ -141,7 +138,7 @@ def _view(ax, scene, view, mpl) -> list:
 
 def _view_3d(ax, scene) -> list:
     """The scene in perspective: sphere wireframe, roller rims, axles, shafts, fork axes, the frame vectors
-    the file names and u(γ). Returns the rollers' name labels (anchors in 3-D) for `place_labels`."""
+    the file names and u(γ). Returns the rollers' name labels (anchors in 3-D) for `plots.place_labels`."""
     R = scene["R"]
     a, b = np.meshgrid(np.linspace(0, 2 * np.pi, 25), np.linspace(0, np.pi, 13))
     ax.plot_wireframe(R * np.cos(a) * np.sin(b), R * np.sin(a) * np.sin(b), R * np.cos(b), color="grey", lw=0.3)
@@ -169,34 +166,6 @@ def _view_3d(ax, scene) -> list:
     ax.set_box_aspect((1, 1, 1))
     ax.set_title("3-D view", fontsize=10)
     return labels
-
-
-def place_labels(fig, ax, labels, fontsize=7) -> int:
-    """Write each label (anchor in data coordinates, or in 3-D for a 3-D axes; text; colour; alpha) at the
-    first of OFFSETS from its anchor where it overlaps no label already placed and stays inside the axes;
-    a label with no such place is left out. Call it once the axes' limits and the figure's layout are
-    final. Returns how many were left out."""
-    renderer = fig.canvas.get_renderer()
-    ax.apply_aspect()
-    inside = ax.get_window_extent(renderer)
-    placed = [t.get_window_extent(renderer) for t in ax.texts if t.get_text()]
-    if hasattr(ax, "get_proj"):                      # a 3-D axes: its anchors projected onto its 2-D data plane
-        proj = ax.get_proj()
-        labels = [(tuple((proj @ np.append(p, 1.0))[:2] / (proj @ np.append(p, 1.0))[3]), *rest) for p, *rest in labels]
-    left_out = 0
-    for anchor, text, colour, alpha in labels:
-        for dx, dy in OFFSETS:
-            t = ax.annotate(text, xy=anchor, xytext=(dx, dy), textcoords="offset points", fontsize=fontsize,
-                            ha="center", va="center", color=colour, alpha=alpha, zorder=6, annotation_clip=False)
-            box = t.get_window_extent(renderer).expanded(1.04, 1.1)
-            if (box.x0 >= inside.x0 and box.x1 <= inside.x1 and box.y0 >= inside.y0 and box.y1 <= inside.y1
-                    and not any(box.overlaps(p) for p in placed)):
-                placed.append(box)
-                break
-            t.remove()
-        else:
-            left_out += 1
-    return left_out
 
 
 def _legend(fig, scene, mpl):

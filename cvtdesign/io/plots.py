@@ -20,8 +20,8 @@ PNG_COMPRESSION = 1     # zlib level of the PNG files: 40 % faster than the defa
 def _mpl():
     """The parts of matplotlib the figures use, imported here only (the heavy optional import's boundary):
     `figure(figsize=..., layout=...)` and `subplots(..., layout=...)` make Figures on Agg canvases; Line2D, Rectangle, Circle,
-    Normalize and get_cmap as in pyplot."""
-    from matplotlib import collections, colormaps, colors, lines, patches
+    Normalize and get_cmap as in pyplot; Bbox (matplotlib.transforms)."""
+    from matplotlib import collections, colormaps, colors, lines, patches, transforms
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -36,7 +36,7 @@ def _mpl():
 
     return SimpleNamespace(figure=figure, subplots=subplots, Line2D=lines.Line2D, Rectangle=patches.Rectangle,
                            Circle=patches.Circle, PatchCollection=collections.PatchCollection,
-                           Normalize=colors.Normalize, get_cmap=colormaps.get_cmap)
+                           Normalize=colors.Normalize, get_cmap=colormaps.get_cmap, Bbox=transforms.Bbox)
 
 
 def figure_parts() -> SimpleNamespace:
@@ -51,6 +51,52 @@ def save(fig, path: Path, dpi=80):
     fmt = path.suffix[1:] or "png"
     extra = {"pil_kwargs": {"compress_level": PNG_COMPRESSION}} if fmt == "png" else {}
     write_file(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=fmt, **extra), kind="plot")
+
+
+# where a label may go, in points from its anchor, tried in this order (`place_labels`)
+OFFSETS = [(0, 0)] + [(dx, dy) for r in (1, 2, 3) for dx, dy in
+                      ((0, 13 * r), (0, -13 * r), (34 * r, 0), (-34 * r, 0), (28 * r, 13 * r), (-28 * r, 13 * r),
+                       (28 * r, -13 * r), (-28 * r, -13 * r))]
+
+# beside a marker rather than on it (the Pareto points): (points right, up, the label's alignment to that spot)
+# right, left, above, below, then farther
+LABEL_BESIDE = [spot for r in (1.6, 3, 5) for spot in ((6 * r, 0, "left", "center"), (-6 * r, 0, "right", "center"),
+                                                       (0, 7 * r, "center", "bottom"), (0, -7 * r, "center", "top"),
+                                                       (6 * r, 7 * r, "left", "bottom"), (-6 * r, -7 * r, "right", "top"),
+                                                       (6 * r, -7 * r, "left", "top"), (-6 * r, 7 * r, "right", "bottom"))]
+
+
+def place_labels(fig, ax, labels, fontsize=7, offsets=OFFSETS, markers=()) -> int:
+    """Write each label (anchor in data coordinates, or in 3-D for a 3-D axes; text; colour; alpha) at the
+    first of `offsets` from its anchor (points, optionally with the label's alignment there; default OFFSETS,
+    centred) where it overlaps no label already placed and stays inside the axes;
+    a label with no such place is left out. Call it once the axes' limits and the figure's layout are
+    final. `markers`: data points (n, 2) that no label may cover either. Returns how many were left out."""
+    renderer = fig.canvas.get_renderer()
+    ax.apply_aspect()
+    inside = ax.get_window_extent(renderer)
+    placed = [t.get_window_extent(renderer) for t in ax.texts if t.get_text()]
+    size = 6 * fig.dpi / 72                          # a marker's half-width [pixels]
+    placed += [_mpl().Bbox.from_extents(x - size, y - size, x + size, y + size)
+               for x, y in ax.transData.transform(np.reshape(markers, (-1, 2)))] if len(markers) else []
+    if hasattr(ax, "get_proj"):                      # a 3-D axes: its anchors projected onto its 2-D data plane
+        proj = ax.get_proj()
+        labels = [(tuple((proj @ np.append(p, 1.0))[:2] / (proj @ np.append(p, 1.0))[3]), *rest) for p, *rest in labels]
+    left_out = 0
+    for anchor, text, colour, alpha in labels:
+        for dx, dy, *align in offsets:
+            ha, va = align or ("center", "center")
+            t = ax.annotate(text, xy=anchor, xytext=(dx, dy), textcoords="offset points", fontsize=fontsize,
+                            ha=ha, va=va, color=colour, alpha=alpha, zorder=6, annotation_clip=False)
+            box = t.get_window_extent(renderer).expanded(1.04, 1.1)
+            if (box.x0 >= inside.x0 and box.x1 <= inside.x1 and box.y0 >= inside.y0 and box.y1 <= inside.y1
+                    and not any(box.overlaps(p) for p in placed)):
+                placed.append(box)
+                break
+            t.remove()
+        else:
+            left_out += 1
+    return left_out
 
 
 COMPARE_ROWS = (("alpha", "slip angle α [°]", np.degrees),
@@ -351,29 +397,29 @@ class Background:
 
 def pareto_figure(chains: list[tuple[str, list[dict], int]], path: Path):
     """Slip/efficiency Pareto fronts (worst |α| [deg] against mean power loss [W]), knee marked, every point
-    labelled with the stem of its variant file. chains: (label, points with worst_alpha_deg, power_loss_W,
-    variant_file, success, point), index of the knee point)."""
+    labelled with its design (its 'label', e.g. 'preload = 121.9 N, d = 48.8 mm'), the labels placed apart.
+    chains: (label, points with worst_alpha_deg, power_loss_W, label, success, point), index of the knee
+    point)."""
     mpl = _mpl()
-    fig, ax = mpl.subplots(figsize=(8, 5.5))
+    fig, ax = mpl.subplots(figsize=(9, 6.5))
+    labels = []
     for label, pts, k in chains:
         ok = [p for p in pts if p["success"]]
-        x = [p["worst_alpha_deg"] for p in ok]
-        y = [p["power_loss_W"] for p in ok]
-        line, = ax.plot(x, y, "o-", label=label)
-        for p in ok:
-            if p.get("variant_file"):
-                ax.annotate(Path(p["variant_file"]).stem, (p["worst_alpha_deg"], p["power_loss_W"]), fontsize=6,
-                            xytext=(4, 3), textcoords="offset points", color=line.get_color())
+        line, = ax.plot([p["worst_alpha_deg"] for p in ok], [p["power_loss_W"] for p in ok], "o-", label=label)
+        labels += [((p["worst_alpha_deg"], p["power_loss_W"]), p["label"], line.get_color(), 1.0) for p in ok
+                   if p.get("label")]
         kp = next((p for p in ok if p["point"] == k), None)
         if kp:
             ax.plot(kp["worst_alpha_deg"], kp["power_loss_W"], "*", ms=18, color=line.get_color(),
                     markeredgecolor="k", label=f"knee of {label}")
-    ax.set_xlabel("worst-case slip angle max |α| over the envelope [deg]")
+    ax.set_xlabel("worst-case slip angle max |α| over the envelope [°]")
     ax.set_ylabel("mean power loss over the envelope [W]")
-    ax.set_title("slip against power loss (ε-constraint Pareto front)")
+    ax.set_title("slip against power loss (ε-constraint Pareto front); each point labelled with its design")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.margins(x=0.25, y=0.15)          # room for the labels of the end points
+    ax.legend(fontsize=8, loc="upper right")
     fig.tight_layout()
+    place_labels(fig, ax, labels, fontsize=7, offsets=LABEL_BESIDE, markers=[anchor for anchor, *_ in labels])
     save(fig, path, dpi=110)
 
 
@@ -435,6 +481,7 @@ def resteer_figure(ratios, load, table: dict, path: Path):
     ax.set_xscale("log")
     ax.set_xticks(ratios)
     ax.set_xticklabels([f"{q:g}" for q in ratios])
+    ax.set_xticks([], minor=True)       # the log scale's own minor labels ('6×10⁻¹') among the ratios asked for
     ax.set_xlabel("requested speed ratio ω2/ω1")
     ax.set_ylabel("error (requested − achieved)/requested [%]")
     ax.set_title(f"resteering under τ⊥ = {load:+.2f} N·m (Brokowski Fig. 17)")
