@@ -9,7 +9,7 @@ import time
 import numpy as np
 
 from cvtdesign.cad.checks import check_step
-from cvtdesign.cad.picture import picture_caption, rasterise, svg_text, view_mesh
+from cvtdesign.cad.picture import annotations, framed_svg, picture_caption, raster, svg_text, view_mesh
 from cvtdesign.cad.plan import plan
 from cvtdesign.cad.step import assembly, build, screen, step_header, write_step
 from cvtdesign.core.checks import check_layout
@@ -90,11 +90,13 @@ def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, c
             svg = _Forked(svg_text, p, shapes)
             drawn = False
             try:
-                image = rasterise(*view_mesh(p, shapes), [part.colour for part in p.parts])
-                painter.draw("cad_picture", np.round(255 * image).astype(np.uint8), picture_caption(p), tmps[2])
+                image, part, extent = raster(*view_mesh(p, shapes), [part.colour for part in p.parts])
+                notes = annotations(p, part, extent)
+                painter.draw("cad_picture", np.round(255 * image).astype(np.uint8), extent, picture_caption(p), tmps[2],
+                             notes)
                 drawn = True
                 write_step(assembly(p, shapes), tmps[0], step_header(p, paths[0].name))
-                tmps[1].write_text(svg.result())
+                tmps[1].write_text(framed_svg(svg.result(), picture_caption(p), notes))
             finally:
                 svg.close()
                 # the painter writes through a temporary file of its own: let it finish, on a failure too,

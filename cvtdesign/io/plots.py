@@ -66,12 +66,13 @@ LABEL_BESIDE = [spot for r in (1.6, 3, 5) for spot in ((6 * r, 0, "left", "cente
                                                        (6 * r, -7 * r, "left", "top"), (-6 * r, 7 * r, "right", "bottom"))]
 
 
-def place_labels(fig, ax, labels, fontsize=7, offsets=OFFSETS, markers=()) -> int:
+def place_labels(fig, ax, labels, fontsize=7, offsets=OFFSETS, markers=(), boxed=False) -> int:
     """Write each label (anchor in data coordinates, or in 3-D for a 3-D axes; text; colour; alpha) at the
     first of `offsets` from its anchor (points, optionally with the label's alignment there; default OFFSETS,
     centred) where it overlaps no label already placed and stays inside the axes;
     a label with no such place is left out. Call it once the axes' limits and the figure's layout are
-    final. `markers`: data points (n, 2) that no label may cover either. Returns how many were left out."""
+    final. `markers`: data points (n, 2) that no label may cover either; `boxed`: each label on a white box
+    (over a picture). Returns how many were left out."""
     renderer = fig.canvas.get_renderer()
     ax.apply_aspect()
     inside = ax.get_window_extent(renderer)
@@ -87,7 +88,8 @@ def place_labels(fig, ax, labels, fontsize=7, offsets=OFFSETS, markers=()) -> in
         for dx, dy, *align in offsets:
             ha, va = align or ("center", "center")
             t = ax.annotate(text, xy=anchor, xytext=(dx, dy), textcoords="offset points", fontsize=fontsize,
-                            ha=ha, va=va, color=colour, alpha=alpha, zorder=6, annotation_clip=False)
+                            ha=ha, va=va, color=colour, alpha=alpha, zorder=6, annotation_clip=False,
+                            bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1} if boxed else None)
             box = t.get_window_extent(renderer).expanded(1.04, 1.1)
             if (box.x0 >= inside.x0 and box.x1 <= inside.x1 and box.y0 >= inside.y0 and box.y1 <= inside.y1
                     and not any(box.overlaps(p) for p in placed)):
@@ -491,15 +493,36 @@ def resteer_figure(ratios, load, table: dict, path: Path):
     save(fig, path, dpi=110)
 
 
-def cad_picture(image, caption: str, path):
-    """A CAD assembly's shaded picture (an RGB array (rows, columns, 3), 8-bit or 0..1 floats, as
-    cad.picture.rasterise draws it) with a caption above it, as PNG."""
+def scale_bar(width_mm: float) -> float:
+    """A round length [mm] (1, 2 or 5 × a power of ten) near a fifth of `width_mm`, for a drawing's scale bar."""
+    target = width_mm / 5
+    base = 10 ** np.floor(np.log10(target))
+    return float(max(m * base for m in (1, 2, 5) if m * base <= target))
+
+
+def cad_picture(image, extent, caption: str, path, notes: dict):
+    """A CAD assembly's shaded picture (an RGB array (rows, columns, 3), 8-bit or 0..1 floats, spanning
+    `extent` (left, right, bottom, top) [mm] of the view plane, as cad.picture.raster draws it) with a
+    caption above it, the parts named as in the STEP file, a scale bar and a legend below (`notes`: as
+    cad.picture.annotations gives them), as PNG."""
     mpl = _mpl()
-    fig = mpl.figure(figsize=(8, 8.4))
-    ax = fig.add_axes((0, 0, 1, 8 / 8.4))
-    ax.imshow(image, interpolation="none")
+    fig = mpl.figure(figsize=(8, 9.6))
+    ax = fig.add_axes((0.02, 0.17, 0.96, 0.8))
+    ax.imshow(image, interpolation="none", extent=extent)
     ax.axis("off")
-    fig.text(0.5, 0.975, caption, ha="center", va="center", fontsize=10)
+    fig.text(0.5, 0.985, caption, ha="center", va="top", fontsize=10)
+    x0, x1, y0, y1 = extent
+    bar = scale_bar(x1 - x0)
+    ax.plot([x0 + 0.03 * (x1 - x0), x0 + 0.03 * (x1 - x0) + bar], [y0 + 0.03 * (y1 - y0)] * 2, "k-", lw=3,
+            solid_capstyle="butt")
+    ax.text(x0 + 0.03 * (x1 - x0) + bar / 2, y0 + 0.045 * (y1 - y0), f"{bar:g} mm", ha="center", va="bottom",
+            fontsize=9)
+    place_labels(fig, ax, [(at, name, "k", 1.0) for name, at in notes["labels"]], fontsize=8, boxed=True)
+    handles = [mpl.Rectangle((0, 0), 1, 1, fc=colour, ec="k", lw=0.5, label=text) for text, colour in notes["legend"]]
+    fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.045), ncol=2, fontsize=8, frameon=False,
+               title="parts, named as in the STEP file", title_fontsize=8)
+    if notes["note"]:
+        fig.text(0.5, 0.015, notes["note"], ha="center", va="bottom", fontsize=8, wrap=True)
     save(fig, Path(path), dpi=100)
 
 
