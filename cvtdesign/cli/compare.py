@@ -6,13 +6,14 @@ from pathlib import Path
 
 from rich.console import Console
 
+from cvtdesign.cli import compare_report
 from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
 from cvtdesign.core.metrics import envelope, ideal_model, metrics
 from cvtdesign.core.model import compile_model
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, named_after, write_file
 from cvtdesign.io.points import check_points_path, contact_points, write_points
-from cvtdesign.io.report import Note, Table, png_figure
+from cvtdesign.io.report import Note, Table
 from cvtdesign.io.variant import load_variant, shipped_variant
 
 
@@ -63,9 +64,8 @@ def run(args):
         write_file(args.json, json_text({"variants": rows}), kind="--json")
     error = painter.wait()
     if args.report and not error:
-        plot = png_figure(figure, "slip angle α, its steering and drive parts against commanded γ at several "
-                                  "loads, and the efficiency map, per variant")
-        write_file(args.report, report_text(args, "cvtdesign compare", [*blocks, plot]), kind="--report")
+        report = compare_report.report_blocks(rows, blocks, figure, {key: label for key, label, _ in COLUMNS})
+        write_file(args.report, report_text(args, "cvtdesign compare", report), kind="--report")
     console = Console(width=max(100, 30 + 22 * len(rows)))
     show(console, blocks)
     if args.json:
