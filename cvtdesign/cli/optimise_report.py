@@ -70,7 +70,7 @@ def summary(res: dict, kinds: dict, objective: str) -> Summary:
         answer += f" ({100 * (b - o) / b:.1f} % less)" if o <= b else f" ({100 * (o - b) / b:.1f} % more)"
     answer += f". It has {_changes(res, kinds)}."
     found = res["optima"][0]["found"] if res["optima"] else 0
-    active = res["active_constraints"]
+    active = [c for c in res["active_constraints"] if c != "worst_alpha"]    # the objective's own epigraph rows
     binds = (f"It sits on {', '.join(active)}: loosening those would improve it further, at the rates the "
              "constraints table gives (multiplier)." if active else "No constraint binds: an interior optimum.")
     sure = (f"How sure: {found} of {res['starts']} starts reached it ({len(res['optima'])} distinct optima in all); "
@@ -87,7 +87,10 @@ def slack_rows(res: dict, table) -> list[tuple[str, str, float, bool]]:
     for r, cells in zip(res["constraints"], table.rows):
         of, scale = ("bound", abs(r["bound"])) if r["bound"] else ("value", abs(r["value"]))
         share = 100.0 * max(r["slack"], 0.0) / scale if scale else 0.0
-        out.append((r["name"], f"{cells[4]} ({share:.0f} % of the {of})" if share >= 10 else f"{cells[4]} ({share:.2g} % of the {of})", share, bool(r["active"])))
+        text = f"{cells[4]} ({share:.0f} % of the {of})" if share >= 10 else f"{cells[4]} ({share:.2g} % of the {of})"
+        if r["name"] == "worst_alpha":
+            text = "the objective's own rows (α ≤ t): always on them"
+        out.append((r["name"], text, share, bool(r["active"]) and r["name"] != "worst_alpha"))
     return out
 
 
