@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import multiprocessing
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -63,7 +64,8 @@ class _Forked:
 
 
 def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, check: bool = False) -> dict:
-    """Export a variant's assembly at commanded γ [deg] as `<out_dir>/<name>.step` (+ .svg, .png).
+    """Export a variant's assembly at commanded γ [deg] as `<out_dir>/<file stem>.step` (+ .svg, .png; a
+    Layout's: `<name>.step`).
 
     `layout_or_path`: a numeric `Layout` or a variant file. Impossible geometry raises InputError before
     anything is written; the three files appear together or not at all (`output.staged`). Three processes
@@ -85,7 +87,9 @@ def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, c
         shapes, pieces = build(p)
         screen(p, pieces)
         out = make_folder(out_dir, kind="CAD output folder")
-        paths = [out / f"{layout.name}.{ext}" for ext in ("step", "svg", "png")]
+        # named after the variant file (files may share a `name:`), a Layout after its name
+        stem = layout.name if isinstance(layout_or_path, Layout) else Path(layout_or_path).stem
+        paths = [out / f"{stem}.{ext}" for ext in ("step", "svg", "png")]
         with staged(paths, kind="CAD file") as tmps:     # the three files appear together or not at all
             svg = _Forked(svg_text, p, shapes)
             drawn = False

@@ -75,7 +75,8 @@ def _add_show(p):
 
 def _add_compare(p):
     p.add_argument("variants", nargs="+", help="variant YAML files")
-    p.add_argument("--out", default="out/compare", help="folder for the plots (default: out/compare)")
+    p.add_argument("--out", default="out/compare", help="folder for the figure, named after the variant files "
+                   "(<stems joined by +>.png; default folder: out/compare)")
     p.add_argument("--json", help="also write the figures to this JSON file")
     p.add_argument("--report", help="also write an HTML report (the tables and the plot) to this file")
     p.add_argument("--points", metavar="FILE.csv|FILE.parquet",
@@ -156,7 +157,7 @@ def _add_resteer(p):
 
 def _add_export(p):
     p.add_argument("variant", help="variant YAML file")
-    p.add_argument("--out", default="cad_out", help="folder for <name>.step/.svg/.png (default: cad_out)")
+    p.add_argument("--out", default="cad_out", help="folder for <file stem>.step/.svg/.png (default: cad_out)")
     p.add_argument("--gamma", type=float, default=45.0, help="commanded γ [deg] the forks are turned for (default 45)")
     p.add_argument("--check", action="store_true", help="re-read the STEP file and check names, validity, contacts, "
                    "interference and bounding box (exit status 1 if a check fails)")
@@ -165,7 +166,7 @@ def _add_export(p):
 def _add_contact(p):
     p.add_argument("variant", help="variant YAML file")
     p.add_argument("--json", help="write every roller's contact and its creep–force curves to this JSON file")
-    p.add_argument("--plots", help="folder for the creep–force curves and the patch ellipses")
+    p.add_argument("--plots", help="folder for <file stem>_contact_curves.png and <file stem>_contact_patches.png")
 
 
 def _add_cache(p):
