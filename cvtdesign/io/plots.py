@@ -19,8 +19,8 @@ PNG_COMPRESSION = 1     # zlib level of the PNG files: 40 % faster than the defa
 
 def _mpl():
     """The parts of matplotlib the figures use, imported here only (the heavy optional import's boundary):
-    `figure(figsize=..., layout=...)` and `subplots(..., layout=...)` make Figures on Agg canvases; Line2D, Rectangle, Circle,
-    Normalize and get_cmap as in pyplot; Bbox (matplotlib.transforms)."""
+    `figure(figsize=..., layout=...)` and `subplots(..., layout=...)` make Figures on Agg canvases; Line2D,
+    Rectangle, Circle, Normalize and get_cmap as in pyplot; Bbox (matplotlib.transforms)."""
     from matplotlib import collections, colormaps, colors, lines, patches, transforms
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
