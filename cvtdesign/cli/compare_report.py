@@ -83,7 +83,8 @@ def summary(rows: list[dict]) -> Summary:
 
 def glossary(table_labels: dict) -> Glossary:
     """The figure, the table's rows (table_labels: {key: label} of cli.compare.COLUMNS) and the terms."""
-    return Glossary([FIGURE] + [(label, MEANINGS[key]) for key, label in table_labels.items()] + TERMS)
+    return Glossary([FIGURE] + [(label, MEANINGS.get(key, "see docs/comparing.md")) for key, label in table_labels.items()]
+                    + TERMS)
 
 
 def report_blocks(rows: list[dict], blocks: list, figure, table_labels: dict) -> list:

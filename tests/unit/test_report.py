@@ -203,6 +203,13 @@ def test_compare_report(tmp_path, capsys):
     assert {r[0] for r in rows[1:]} <= set(doc.terms) and "Figure 1" in doc.terms
 
 
+def test_every_row_of_compare_has_its_meaning_in_the_glossary():
+    """A row added to compare's table needs its definition in the report's glossary (compare_report.MEANINGS)."""
+    from cvtdesign.cli.compare import COLUMNS
+    from cvtdesign.cli.compare_report import MEANINGS
+    assert {key for key, _, _ in COLUMNS} <= set(MEANINGS)
+
+
 def test_compare_report_of_five_fits_any_width(tmp_path, capsys):
     """Five variants: the page fits 1280 and 700 pixels (the table scrolls in its own box), its images
     decode; the screenshots are kept."""
