@@ -15,6 +15,8 @@ import pytest
 import yaml
 
 from cvtdesign.cli import main
+from cvtdesign.cli.compare import COLUMNS
+from cvtdesign.cli.compare_report import MEANINGS
 from cvtdesign.cli.printing import degrees, engineering, kind_of, number
 from cvtdesign.cli.study import best_optima, optima_table, pareto_blocks
 from cvtdesign.core.effects import EFFECTS
@@ -205,8 +207,6 @@ def test_compare_report(tmp_path, capsys):
 
 def test_every_row_of_compare_has_its_meaning_in_the_glossary():
     """A row added to compare's table needs its definition in the report's glossary (compare_report.MEANINGS)."""
-    from cvtdesign.cli.compare import COLUMNS
-    from cvtdesign.cli.compare_report import MEANINGS
     assert {key for key, _, _ in COLUMNS} <= set(MEANINGS)
 
 
