@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import multiprocessing
 import time
+from pathlib import Path
 
 import numpy as np
 
 from cvtdesign.cad.checks import check_step
-from cvtdesign.cad.picture import picture_caption, rasterise, svg_text, view_mesh
+from cvtdesign.cad.picture import annotations, framed_svg, picture_caption, raster, svg_text, view_mesh
 from cvtdesign.cad.plan import plan
 from cvtdesign.cad.step import assembly, build, screen, step_header, write_step
 from cvtdesign.core.checks import check_layout
@@ -63,7 +64,8 @@ class _Forked:
 
 
 def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, check: bool = False) -> dict:
-    """Export a variant's assembly at commanded γ [deg] as `<out_dir>/<name>.step` (+ .svg, .png).
+    """Export a variant's assembly at commanded γ [deg] as `<out_dir>/<file stem>.step` (+ .svg, .png; a
+    Layout's: `<name>.step`).
 
     `layout_or_path`: a numeric `Layout` or a variant file. Impossible geometry raises InputError before
     anything is written; the three files appear together or not at all (`output.staged`). Three processes
@@ -85,16 +87,20 @@ def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, c
         shapes, pieces = build(p)
         screen(p, pieces)
         out = make_folder(out_dir, kind="CAD output folder")
-        paths = [out / f"{layout.name}.{ext}" for ext in ("step", "svg", "png")]
+        # named after the variant file (files may share a `name:`), a Layout after its name
+        stem = layout.name if isinstance(layout_or_path, Layout) else Path(layout_or_path).stem
+        paths = [out / f"{stem}.{ext}" for ext in ("step", "svg", "png")]
         with staged(paths, kind="CAD file") as tmps:     # the three files appear together or not at all
             svg = _Forked(svg_text, p, shapes)
             drawn = False
             try:
-                image = rasterise(*view_mesh(p, shapes), [part.colour for part in p.parts])
-                painter.draw("cad_picture", np.round(255 * image).astype(np.uint8), picture_caption(p), tmps[2])
+                image, part, extent = raster(*view_mesh(p, shapes), [part.colour for part in p.parts])
+                notes = annotations(p, part, extent)
+                painter.draw("cad_picture", np.round(255 * image).astype(np.uint8), extent, picture_caption(p), tmps[2],
+                             notes)
                 drawn = True
                 write_step(assembly(p, shapes), tmps[0], step_header(p, paths[0].name))
-                tmps[1].write_text(svg.result())
+                tmps[1].write_text(framed_svg(svg.result(), picture_caption(p), notes))
             finally:
                 svg.close()
                 # the painter writes through a temporary file of its own: let it finish, on a failure too,

@@ -1,15 +1,28 @@
-"""Drawings of the assembly for the reviewer: a hidden-line SVG (cadquery's SVG exporter) and a shaded
-picture (`view_mesh` → `rasterise`, numpy only; `io.plots.cad_picture` captions and writes it as PNG),
-both viewed along VIEW with z drawn upwards."""
+"""Drawings of the assembly for the reviewer: a line drawing as SVG (cadquery's exporter, framed by
+`framed_svg`) and a shaded picture (`view_mesh` → `rasterise`, numpy only; `io.plots.cad_picture` writes it
+as PNG), both viewed along VIEW with z drawn upwards, both with the parts named as in the STEP file, a scale
+bar and a legend (`annotations`).
+
+The coupling shafts of the STEP file (`coupling_<follower>`, a flexible shaft routed round the outside) are
+left out of both drawings: the loops they make round the assembly puzzle the eye and say no more than the
+legend's line 'A_ turns with A (shaft 1)'."""
 from __future__ import annotations
+
+import re
+from xml.sax.saxutils import escape
 
 import numpy as np
 
 from cvtdesign.cad.kernel import kernel
-from cvtdesign.cad.plan import Plan
+from cvtdesign.cad.plan import COLOURS, Plan
 from cvtdesign.cad.shapes import unit
+from cvtdesign.io.plots import scale_bar
 
 VIEW = (1.0, -0.3, 0.8)     # projection direction (towards the viewer) of the SVG and PNG, z drawn upwards
+LABELLED = ("sphere", "roller", "fork", "frame")      # the kinds of part named in the drawings (axles: legend)
+KIND_NAMES = {"sphere": "sphere", "drive": "drive roller: drive_<roller>", "follower": "follower roller: "
+              "follower_<roller>", "steering": "steering roller: steering_<roller>", "axle": "axle: axle_<roller>",
+              "fork": "fork: fork_<k> (steering.forks, from 1)", "frame": "mounting plate: frame"}
 
 
 def view_basis(direction):
@@ -27,7 +40,8 @@ def svg_text(p: Plan, shapes: dict, view=VIEW) -> str:
     y = np.array([ax.YDirection().X(), ax.YDirection().Y(), ax.YDirection().Z()])
     right, up, d = view_basis(view)
     turn = np.degrees(np.arctan2(np.cross(up, y) @ d, up @ y))
-    compound = k.cq.Compound.makeCompound([shapes[n] for n in p.names()]).rotate((0, 0, 0), tuple(d), turn)
+    drawn = [part.name for part in p.parts if part.kind != "coupling"]
+    compound = k.cq.Compound.makeCompound([shapes[n] for n in drawn]).rotate((0, 0, 0), tuple(d), turn)
     return k.getSVG(compound, {"width": 900, "height": 900, "marginLeft": 30, "marginTop": 30, "showAxes": False,
                                "projectionDir": tuple(view), "showHidden": False, "strokeWidth": -1})
 
@@ -54,12 +68,15 @@ def triangles(shape, tolerance=0.5, angular=0.4):
 
 
 def view_mesh(p: Plan, shapes: dict, view=VIEW):
-    """The front-facing triangles of every part in view coordinates along VIEW (z upwards), for `rasterise`:
+    """The front-facing triangles of every part but the couplings in view coordinates along VIEW (z upwards),
+    for `rasterise`:
     (triangles (T, 3, [right, up, towards viewer]) [mm], part index (T,), Lambert shade (T,))."""
     right, up, d = view_basis(view)
     light = unit(d + 0.6 * up + 0.3 * right)
     tris, ids, shades = [], [], []
     for i, part in enumerate(p.parts):
+        if part.kind == "coupling":          # not drawn (see the module's docstring)
+            continue
         verts, idx = triangles(shapes[part.name])
         tri = verts[idx]
         normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])   # area-weighted, outward
@@ -108,10 +125,17 @@ def rasterise(tri, ids, shade, colours, pixels: int = 800):
     inside it (scanline spans) with its depth, each pixel keeps the nearest; dark outlines where the part
     under a pixel changes. colours: RGB per part index. Returns a (pixels, pixels, 3) RGB array, white
     background."""
+    return raster(tri, ids, shade, colours, pixels)[0]
+
+
+def raster(tri, ids, shade, colours, pixels: int = 800):
+    """`rasterise`'s image, with the part index under each pixel ((pixels, pixels), −1: background) and the
+    image's extent in view coordinates [mm] (left, right, bottom, top), as matplotlib's imshow takes it."""
     tri = np.array(tri, float)
     xy = tri[..., :2].reshape(-1, 2)
     lo, hi = xy.min(axis=0), xy.max(axis=0)
-    tri[..., :2] = (tri[..., :2] - (lo + hi) / 2) * (0.94 * pixels / max(hi - lo)) + pixels / 2
+    k, mid = 0.94 * pixels / max(hi - lo), (lo + hi) / 2          # pixels per mm, the picture's centre [mm]
+    tri[..., :2] = (tri[..., :2] - mid) * k + pixels / 2
     tri[..., 1] = pixels - tri[..., 1]                                  # image rows grow downwards
     (t, row, start, count), (a, b, c) = _spans(tri, pixels)
     span = np.repeat(np.arange(len(t)), count)
@@ -137,9 +161,88 @@ def rasterise(tri, ids, shade, colours, pixels: int = 800):
     edge[1:, :] |= part[1:, :] != part[:-1, :]
     edge[:, 1:] |= part[:, 1:] != part[:, :-1]
     image[edge] *= 0.25
-    return image
+    half = pixels / 2 / k
+    return image, part, (mid[0] - half, mid[0] + half, mid[1] - half, mid[1] + half)
+
+
+def annotations(p: Plan, part, extent) -> dict:
+    """What both drawings add to the parts: {'labels': [(part name, (x, y) [mm] in view coordinates)], a
+    visible point of each named part (LABELLED), nearest the middle of what is seen of it; 'legend': [(text,
+    RGB)] of the kinds of part drawn; 'note': which rollers the undrawn couplings join}. part, extent: as
+    `raster` returns them."""
+    rows, cols = part.shape
+    labels = []
+    for i, prt in enumerate(p.parts):
+        seen = np.argwhere(part == i)
+        if prt.kind not in LABELLED or not len(seen):
+            continue
+        r, c = seen[np.argmin(np.sum((seen - seen.mean(axis=0)) ** 2, axis=1))] + 0.5
+        x0, x1, y0, y1 = extent
+        labels.append((prt.name, (x0 + (x1 - x0) * c / cols, y1 - (y1 - y0) * r / rows)))
+    kinds = dict.fromkeys((prt.name.split("_")[0] if prt.kind == "roller" else prt.kind) for prt in p.parts
+                          if prt.kind != "coupling")
+    legend = [(KIND_NAMES[k], COLOURS[k]) for k in kinds]
+    roles = {r.name: r for r in p.layout.rollers}
+    joined = [f"{f} turns with {d.name} (shaft {roles[f].shaft})" for f in
+              (prt.name.partition("_")[2] for prt in p.parts if prt.kind == "coupling")
+              for d in p.layout.rollers if d.role == "drive" and d.shaft == roles[f].shaft]
+    note = ("couplings not drawn (in the STEP file as coupling_<follower>): " + "; ".join(joined)) if joined else ""
+    return {"labels": labels, "legend": legend, "note": note}
 
 
 def picture_caption(p: Plan) -> str:
     return (f"{p.layout.name}: γ = {np.degrees(p.gamma):g}°, φ = {np.degrees(p.phi):.2f}°, {len(p.parts)} parts "
             f"(view along {VIEW}, z up)")
+
+
+SVG_SIZE = 900          # [px] the drawing's square; the legend goes below it
+SVG_FONT = 11           # [px]
+
+
+def _svg_labels(labels, at) -> list[str]:
+    """Each label as SVG text at the first spot near its anchor where its (estimated) box overlaps no label
+    placed before it (at: view coordinates [mm] → SVG pixels)."""
+    placed, out = [], []
+    spots = [(0, 0)] + [(dx, dy) for r in (1, 2, 3) for dx, dy in ((0, -14 * r), (0, 14 * r), (40 * r, 0), (-40 * r, 0))]
+    for name, anchor in labels:
+        w, h = 0.62 * SVG_FONT * len(name), 1.25 * SVG_FONT
+        x, y = at(anchor)
+        for dx, dy in spots:
+            box = (x + dx - w / 2, y + dy - h / 2, x + dx + w / 2, y + dy + h / 2)
+            if not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in placed):
+                break
+        placed.append(box)
+        out.append(f'<text x="{x + dx:.1f}" y="{y + dy + 0.35 * SVG_FONT:.1f}" text-anchor="middle" '
+                   f'font-size="{SVG_FONT}" stroke="white" stroke-width="3" paint-order="stroke">{escape(name)}</text>')
+    return out
+
+
+def framed_svg(raw: str, caption: str, ann: dict) -> str:
+    """cadquery's line drawing (`svg_text`) centred in a SVG_SIZE square, without its empty hidden-line
+    group, with the caption above, the parts' names (`annotations`), a scale bar and a legend below.
+    The drawing's lines keep cadquery's own coordinates (view coordinates [mm], y up), under one transform."""
+    paths = raw.split("<!-- solid lines -->")[1]
+    paths = paths[paths.index(">") + 1: paths.rindex("</g>")]
+    paths = paths[: paths.rindex("</g>")].strip()
+    xy = np.array(re.findall(r"[ML]\s*(-?[\d.]+(?:e-?\d+)?),(-?[\d.]+(?:e-?\d+)?)", paths), float)
+    (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
+    k = 0.88 * SVG_SIZE / max(x1 - x0, y1 - y0)                      # px per mm
+    cx, cy, top = (x0 + x1) / 2, (y0 + y1) / 2, 40
+    at = lambda p: (SVG_SIZE / 2 + k * (p[0] - cx), top + SVG_SIZE / 2 - k * (p[1] - cy))
+    bar = scale_bar(SVG_SIZE / k)
+    lines = ["parts named as in the STEP file:"] + [name for name, _ in ann["legend"]] + \
+        ([ann["note"]] if ann["note"] else [])
+    height = top + SVG_SIZE + 30 + 16 * len(lines)
+    bx, by = 30, top + SVG_SIZE + 5
+    out = [f'<?xml version="1.0" encoding="UTF-8" standalone="no"?>',
+           f'<svg xmlns="http://www.w3.org/2000/svg" width="{SVG_SIZE}" height="{height}" '
+           f'viewBox="0 0 {SVG_SIZE} {height}" font-family="sans-serif">',
+           f'<text x="{SVG_SIZE / 2}" y="24" text-anchor="middle" font-size="14">{escape(caption)}</text>',
+           f'<g transform="translate({SVG_SIZE / 2 - k * cx:.4f},{top + SVG_SIZE / 2 + k * cy:.4f}) scale({k:.6f},'
+           f'{-k:.6f})" stroke="rgb(0,0,0)" stroke-width="{1 / k:.5f}" fill="none">',
+           "<!-- solid lines -->", paths, "</g>", *_svg_labels(ann["labels"], at),
+           f'<path d="M{bx},{by} h{k * bar:.2f} M{bx},{by - 5} v10 M{bx + k * bar:.2f},{by - 5} v10" stroke="black" '
+           f'stroke-width="2"/>', f'<text x="{bx + k * bar / 2:.2f}" y="{by - 8}" text-anchor="middle" '
+           f'font-size="{SVG_FONT}">{bar:g} mm</text>']
+    out += [f'<text x="{bx}" y="{by + 26 + 16 * i}" font-size="{SVG_FONT}">{escape(t)}</text>' for i, t in enumerate(lines)]
+    return "\n".join(out) + "\n</svg>\n"

@@ -7,15 +7,16 @@ from pathlib import Path
 
 from rich.console import Console
 
+from cvtdesign.cli import compare_report
 from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
 from cvtdesign.core import basis
 from cvtdesign.core.metrics import envelope, ideal_model, metrics
 from cvtdesign.core.model import compile_model
-from cvtdesign.core.uncertainty import intervals
+from cvtdesign.core.uncertainty import intervals, point_bands
 from cvtdesign.io import plots
-from cvtdesign.io.output import make_folder, write_file
+from cvtdesign.io.output import make_folder, named_after, write_file
 from cvtdesign.io.points import check_points_path, contact_points, write_points
-from cvtdesign.io.report import Note, Table, png_figure
+from cvtdesign.io.report import Note, Table
 from cvtdesign.errors import InputError
 from cvtdesign.io.variant import check_envelope_limits, load_variant, shipped_variant
 
@@ -33,10 +34,7 @@ COLUMNS = [
 ]
 
 
-_BASIS_ROWS = [
-    ("contact law", lambda r: r["contact_law"]),
-    ("calibration", lambda r: r["calibration"]["cell"]),
-]
+_BASIS_LABELS = [("contact_law", "contact law"), ("calibration", "calibration")]   # the table's first rows
 
 
 def run(args):
@@ -56,10 +54,12 @@ def run(args):
     layouts = [dataclasses.replace(L, name=n) for L, n in zip(layouts, names)]
     models = [compile_model(L) for L in layouts]
     results = [envelope(m) for m in models]
-    figure = make_folder(args.out, kind="--out") / "compare.png"
+    figure = make_folder(args.out, kind="--out") / named_after(files, ".png")     # another set, another file
+    replaced = figure.exists()
     # the figure is drawn while the ideal CVT is evaluated and the table printed
-    painter.draw("compare_figure", [(L.name, {k: res[k] for k in plots.COMPARE_KEYS})
-                                    for L, res in zip(layouts, results)], figure)
+    painter.draw("compare_figure", [(L.name, {k: res[k] for k in plots.COMPARE_KEYS} | point_bands(m, res)
+                                     | {"theory_only": basis.calibration(L)["uncalibrated"]})
+                                    for L, m, res in zip(layouts, models, results)], figure)
     rows = [with_intervals(m, res, metrics(m, res) | basis.fields(m.layout)) for m, res in zip(models, results)]
     if len(files) == 1:
         ideal = ideal_model(layouts[-1])
@@ -77,9 +77,10 @@ def run(args):
         write_file(args.json, json_text({"variants": rows}), kind="--json")
     error = painter.wait()
     if args.report and not error:
-        plot = png_figure(figure, "slip angle α, its steering and drive parts against commanded γ at several "
-                                  "loads, and the efficiency map, per variant")
-        write_file(args.report, report_text(args, "cvtdesign compare", [*blocks, plot]), kind="--report")
+        labels = {k: label for k, label in _BASIS_LABELS} | {"ok": "operating points ok"} | \
+            {key: label for key, label, _ in COLUMNS}
+        report = compare_report.report_blocks(rows, blocks, figure, labels)
+        write_file(args.report, report_text(args, "cvtdesign compare", report), kind="--report")
     console = Console(width=max(100, 30 + 22 * len(rows)))
     show(console, blocks)
     if args.json:
@@ -87,7 +88,7 @@ def run(args):
     if error:
         print(f"cvtdesign: error: plotting failed: {error}", file=sys.stderr)
         return 1
-    console.print(f"plots: {figure}")
+    console.print(f"plots: {figure}" + (" (replaced the earlier figure of these variants)" if replaced else ""))
     if args.points:
         console.print(f"contact states: {args.points}")
     if args.report:
@@ -126,8 +127,8 @@ def comparison_blocks(rows: list[dict]) -> list:
     The table never looks better than the run: when a variant has fewer than half its points ok, a first
     row says so in its column; a figure over no ok point is '—'; a pressure over the allowable is marked."""
     table = Table("CVT comparison over the operating envelope (γ × τ⊥)", ["figure", *[r["name"] for r in rows]])
-    for label, cell in _BASIS_ROWS:
-        table.add(label, *[cell(r) for r in rows])
+    table.add("contact law", *[r["contact_law"] for r in rows])
+    table.add("calibration", *[r["calibration"]["cell"] for r in rows])
     under = [2 * r["ok"] < r["points"] for r in rows]
     if any(under):
         table.add("operating points ok", *[f"{r['ok']} of {r['points']}" + (" (under half)" if u else "")

@@ -10,6 +10,8 @@ it comes from.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 from rich.console import Console
 
 from cvtdesign.cli.printing import engineering, json_text, number, show
@@ -65,8 +67,8 @@ def run(args):
     console = Console(width=150)
     written = []          # the files first, then the terminal (a reader closing stdout early loses no file)
     if args.plots:
-        written += [f"plot: {f}" for f in plots.contact_figures(layout.name, records,
-                                                                make_folder(args.plots, kind="--plots"))]
+        folder = make_folder(args.plots, kind="--plots")
+        written += [f"plot: {f}" for f in plots.contact_figures(layout.name, records, folder, Path(args.variant).stem)]
     if args.json:
         write_file(args.json, json_text({"variant": layout.name, "rollers": records}), kind="--json")
         written.append(f"contacts written to {args.json}")

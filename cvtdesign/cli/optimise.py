@@ -6,6 +6,7 @@ from pathlib import Path
 
 from rich.console import Console
 
+from cvtdesign.cli import optimise_report
 from cvtdesign.cli.export import export_steps
 from cvtdesign.cli.printing import ENGINEERING, degrees, engineering, json_text, kind_of, number, progress_bar, \
     report_text, show
@@ -34,7 +35,8 @@ def run(args):
     with progress_bar(console, "multistart", lambda sol: f"last: {sol.status}, f = {sol.objective:.5g}",
                       transient=True) as progress:
         res = solve.run(args.study, args.out, args.starts, progress, write=False, calibration=args.calibration)
-    blocks = result_blocks(res, design_kinds(args.study, res["design"]))
+    variables = design_kinds(args.study, res["design"])
+    blocks = result_blocks(res, variables)
     # the optimum's variant file, the JSON and the HTML report: written together, all or nothing
     files = res.pop("pending_files")
     kinds = {p: "variant file" for p in files}
@@ -45,7 +47,10 @@ def run(args):
         files[Path(args.json)] = json_text({k: res[k] for k in keys} | {"details": res})
         kinds[Path(args.json)] = "--json"
     if args.report:
-        files[Path(args.report)] = report_text(args, f"cvtdesign optimise: study {res['study']}", blocks)
+        objective = objective_text(res["objective_kind"], res["objective"]) if res["success"] else ""
+        report = optimise_report.report_blocks(res, blocks, variables, objective,
+                                               constraint_table(res, variables) if res["success"] else None)
+        files[Path(args.report)] = report_text(args, f"cvtdesign optimise: study {res['study']}", report)
         kinds[Path(args.report)] = "--report"
     write_files(files, kind=kinds)
     if res["success"] and args.step:          # the files first, then the table

@@ -68,13 +68,15 @@ def _add_new(p):
 
 def _add_show(p):
     p.add_argument("variant", help="variant YAML file")
-    p.add_argument("--gamma", type=float, default=0.0, help="commanded γ [deg] the forks are drawn at (default 0)")
-    p.add_argument("--out", default="out/show", help="folder for <name>_layout.png (default: out/show)")
+    p.add_argument("--gamma", type=float, help="commanded γ [deg] the forks are drawn at (default 45, as export's)")
+    p.add_argument("--out", default="out/show", help="folder for <file stem>_layout.png (<file stem>_layout_gamma<γ>.png "
+                   "at another γ; default folder: out/show)")
 
 
 def _add_compare(p):
     p.add_argument("variants", nargs="+", help="variant YAML files")
-    p.add_argument("--out", default="out/compare", help="folder for the plots (default: out/compare)")
+    p.add_argument("--out", default="out/compare", help="folder for the figure, named after the variant files "
+                   "(<stems joined by +>.png; default folder: out/compare)")
     p.add_argument("--json", help="also write the figures to this JSON file")
     p.add_argument("--report", help="also write an HTML report (the tables and the plot) to this file")
     p.add_argument("--points", metavar="FILE.csv|FILE.parquet",
@@ -165,7 +167,7 @@ def _add_resteer(p):
 
 def _add_export(p):
     p.add_argument("variant", help="variant YAML file")
-    p.add_argument("--out", default="cad_out", help="folder for <name>.step/.svg/.png (default: cad_out)")
+    p.add_argument("--out", default="cad_out", help="folder for <file stem>.step/.svg/.png (default: cad_out)")
     p.add_argument("--gamma", type=float, default=45.0, help="commanded γ [deg] the forks are turned for (default 45)")
     p.add_argument("--check", action="store_true", help="re-read the STEP file and check names, validity, contacts, "
                    "interference and bounding box (exit status 1 if a check fails)")
@@ -174,7 +176,7 @@ def _add_export(p):
 def _add_contact(p):
     p.add_argument("variant", help="variant YAML file")
     p.add_argument("--json", help="write every roller's contact and its creep–force curves to this JSON file")
-    p.add_argument("--plots", help="folder for the creep–force curves and the patch ellipses")
+    p.add_argument("--plots", help="folder for <file stem>_contact_curves.png and <file stem>_contact_patches.png")
 
 
 def _add_cache(p):

@@ -1,6 +1,8 @@
 """`cvtdesign resteer`: steering commands for requested speed ratios under a known load (Brokowski sec. 5)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from rich.console import Console
 from rich.table import Table
@@ -58,7 +60,7 @@ def run(args):
                                           for m in cmds["methods"]])
     figure = None          # the files first, then the terminal (a reader closing stdout early loses no file)
     if args.plots and table:
-        figure = make_folder(args.plots, kind="--plots") / "resteer.png"
+        figure = make_folder(args.plots, kind="--plots") / f"{Path(args.variant).stem}_resteer.png"
         plots.resteer_figure(ratios, load, table, figure)
     if args.json:
         write_file(args.json, json_text({"commands": cmds, "achieved": table}), kind="--json")

@@ -1,6 +1,8 @@
 """`cvtdesign show`: a variant's layout before anything is solved: its ideal law, its rollers and a drawing."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from rich.console import Console
 from rich.markup import escape
@@ -8,9 +10,11 @@ from rich.table import Table
 
 from cvtdesign.core.geometry import FRAME, pose, steering_angle
 from cvtdesign.core.kinematics import shaft_frame
-from cvtdesign.io import plots
+from cvtdesign.io.layout_drawing import layout_figure
 from cvtdesign.io.output import make_folder
 from cvtdesign.io.variant import load_variant
+
+DEFAULT_GAMMA = 45.0      # [deg] as export's: a machine that transmits (at γ = 0 the brake shaft stands still)
 
 
 def direction_text(v) -> str:
@@ -41,16 +45,26 @@ def roller_table(layout) -> Table:
 def run(args):
     layout = load_variant(args.variant)
     frame = shaft_frame(layout)
-    gamma = np.radians(args.gamma)
+    gamma_deg = DEFAULT_GAMMA if args.gamma is None else args.gamma
+    gamma = np.radians(gamma_deg)
     phi = steering_angle(layout, gamma)
-    figure = make_folder(args.out, kind="--out") / f"{layout.name}_layout.png"
-    plots.layout_figure(layout, phi, gamma, figure)         # the file first, then the terminal
+    figure = make_folder(args.out, kind="--out") / drawing_name(args.variant, args.gamma)
+    replaced = figure.exists()
+    layout_figure(layout, phi, gamma, figure)               # the file first, then the terminal
     console = Console(width=160)
     console.print(f"ideal law: {frame.law_text()}")
     ratio = float(frame.ideal_ratio(gamma))
     ratio = 0.0 if abs(ratio) < 1e-12 * frame.k else ratio     # round-off of a rotated layout's frame (8.7e-18)
-    console.print(f"at commanded γ = {args.gamma:g}°: steering angle φ = {np.degrees(phi):.3f}°, ideal "
+    console.print(f"at commanded γ = {gamma_deg:g}°: steering angle φ = {np.degrees(phi):.3f}°, ideal "
                   f"ω2/ω1 = {ratio:.4g}")
     console.print(roller_table(layout))
-    console.print(f"drawing: {figure}")
+    console.print(f"drawing: {figure}" + (" (replaced the earlier drawing of this file at this γ)" if replaced else ""))
     return 0
+
+
+def drawing_name(variant, gamma_deg: float | None) -> str:
+    """The drawing's file name, after the variant file (not the `name:` inside, which files may share):
+    '<file stem>_layout.png' at the default γ (`gamma_deg` None), '<file stem>_layout_gamma30.png' at a γ
+    given."""
+    stem = Path(variant).stem
+    return f"{stem}_layout.png" if gamma_deg is None else f"{stem}_layout_gamma{gamma_deg:g}.png"

@@ -50,10 +50,11 @@ def run(args):
     chains = []
     for cid, grp in pareto.groupby("case_id", sort=False):
         pts = [dict(r) | {"index": r["point"]} for _, r in grp.sort_values("point").iterrows()]
+        same = label_points(pts, kinds)              # the figure labels each point with its design
         k = knee(pts)
         blocks += pareto_blocks(cid, pts, k, kinds)
         if any(p["success"] for p in pts):          # a chain with no successful point has no front to draw
-            chains.append((cid, pts, k))
+            chains.append((cid + (f" ({same} at every point)" if same else ""), pts, k))
     figure = Path(res["out_dir"]) / "pareto.png" if chains else None   # the files first, then the table
     if figure:
         plots.pareto_figure(chains, figure)
@@ -96,6 +97,22 @@ def best_optima(starts_):
     if not len(starts_):
         return starts_
     return starts_.sort_values("objective").groupby(["variant", "fixed"], sort=False).head(1)
+
+
+def label_points(pts: list[dict], kinds: dict) -> str:
+    """Give each point of a front its 'label', the design variables that vary along the front in their
+    units ('preload = 121.9 N'); returns those that do not ('d = 48.8 mm', '' if none)."""
+    names = [n for n in kinds if pts and f"design.{n}" in pts[0]]
+    texts = {n: {design_text(p, {n: kinds[n]}) for p in pts if p["success"]} for n in names}
+    same = {n: kinds[n] for n in names if len(texts[n]) == 1}
+    for p in pts:
+        p["label"] = design_text(p, {n: kinds[n] for n in names if n not in same})
+    return design_text(next((p for p in pts if p["success"]), pts[0]), same) if same else ""
+
+
+def design_text(row, kinds: dict) -> str:
+    """A store row's design in its units: 'preload = 121.9 N, d = 48.8 mm'."""
+    return ", ".join(f"{n} = {engineering(row.get(f'design.{n}'), k)}" for n, k in kinds.items() if f"design.{n}" in row)
 
 
 def design_cells(row, kinds: dict) -> list[str]:
@@ -143,6 +160,6 @@ def pareto_blocks(case_id: str, pts: list[dict], k: int, kinds: dict) -> list:
     kp = next((p for p in pts if p["point"] == k and p["success"]), None)
     if kp is None:
         return [t, Note(f"Pareto {case_id}: no successful point, no knee", "bad")]
-    design = ", ".join(f"{n} = {engineering(kp[f'design.{n}'], kinds[n])}" for n in names)
+    design = design_text(kp, {n: kinds[n] for n in names})
     return [t, Note(f"Pareto {case_id}: knee: point {k} — {design}, worst α {degrees(kp['worst_alpha_deg'])}, "
                     f"loss {engineering(kp['power_loss_W'], 'power')}", "good")]

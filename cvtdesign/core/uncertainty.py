@@ -137,3 +137,37 @@ def intervals(model: CompiledModel, res: dict, row: dict) -> dict:
         half = Z95 * float(np.sqrt(max(g @ sigma @ g, 0.0)))
         out[f"{key}_interval"] = [row[key] - half, row[key] + half]
     return out
+
+
+BAND_KEYS = ("alpha", "alpha_steering", "alpha_drive", "efficiency")
+
+
+def point_bands(model: CompiledModel, res: dict) -> dict:
+    """{'<quantity>_band': half-width of its 95 % interval at every point of the grid (NaN where the point is
+    not ok or the uncertainty is not known)} for α, its steering and drive parts [rad] and the efficiency [-]:
+    the compare figure's bands. First order, as `intervals`."""
+    shape = np.shape(res["ok"])
+    out = {f"{k}_band": np.full(shape, np.nan) for k in BAND_KEYS}
+    cov = covariance(model)
+    ok = np.flatnonzero(np.ravel(res["ok"]))
+    if cov is None or ok.size == 0:
+        return out
+    idx, sigma = cov
+    d = sensitivities(model, res, ok, idx, ("alpha", "alpha_steering", "alpha_drive", "omega_2", "tau_1", "tau_2"))
+    w1, w2 = np.ravel(res["omega_1"])[ok], np.ravel(res["omega_2"])[ok]
+    t1, t2 = np.ravel(res["tau_1"])[ok], np.ravel(res["tau_2"])[ok]
+    p1, p2 = t1 * w1, t2 * w2
+    dp1, dp2 = w1[:, None] * d["tau_1"], t2[:, None] * d["omega_2"] + w2[:, None] * d["tau_2"]
+    first = (p1 >= p2)[:, None]
+    p_in, p_out = np.maximum(p1, p2)[:, None], np.minimum(p1, p2)[:, None]
+    dp_in, dp_out = np.where(first, dp1, dp2), np.where(first, dp2, dp1)
+    with np.errstate(invalid="ignore", divide="ignore"):           # efficiency = −p_out/p_in (metrics.efficiency)
+        d["efficiency"] = -(dp_out * p_in - p_out * dp_in) / p_in ** 2
+    for k in BAND_KEYS:
+        half = Z95 * np.sqrt(np.maximum(np.einsum("pi,ij,pj->p", d[k], sigma, d[k]), 0.0))
+        band = out[f"{k}_band"].ravel()
+        band[ok] = half
+        out[f"{k}_band"] = band.reshape(shape)
+    out["efficiency_band"][~(np.asarray(res["efficiency"]) > 0)] = np.nan     # no power in, or none out
+    return out
+

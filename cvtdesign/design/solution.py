@@ -8,7 +8,7 @@ N ≤ 0 or a contact at |F| > μN fails it, and the solve is then reported as fa
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -34,6 +34,7 @@ class Solution:
     points: int = 0          # envelope points in the final working set
     check: EnvelopeCheck | None = None   # the optimum on the whole envelope (None: IPOPT did not succeed)
     ipopt_status: str = ""   # IPOPT's return status (`status` says Failed_Envelope_Check when the check fails)
+    history: list = field(default_factory=list)   # per IPOPT iteration: (working-set round, objective, primal infeasibility)
 
 
 @dataclass

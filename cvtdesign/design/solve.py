@@ -103,21 +103,24 @@ def solve_from(problem: Problem, z0, start_index=0, eps: float = 0.0, warm: Solu
         x0 = list(z0) + ([float(problem.start_t(z0)) * 1.05 + 1e-3] if problem.epigraph else [])
         return _every_row(problem, x0, lam_full, eps, start_index)
     work, x0 = _first_working_set(problem, z0)
-    iters, rounds = 0, 0
+    iters, rounds, history = 0, 0, []
     while True:
         rounds += 1
         points = np.unique(pt.row_k[work])
         if _bucket(work.size) * pt.pt_lb.size * _bucket(points.size) > WORKING_SET_MAX:
             # most rows bind somewhere: every row at once is cheaper
-            return _every_row(problem, x0, lam_full, eps, start_index, iters, rounds - 1)
+            return _every_row(problem, x0, lam_full, eps, start_index, iters, rounds - 1, history)
         sol, st, lam = _working_set_solve(problem, work, points, x0, lam_full, eps)
         iters += int(st["iter_count"])
+        history += iterations(st, rounds)
         xs = np.asarray(sol["x"]).ravel()
         g, at_seeds = problem.rows_and_points(xs, eps)
         ok = bool(st["success"]) or st["return_status"] == "Solved_To_Acceptable_Level"
         violated = _violated(problem, g, work)
         if not ok or not violated.any():
-            return _solution(problem, sol, st, g, lam, iters, start_index, rounds, points.size, at_seeds)
+            out = _solution(problem, sol, st, g, lam, iters, start_index, rounds, points.size, at_seeds)
+            out.history = history
+            return out
         # the violated rows join, with every row now near its bound; solve again from here
         near = _near_binding(problem, g, xs[-1] if problem.epigraph else 0.0)
         work = np.union1d(work, np.flatnonzero(violated | near))
@@ -130,15 +133,24 @@ def _box(problem: Problem) -> tuple[list, list]:
     return [0.0] * n + ([0.0] if problem.epigraph else []), [1.0] * n + ([np.inf] if problem.epigraph else [])
 
 
-def _every_row(problem: Problem, x0, lam, eps: float, start_index: int, iters: int = 0, rounds: int = 0) -> Solution:
-    """IPOPT on every row at once from x0 (lam: multipliers of every row as a warm start, or None); iters
-    and rounds count the working-set solves before it."""
+def _every_row(problem: Problem, x0, lam, eps: float, start_index: int, iters: int = 0, rounds: int = 0,
+               history: list | None = None) -> Solution:
+    """IPOPT on every row at once from x0 (lam: multipliers of every row as a warm start, or None); iters,
+    rounds and history count the working-set solves before it."""
     lbx, ubx = _box(problem)
     extra = {} if lam is None else {"lam_g0": lam}
     sol = problem.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=problem.g_lb, ubg=problem.g_ub, p=eps, **extra)
     st = problem.solver.stats()
-    return _solution(problem, sol, st, np.asarray(sol["g"]).ravel(), np.asarray(sol["lam_g"]).ravel(),
-                     iters + int(st["iter_count"]), start_index, rounds + 1, problem.parts.gamma.size)
+    out = _solution(problem, sol, st, np.asarray(sol["g"]).ravel(), np.asarray(sol["lam_g"]).ravel(),
+                    iters + int(st["iter_count"]), start_index, rounds + 1, problem.parts.gamma.size)
+    out.history = (history or []) + iterations(st, rounds + 1)
+    return out
+
+
+def iterations(stats: dict, round_: int) -> list[tuple[int, float, float]]:
+    """IPOPT's iterations from its stats: (working-set round, objective, primal infeasibility) each."""
+    it = stats.get("iterations") or {}
+    return [(round_, float(o), float(p)) for o, p in zip(it.get("obj", []), it.get("inf_pr", []))]
 
 
 def _first_working_set(problem: Problem, z0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -278,11 +290,14 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
     else:
         variant, text = variant_text(problem, best, out_dir)
         result["pending_files"][variant] = text
+    base_design = dict(zip(problem.names, problem.base_values.tolist()))
     result.update(status=best.status, success=True, objective=best.objective, design=best.design,
-                  envelope_check=best.check.as_dict(),
+                  envelope_check=best.check.as_dict(), base_envelope_check=problem.check(base_design).as_dict(),
+                  history=[{"round": r, "objective": o, "infeasibility": f} for r, o, f in best.history],
+                  start_objectives=[s.objective if s.success else None for s in solutions],
                   constraints=report, active_constraints=[r["name"] for r in report if r["active"]],
                   variant_file=str(variant), objective_kind=problem.spec.objective.kind,
-                  base_variant=str(problem.base_file), base_design=dict(zip(problem.names, problem.base_values.tolist())))
+                  base_variant=str(problem.base_file), base_design=base_design)
     return result
 
 

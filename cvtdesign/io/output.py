@@ -30,6 +30,7 @@ import os
 import re
 import secrets
 import stat
+import zlib
 from pathlib import Path
 
 from cvtdesign.errors import InputError
@@ -97,6 +98,21 @@ def check_folder(folder, *, kind: str, probe: bool = False) -> Path:
     if probe and folder.is_dir():
         _probe(folder, folder, kind)
     return folder
+
+
+NAME_MAX = 60      # characters of the input files' stems in an output's name (`named_after`)
+
+
+def named_after(inputs, suffix: str) -> str:
+    """An output's file name after the input files it is made of, so that runs on other inputs do not
+    overwrite it: '<stem><suffix>' for one file ('box.png'), the stems in sorted order joined by '+' for
+    several ('box+existing+unequal.png', whatever order they were given in); past NAME_MAX characters the
+    first two stems, how many more, and a checksum of all the stems ('box+box_kalker+3_more-5f1c2a.png')."""
+    stems = sorted(Path(f).stem for f in inputs)
+    joined = "+".join(stems)
+    if len(joined) > NAME_MAX:
+        joined = f"{stems[0]}+{stems[1]}+{len(stems) - 2}_more-{zlib.crc32(joined.encode()):08x}"
+    return joined + suffix
 
 
 def make_folder(folder, *, kind: str) -> Path:

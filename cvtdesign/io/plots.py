@@ -6,13 +6,12 @@ import gc
 import multiprocessing
 import os
 import signal
+import zlib
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 
-from cvtdesign.core.geometry import FRAME, pose
-from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.io.output import OutputError, write_file
 
 PNG_COMPRESSION = 1     # zlib level of the PNG files: 40 % faster than the default 6, files 5 % larger
@@ -20,9 +19,9 @@ PNG_COMPRESSION = 1     # zlib level of the PNG files: 40 % faster than the defa
 
 def _mpl():
     """The parts of matplotlib the figures use, imported here only (the heavy optional import's boundary):
-    `figure(figsize=...)` and `subplots(...)` make Figures on Agg canvases; Line2D, Rectangle, Circle,
-    Normalize and get_cmap as in pyplot."""
-    from matplotlib import collections, colormaps, colors, lines, patches
+    `figure(figsize=..., layout=...)` and `subplots(..., layout=...)` make Figures on Agg canvases; Line2D,
+    Rectangle, Circle, Normalize and get_cmap as in pyplot; Bbox (matplotlib.transforms)."""
+    from matplotlib import collections, colormaps, colors, lines, patches, transforms
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -31,13 +30,18 @@ def _mpl():
         FigureCanvasAgg(fig)
         return fig
 
-    def subplots(*args, figsize=None, **kw):
-        fig = figure(figsize=figsize)
+    def subplots(*args, figsize=None, layout=None, **kw):
+        fig = figure(figsize=figsize, layout=layout)
         return fig, fig.subplots(*args, **kw)
 
     return SimpleNamespace(figure=figure, subplots=subplots, Line2D=lines.Line2D, Rectangle=patches.Rectangle,
                            Circle=patches.Circle, PatchCollection=collections.PatchCollection,
-                           Normalize=colors.Normalize, get_cmap=colormaps.get_cmap)
+                           Normalize=colors.Normalize, get_cmap=colormaps.get_cmap, Bbox=transforms.Bbox)
+
+
+def figure_parts() -> SimpleNamespace:
+    """The parts of matplotlib that figures drawn in other modules use (io.layout_drawing): see `_mpl`."""
+    return _mpl()
 
 
 def save(fig, path: Path, dpi=80):
@@ -47,6 +51,54 @@ def save(fig, path: Path, dpi=80):
     fmt = path.suffix[1:] or "png"
     extra = {"pil_kwargs": {"compress_level": PNG_COMPRESSION}} if fmt == "png" else {}
     write_file(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=fmt, **extra), kind="plot")
+
+
+# where a label may go, in points from its anchor, tried in this order (`place_labels`)
+OFFSETS = [(0, 0)] + [(dx, dy) for r in (1, 2, 3) for dx, dy in
+                      ((0, 13 * r), (0, -13 * r), (34 * r, 0), (-34 * r, 0), (28 * r, 13 * r), (-28 * r, 13 * r),
+                       (28 * r, -13 * r), (-28 * r, -13 * r))]
+
+# beside a marker rather than on it (the Pareto points): (points right, up, the label's alignment to that spot)
+# right, left, above, below, then farther
+LABEL_BESIDE = [spot for r in (1.6, 3, 5) for spot in ((6 * r, 0, "left", "center"), (-6 * r, 0, "right", "center"),
+                                                       (0, 7 * r, "center", "bottom"), (0, -7 * r, "center", "top"),
+                                                       (6 * r, 7 * r, "left", "bottom"), (-6 * r, -7 * r, "right", "top"),
+                                                       (6 * r, -7 * r, "left", "top"), (-6 * r, 7 * r, "right", "bottom"))]
+
+
+def place_labels(fig, ax, labels, fontsize=7, offsets=OFFSETS, markers=(), boxed=False) -> int:
+    """Write each label (anchor in data coordinates, or in 3-D for a 3-D axes; text; colour; alpha) at the
+    first of `offsets` from its anchor (points, optionally with the label's alignment there; default OFFSETS,
+    centred) where it overlaps no label already placed and stays inside the axes;
+    a label with no such place is left out. Call it once the axes' limits and the figure's layout are
+    final. `markers`: data points (n, 2) that no label may cover either; `boxed`: each label on a white box
+    (over a picture). Returns how many were left out."""
+    renderer = fig.canvas.get_renderer()
+    ax.apply_aspect()
+    inside = ax.get_window_extent(renderer)
+    placed = [t.get_window_extent(renderer) for t in ax.texts if t.get_text()]
+    size = 6 * fig.dpi / 72                          # a marker's half-width [pixels]
+    placed += [_mpl().Bbox.from_extents(x - size, y - size, x + size, y + size)
+               for x, y in ax.transData.transform(np.reshape(markers, (-1, 2)))] if len(markers) else []
+    if hasattr(ax, "get_proj"):                      # a 3-D axes: its anchors projected onto its 2-D data plane
+        proj = ax.get_proj()
+        labels = [(tuple((proj @ np.append(p, 1.0))[:2] / (proj @ np.append(p, 1.0))[3]), *rest) for p, *rest in labels]
+    left_out = 0
+    for anchor, text, colour, alpha in labels:
+        for dx, dy, *align in offsets:
+            ha, va = align or ("center", "center")
+            t = ax.annotate(text, xy=anchor, xytext=(dx, dy), textcoords="offset points", fontsize=fontsize,
+                            ha=ha, va=va, color=colour, alpha=alpha, zorder=6, annotation_clip=False,
+                            bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1} if boxed else None)
+            box = t.get_window_extent(renderer).expanded(1.04, 1.1)
+            if (box.x0 >= inside.x0 and box.x1 <= inside.x1 and box.y0 >= inside.y0 and box.y1 <= inside.y1
+                    and not any(box.overlaps(p) for p in placed)):
+                placed.append(box)
+                break
+            t.remove()
+        else:
+            left_out += 1
+    return left_out
 
 
 COMPARE_ROWS = (("alpha", "slip angle α [°]", np.degrees),
@@ -61,18 +113,66 @@ COMPARE_KEYS = ("gamma_cmd", "load", "status", *(key for key, _, _ in COMPARE_RO
 # the compare panels' titles sit on the axes' top edge, where matplotlib would place them after measuring the
 # (absent) top ticks: given, that measuring pass (a twentieth of the drawing) is skipped
 TITLE_Y = 1.0
+# a variant's colour is the same in every run: Kim's existing CVT and the ideal CVT always these, every other
+# variant the PALETTE colour its name hashes to (`variant_colours`)
+# (the shipped variants and the shipped studies' optima hash to different colours: box red, box_kalker green,
+# existing_kalker purple, unequal pink, box_box_placement orange, box_box_placement_kalker brown)
+EXISTING_COLOUR, IDEAL_COLOUR = "#1f77b4", "#000000"
+PALETTE = ("#ff7f0e", "#8c564b", "#9467bd", "#d62728", "#bcbd22", "#2ca02c", "#e377c2", "#17becf")
+OVERLAY_MAX = 3     # up to this many variants are overlaid in each panel; more get a column each
+PANELS_MAX = 6      # at most this many columns of variants; the others are in the table only
 
 
-def _load_columns(results, loads):
-    """The loads drawn [N m], each the first variant's grid load nearest a requested one: [(title, [(load,
-    line style, marker)])], the loads below zero in the first column, the others in the second; line style
-    and marker by |load| rank."""
+def variant_colours(names) -> dict:
+    """{name: colour} that does not depend on the order of the variants or on the run: 'existing' (Kim's CVT)
+    EXISTING_COLOUR; every other the PALETTE colour its name hashes to (CRC-32 of 'cvtdesign <name>', the same
+    in every process), or, when a variant of the same run took that colour, the next free one, the names
+    taken in sorted order (so only two variants hashing alike, in one run, make one of them change colour)."""
+    out, taken = {}, set()
+    for name in sorted(set(names)):
+        if name == "existing":
+            out[name] = EXISTING_COLOUR
+            continue
+        k = zlib.crc32(f"cvtdesign {name}".encode())
+        free = [PALETTE[(k + i) % len(PALETTE)] for i in range(len(PALETTE))
+                if PALETTE[(k + i) % len(PALETTE)] not in taken] or [PALETTE[k % len(PALETTE)]]
+        out[name] = free[0]
+        taken.add(free[0])
+    return out
+
+
+def shown_variants(results) -> tuple[list, str]:
+    """The variants the figure draws, in the given order, and a note of those it leaves to the table: all
+    of them up to PANELS_MAX; beyond, 'existing' and those with the smallest worst |α| over their ok points."""
+    if len(results) <= PANELS_MAX:
+        return list(results), ""
+    ok = {name: np.abs(res["alpha"][res["status"] == 0]) for name, res in results}
+    worst = {name: float(np.nanmax(a)) if np.isfinite(a).any() else np.inf for name, a in ok.items()}
+    keep = sorted(worst, key=lambda n: (n != "existing", worst[n]))[:PANELS_MAX]
+    return ([(n, r) for n, r in results if n in keep],
+            f"{PANELS_MAX} of {len(results)} variants drawn (existing and the smallest worst |α|); the table has all")
+
+
+def _loads(results, loads):
+    """The loads drawn [N m], each the first variant's grid load nearest a requested one, with their line
+    style and marker by |load| rank: [(load, style, marker)], largest |load| first."""
     grid = results[0][1]["load"][0]
     loads = sorted({round(float(grid[np.argmin(np.abs(grid - L))]), 9) for L in loads})
     ranked = sorted({abs(L) for L in loads}, reverse=True)
     style = {a: (LOAD_STYLES[k % 4], LOAD_MARKERS[k % 4]) for k, a in enumerate(ranked)}
-    cols = [("τ⊥ < 0", [L for L in loads if L < 0]), ("τ⊥ ≥ 0", [L for L in loads if L >= 0])]
-    return [(title, [(L, *style[abs(L)]) for L in sorted(ls, key=abs, reverse=True)]) for title, ls in cols if ls]
+    return [(L, *style[abs(L)]) for L in sorted(loads, key=lambda L: (-abs(L), L))]
+
+
+def _panels(results, loads, colours):
+    """The line panels of a row: [(title, [(name, result, colour)], [(load, style, marker)])]. Up to
+    OVERLAY_MAX variants: every variant overlaid, the loads below zero in one panel, the others in a
+    second; more: one panel per variant with all its loads (small multiples)."""
+    drawn = _loads(results, loads)
+    every = [(name, res, colours[name]) for name, res in results]
+    if len(results) <= OVERLAY_MAX:
+        cols = [("τ⊥ < 0", [x for x in drawn if x[0] < 0]), ("τ⊥ ≥ 0", [x for x in drawn if x[0] >= 0])]
+        return [(title, every, col) for title, col in cols if col]
+    return [(name, [(name, res, colour)], drawn) for name, res, colour in every]
 
 
 def _curve(res, key, conv, L):
@@ -81,38 +181,45 @@ def _curve(res, key, conv, L):
     return np.degrees(res["gamma_cmd"][:, j]), conv(res[key][:, j]), res["status"][:, j]
 
 
-def _row_limits(results, key, conv, loads, reference):
-    """Shared y-limits of a row: every variant's values at the drawn loads and the ideal CVT's reference,
-    with 6 % margins."""
-    vals = [reference] + [v for _, res in results for L in loads for v in _curve(res, key, conv, L)[1]]
+def _row_limits(panels, key, conv, reference):
+    """Shared y-limits of a row: every curve it draws and the ideal CVT's reference, with 6 % margins."""
+    vals = [reference] + [v for _, variants, col in panels for _, res, _ in variants for L, _, _ in col
+                          for v in _curve(res, key, conv, L)[1]]
     vals = np.asarray(vals, float)
     lo, hi = float(np.nanmin(vals)), float(np.nanmax(vals))
     pad = 0.06 * (hi - lo or 1.0)
     return lo - pad, hi + pad
 
 
-def _line_row(axes, results, row, columns, colours):
-    """One quantity against commanded γ: per column a set of loads, every variant overlaid (colour per
-    variant, line style and marker per load), the ideal CVT as reference, left-out points marked at the
-    bottom of the panel. Returns the row's shared y-limits."""
+def _line_row(axes, row, panels, first_row: bool, overlay: bool):
+    """One quantity against commanded γ, a panel per entry of `panels` (see `_panels`), the ideal CVT as
+    reference, left-out points marked at the panel's foot; every panel on the row's y-scale, which it returns."""
     key, label, conv = row
     reference = 1.0 if key == "efficiency" else 0.0
-    loads = [L for _, col in columns for L, _, _ in col]
-    lo, hi = _row_limits(results, key, conv, loads, reference)
-    for ax, (title, col) in zip(axes, columns):
-        ax.axhline(reference, color="k", lw=1.5, zorder=1)
-        ax.text(0.01, reference, " ideal CVT", transform=ax.get_yaxis_transform(), fontsize=7, va="bottom")
-        for (name, res), colour in zip(results, colours):
+    lo, hi = _row_limits(panels, key, conv, reference)
+    for c, (ax, (title, variants, col)) in enumerate(zip(axes, panels)):
+        ax.axhline(reference, color=IDEAL_COLOUR, lw=1.5, zorder=1)
+        for name, res, colour in variants:
             for L, ls, marker in col:
                 g, y, status = _curve(res, key, conv, L)
                 ax.plot(g, y, ls=ls, marker=marker, ms=3, color=colour, lw=1.2)
+                band = _curve(res, f"{key}_band", conv, L)[1] if f"{key}_band" in res else np.nan
+                if np.isfinite(band).any():        # the 95 % interval from the calibration's uncertainty
+                    ax.fill_between(g, y - band, y + band, color=colour, alpha=0.18, lw=0)
                 bad = status != 0
                 if bad.any():
                     ax.plot(g[bad], np.full(bad.sum(), lo + 0.03 * (hi - lo)), "x", color=colour, ms=6, mew=1.5)
         ax.set_ylim(lo, hi)
-        ax.set_title(f"{label.split(' [')[0]}, {title}", fontsize=9, y=TITLE_Y)
-        ax.set_xlabel("commanded γ [°]")
-        ax.set_ylabel(label)
+        if overlay:
+            ax.set_title(f"{label.split(' [')[0]}, {title}", fontsize=9, y=TITLE_Y)
+        elif first_row:
+            ax.set_title(title, fontsize=10, y=TITLE_Y, color=variants[0][2], fontweight="bold")
+        ax.set_xlabel("commanded γ [°]", fontsize=8)
+        if overlay or c == 0:
+            ax.set_ylabel(label, fontsize=8)
+        else:
+            ax.tick_params(labelleft=False)
+        ax.tick_params(labelsize=8)
         ax.grid(alpha=0.3)
     return lo, hi
 
@@ -134,208 +241,85 @@ def _efficiency_map(ax, name, res, norm, mpl):
         bad = res["status"] == code
         if bad.any():
             marked += len(ax.plot(g[bad], t[bad], marker, color=colour, ms=5, ls="none", zorder=2)[0].get_xdata())
-    ax.set_title(f"{name}: efficiency over γ × τ⊥", fontsize=9, y=TITLE_Y)
-    ax.set_xlabel("commanded γ [°]")
-    ax.set_ylabel("τ⊥ [N·m]")
+    ax.set_title(f"{name}: efficiency", fontsize=9, y=TITLE_Y)
+    ax.set_xlabel("commanded γ [°]", fontsize=8)
+    ax.set_ylabel("τ⊥ [N·m]", fontsize=8)
+    ax.tick_params(labelsize=8)
     return pc, marked
 
 
-def _compare_legend(fig, results, columns, colours, mpl):
-    handles = [mpl.Line2D([], [], color=c, lw=2, label=name) for (name, _), c in zip(results, colours)]
-    handles.append(mpl.Line2D([], [], color="k", lw=1.5, label="ideal CVT (α = 0, efficiency 1)"))
-    for L, ls, marker in sorted({x for _, col in columns for x in col}, key=lambda x: x[0]):
+def _compare_legend(fig, shown, loads, colours, mpl, top: float) -> float:
+    """The legend, inside the canvas below `top` (figure fraction): in as many columns as fit its width.
+    Returns the figure fraction of its foot."""
+    handles = [mpl.Line2D([], [], color=colours[name], lw=2.5, label=name + (
+        " — THEORY ONLY (uncalibrated: likely too stiff)" if res.get("theory_only") else "")) for name, res in shown]
+    if any(np.isfinite(res.get("alpha_band", np.nan)).any() for _, res in shown):
+        handles.append(mpl.Rectangle((0, 0), 1, 1, fc="dimgrey", alpha=0.18, lw=0,
+                                     label="shaded: 95 % interval from the calibration's uncertainty"))
+    handles.append(mpl.Line2D([], [], color=IDEAL_COLOUR, lw=1.5, label="ideal CVT (α = 0, efficiency 1)"))
+    for L, ls, marker in sorted(_loads(shown, loads), key=lambda x: x[0]):
         handles.append(mpl.Line2D([], [], color="dimgrey", ls=ls, marker=marker, ms=4, label=f"τ⊥ = {L:+g} N·m"))
     handles.append(mpl.Line2D([], [], color="dimgrey", marker="x", ls="none", label="left out (status ≠ ok), at "
                               "the panel's foot"))
     handles.append(mpl.Rectangle((0, 0), 1, 1, fc="lightgrey", ec="grey", hatch="///",
                                  label="no power transmitted (τ⊥ = 0: efficiency undefined)"))
     handles += [mpl.Line2D([], [], marker=m, color=c, ls="none", label=lab) for _, m, c, lab in FLAGS]
-    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.975), ncol=5, fontsize=8, frameon=False)
+    renderer = fig.canvas.get_renderer()
+    for ncol in range(6, 0, -1):
+        legend = fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, top), ncol=ncol, fontsize=8,
+                            frameon=False)
+        box = legend.get_window_extent(renderer)
+        if box.width <= 0.98 * fig.bbox.width or ncol == 1:
+            return box.y0 / fig.bbox.height
+        legend.remove()
 
 
 def compare_figure(results: list[tuple[str, dict]], path: Path, loads=(-1.0, -0.5, 0.5, 1.0)) -> dict:
     """The variants side by side (Kim Figs 20-21): one row per quantity (α, its steering part γ_axis − γ_cmd,
-    its drive part, efficiency) against commanded γ, the variants overlaid (colour per variant, line style
-    and marker per load τ⊥, negative and positive loads in two columns), every panel of a row on one y-scale,
-    the ideal CVT (α = 0, efficiency 1) drawn as reference; then each variant's efficiency map over γ × τ⊥ on
-    one shared colour scale, with the cells that transmit no power (τ⊥ = 0) hatched and the points where the
-    physics stops holding marked (not converged, lost contact, gross slip). Returns the axes limits:
-    {'ylim': {quantity: [(lo, hi) per panel]}, 'clim': (lo, hi) of the maps, 'marked': [number of flagged
-    points marked on each variant's map]}."""
+    its drive part, efficiency) against commanded γ, every panel of a row on one y-scale, the ideal CVT
+    (α = 0, efficiency 1) drawn as reference; then each variant's efficiency map over γ × τ⊥ on one shared
+    colour scale, with the cells that transmit no power (τ⊥ = 0) hatched and the points where the physics
+    stops holding marked. Up to OVERLAY_MAX variants are overlaid (colour per variant, line style and marker
+    per load τ⊥, negative and positive loads in two columns); more get a column each (small multiples), at
+    most PANELS_MAX (`shown_variants`). Each variant has its colour of `variant_colours`, whatever the
+    order. A variant's result may carry '<quantity>_band' (the half-width of its 95 % interval at each point,
+    core.uncertainty.point_bands), drawn shaded around its curves, and 'theory_only', said in the legend.
+    Returns {'ylim': {quantity: [(lo, hi) per panel]}, 'clim': (lo, hi) of the maps, 'marked': [flagged
+    points marked on each drawn variant's map], 'shown': [names drawn], 'colours': {name: colour}, 'legend':
+    [its labels], 'bands': the shaded bands drawn}."""
     mpl = _mpl()
-    n = len(results)
-    colours = [mpl.get_cmap("tab10")(k % 10) for k in range(n)]
-    columns = _load_columns(results, loads)
-    fig = mpl.figure(figsize=(max(12, 4.2 * n), 17))
-    grid = fig.add_gridspec(5, 1, height_ratios=(1, 1, 1, 1, 1.25), top=0.9, bottom=0.04, left=0.07, right=0.95,
+    shown, note = shown_variants(results)
+    colours = variant_colours(name for name, _ in results)
+    panels = _panels(shown, loads, colours)
+    overlay = len(shown) <= OVERLAY_MAX
+    fig = mpl.figure(figsize=(12, 17) if overlay else (max(12.0, 2.9 * len(shown) + 1.5), 17))
+    fig.suptitle("variants over their envelope: slip angle α, its steering and drive parts and efficiency against "
+                 "commanded γ (Kim Figs 20-21)" + (f"\n{note}" if note else ""), fontsize=12, y=0.995, va="top")
+    title_foot = 1 - (0.03 if note else 0.018)
+    top = _compare_legend(fig, shown, loads, colours, mpl, title_foot) - (0.02 if overlay else 0.03)
+    grid = fig.add_gridspec(5, 1, height_ratios=(1, 1, 1, 1, 1.25), top=top, bottom=0.035, left=0.07, right=0.95,
                             hspace=0.42)
-    limits = {"ylim": {}}
+    limits = {"ylim": {}, "shown": [name for name, _ in shown], "colours": colours}
     for k, row in enumerate(COMPARE_ROWS):
-        sub = grid[k].subgridspec(1, len(columns), wspace=0.18)
-        axes = [fig.add_subplot(sub[0, c]) for c in range(len(columns))]
-        _line_row(axes, results, row, columns, colours)
+        sub = grid[k].subgridspec(1, len(panels), wspace=0.18 if overlay else 0.06)
+        axes = [fig.add_subplot(sub[0, c]) for c in range(len(panels))]
+        _line_row(axes, row, panels, k == 0, overlay)
         limits["ylim"][row[0]] = [ax.get_ylim() for ax in axes]
-    effs = np.concatenate([res["efficiency"].ravel() for _, res in results])
+    effs = np.concatenate([res["efficiency"].ravel() for _, res in shown])
     lo = float(np.nanmin(effs)) if np.isfinite(effs).any() else 0.0
     norm = mpl.Normalize(vmin=min(np.floor(lo * 20) / 20, 0.95), vmax=1.0)
-    sub = grid[4].subgridspec(1, n, wspace=0.35)
-    maps = [fig.add_subplot(sub[0, c]) for c in range(n)]
+    sub = grid[4].subgridspec(1, len(shown), wspace=0.45)
+    maps = [fig.add_subplot(sub[0, c]) for c in range(len(shown))]
     limits["marked"] = []
-    for ax, (name, res) in zip(maps, results):
+    for ax, (name, res) in zip(maps, shown):
         pc, marked = _efficiency_map(ax, name, res, norm, mpl)
         limits["marked"].append(marked)
     fig.colorbar(pc, ax=maps, label="efficiency P_out/P_in [-] (one scale for all)")
     limits["clim"] = (norm.vmin, norm.vmax)
-    _compare_legend(fig, results, columns, colours, mpl)
-    fig.suptitle("variants over their envelope: slip angle α, its steering and drive parts and efficiency "
-                 "against commanded γ (Kim Figs 20-21)", fontsize=12, y=0.995)
+    limits["legend"] = [t.get_text() for t in fig.legends[0].get_texts()]
+    limits["bands"] = sum(len(ax.collections) for ax in fig.axes[:len(COMPARE_ROWS) * len(panels)])
     save(fig, path)
     return limits
-
-
-ROLE_COLOURS = {"drive": "tab:blue", "follower": "tab:cyan", "steering": "tab:orange"}
-SHAFT_COLOURS = ("tab:red", "tab:green")
-# orthographic views: (title, horizontal axis, vertical axis, axis pointing at the viewer, its sense)
-VIEWS = (("top view (from +z)", 0, 1, 2, 1.0), ("front view (from −y)", 0, 2, 1, -1.0),
-         ("side view (from +x)", 1, 2, 0, 1.0))
-
-
-def layout_scene(layout, phi: float, gamma: float) -> dict:
-    """What the layout drawing shows, lengths in mm: the sphere radius R, each roller at steering angle φ
-    [rad] (rim circle, centre, contact normal, axle, role, fork axis), Kim's frame vectors, the shafts' axes
-    and the commanded sphere axis u(γ) at γ [rad] (kinematics.shaft_frame)."""
-    frame = shaft_frame(layout)
-    R = 1000 * float(layout.sphere_radius)
-    rollers = []
-    for r in layout.rollers:
-        n, a = pose(r, phi)
-        rad = 1000 * float(r.radius)
-        centre = (R + rad) * n
-        th = np.linspace(0, 2 * np.pi, 73)[:, None]
-        rim = centre + rad * (np.cos(th) * n + np.sin(th) * np.cross(n, a))
-        fork = None if r.fork_axis is None else np.asarray(r.fork_axis, float).ravel()
-        rollers.append({"name": r.name, "role": r.role, "shaft": r.shaft, "radius": rad, "centre": centre,
-                        "rim": rim, "normal": n, "axle": a, "fork": fork})
-    e1 = np.asarray(frame.u1, float)
-    e2 = frame.c * e1 + frame.s * np.asarray(frame.u2, float)
-    forks = {}
-    for r in rollers:
-        if r["fork"] is not None:
-            key = tuple(np.round(r["fork"] * np.sign(r["fork"][np.argmax(np.abs(r["fork"]))]), 9))
-            forks.setdefault(key, []).append(r["name"])
-    return {"R": R, "rollers": rollers, "frames": {k: FRAME[k] for k in ("d1", "d2", "c1", "c2", "c3")},
-            "shafts": (e1, e2), "command": np.asarray(frame.axis(gamma), float).ravel(),
-            "forks": [(np.array(k), names) for k, names in forks.items()], "law": frame.law_text()}
-
-
-def _arrow(ax, p0, p1, colour, text=None, lw=1.2):
-    """A 2-D arrow from p0 to p1, its text just beyond the tip."""
-    ax.annotate("", xy=p1, xytext=p0, arrowprops={"arrowstyle": "->", "color": colour, "lw": lw})
-    if text:
-        at = np.asarray(p0) + 1.18 * (np.asarray(p1) - np.asarray(p0))
-        ax.text(*at, text, color=colour, fontsize=7, ha="center", va="center",
-                bbox={"fc": "white", "ec": "none", "alpha": 0.6, "pad": 0.5})
-
-
-def _view(ax, scene, view, mpl):
-    """One orthographic view of the scene: horizontal/vertical axes i, j; rollers whose centre lies behind
-    the sphere's mid-plane drawn dashed and faint."""
-    title, i, j, k, sense = view
-    R = scene["R"]
-    ax.add_patch(mpl.Circle((0, 0), R, fc="lightgrey", ec="k", alpha=0.35, lw=1, zorder=1))
-    for v, names in scene["forks"]:
-        ax.plot([-1.5 * R * v[i], 1.5 * R * v[i]], [-1.5 * R * v[j], 1.5 * R * v[j]], ":", color="purple",
-                lw=1.2, zorder=2)
-        if np.hypot(v[i], v[j]) > 0.2:
-            ax.text(1.5 * R * v[i], 1.5 * R * v[j], f"fork ({', '.join(names)})", color="purple", fontsize=7)
-    for name, v in scene["frames"].items():
-        if np.hypot(v[i], v[j]) > 0.2:
-            _arrow(ax, (0, 0), (0.7 * R * v[i], 0.7 * R * v[j]), "dimgrey", name, lw=0.8)
-    for s, (e, colour) in enumerate(zip(scene["shafts"], SHAFT_COLOURS)):
-        ax.plot([-1.9 * R * e[i], 1.9 * R * e[i]], [-1.9 * R * e[j], 1.9 * R * e[j]], "-.", color=colour, lw=1)
-        if np.hypot(e[i], e[j]) > 0.2:
-            ax.text(1.9 * R * e[i], 1.9 * R * e[j], f"shaft {s + 1}", color=colour, fontsize=7)
-    u = scene["command"]
-    if np.hypot(u[i], u[j]) > 0.1:
-        _arrow(ax, (0, 0), (1.0 * R * u[i], 1.0 * R * u[j]), "k", "u(γ)", lw=2)
-    for r in sorted(scene["rollers"], key=lambda r: sense * r["centre"][k]):
-        front = sense * r["centre"][k] >= -1e-9
-        c, colour = r["centre"], ROLE_COLOURS[r["role"]]
-        ax.fill(r["rim"][:, i], r["rim"][:, j], color=colour, alpha=0.35 if front else 0.1, zorder=3 if front else 0)
-        ax.plot(r["rim"][:, i], r["rim"][:, j], "-" if front else "--", color=colour, lw=1.4 if front else 0.8,
-                zorder=3 if front else 0)
-        tip = c + 0.8 * r["radius"] * r["axle"]
-        if np.hypot(*(tip - c)[[i, j]]) > 0.15 * r["radius"]:
-            _arrow(ax, (c[i], c[j]), (tip[i], tip[j]), "navy" if front else "lightsteelblue")
-        label = c + 1.1 * r["radius"] * r["normal"]
-        role = r["role"] + (f" {r['shaft']}" if r["shaft"] else "")
-        ax.text(label[i], label[j], f"{r['name']}\n{role}", fontsize=7, ha="center", va="center",
-                alpha=1 if front else 0.5, zorder=4)
-    ax.set_title(title, fontsize=10)
-    ax.set_xlabel(f"{'xyz'[i]} [mm]")
-    ax.set_ylabel(f"{'xyz'[j]} [mm]")
-    ax.set_aspect("equal")
-    ax.grid(alpha=0.2)
-
-
-def _view_3d(ax, scene):
-    """The scene in perspective: sphere wireframe, roller rims, axles, frame vectors, shaft axes, u(γ)."""
-    R = scene["R"]
-    a, b = np.meshgrid(np.linspace(0, 2 * np.pi, 25), np.linspace(0, np.pi, 13))
-    ax.plot_wireframe(R * np.cos(a) * np.sin(b), R * np.sin(a) * np.sin(b), R * np.cos(b), color="grey", lw=0.3)
-    for r in scene["rollers"]:
-        c = r["centre"]
-        ax.plot(*r["rim"].T, color=ROLE_COLOURS[r["role"]], lw=1.6)
-        ax.quiver(*c, *(0.8 * r["radius"] * r["axle"]), color="navy", lw=1.2)
-        ax.text(*(c + 1.1 * r["radius"] * r["normal"]), r["name"], fontsize=8)
-    for name, v in scene["frames"].items():
-        ax.quiver(0, 0, 0, *(0.7 * R * v), color="dimgrey", lw=0.8)
-        ax.text(*(0.75 * R * v), name, color="dimgrey", fontsize=7)
-    for s, (e, colour) in enumerate(zip(scene["shafts"], SHAFT_COLOURS)):
-        ax.plot(*np.outer([-1.9 * R, 1.9 * R], e).T, "-.", color=colour, lw=1)
-        ax.text(*(1.9 * R * e), f"shaft {s + 1}", color=colour, fontsize=7)
-    for v, names in scene["forks"]:
-        ax.plot(*np.outer([-1.5 * R, 1.5 * R], v).T, ":", color="purple", lw=1.2)
-    ax.quiver(0, 0, 0, *(R * scene["command"]), color="k", lw=2)
-    reach = R + 2 * max(r["radius"] for r in scene["rollers"])
-    for set_lim, name in ((ax.set_xlim, "x"), (ax.set_ylim, "y"), (ax.set_zlim, "z")):
-        set_lim(-reach, reach)
-    ax.set_box_aspect((1, 1, 1))
-    ax.set_xlabel("x [mm]")
-    ax.set_ylabel("y [mm]")
-    ax.set_zlabel("z [mm]")
-    ax.set_title("3-D view", fontsize=10)
-
-
-def layout_figure(layout, phi: float, gamma: float, path: Path):
-    """The layout before anything is solved: a 3-D view and three orthogonal views (mm) of the sphere, every
-    roller at its contact (rim circle, axle arrow, name and role; steered rollers turned to the steering
-    angle φ [rad] that realises the commanded γ [rad]), the fork axes, Kim's frame vectors d1 d2 c1 c2 c3,
-    both shafts' axes and the commanded sphere axis u(γ). Written to `path` (PNG)."""
-    mpl = _mpl()
-    scene = layout_scene(layout, phi, gamma)
-    fig = mpl.figure(figsize=(13, 13))
-    _view_3d(fig.add_subplot(2, 2, 1, projection="3d"), scene)
-    for k, view in enumerate(VIEWS):
-        _view(fig.add_subplot(2, 2, k + 2), scene, view, mpl)
-    reach = scene["R"] + 2 * max(r["radius"] for r in scene["rollers"])
-    for ax in fig.axes[1:]:
-        ax.set_xlim(-reach, reach)
-        ax.set_ylim(-reach, reach)
-    handles = [mpl.Line2D([], [], color=c, lw=4, alpha=0.6, label=f"{role} roller") for role, c in ROLE_COLOURS.items()
-               if any(r["role"] == role for r in scene["rollers"])]
-    handles += [mpl.Line2D([], [], color="navy", label="roller axle (positive spin)"),
-                mpl.Line2D([], [], color="k", lw=2, label="commanded sphere axis u(γ)"),
-                mpl.Line2D([], [], color=SHAFT_COLOURS[0], ls="-.", label="shaft 1 axis"),
-                mpl.Line2D([], [], color=SHAFT_COLOURS[1], ls="-.", label="shaft 2 axis"),
-                mpl.Line2D([], [], color="purple", ls=":", label="fork axis"),
-                mpl.Line2D([], [], color="dimgrey", label="frame vectors d1 d2 c1 c2 c3"),
-                mpl.Line2D([], [], color="grey", ls="--", label="behind the sphere (dashed, faint)")]
-    fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8, frameon=False)
-    fig.suptitle(f"{layout.name}: layout at commanded γ = {np.degrees(gamma):g}° (steering angle "
-                 f"φ = {np.degrees(phi):.2f}°); ideal law {scene['law']}", fontsize=11)
-    fig.subplots_adjust(left=0.06, right=0.97, bottom=0.08, top=0.94, wspace=0.2, hspace=0.18)
-    save(fig, path, dpi=90)
 
 
 def worker(conn, parent_end):
@@ -427,29 +411,29 @@ class Background:
 
 def pareto_figure(chains: list[tuple[str, list[dict], int]], path: Path):
     """Slip/efficiency Pareto fronts (worst |α| [deg] against mean power loss [W]), knee marked, every point
-    labelled with the stem of its variant file. chains: (label, points with worst_alpha_deg, power_loss_W,
-    variant_file, success, point), index of the knee point)."""
+    labelled with its design (its 'label', e.g. 'preload = 121.9 N, d = 48.8 mm'), the labels placed apart.
+    chains: (label, points with worst_alpha_deg, power_loss_W, label, success, point), index of the knee
+    point)."""
     mpl = _mpl()
-    fig, ax = mpl.subplots(figsize=(8, 5.5))
+    fig, ax = mpl.subplots(figsize=(9, 6.5))
+    labels = []
     for label, pts, k in chains:
         ok = [p for p in pts if p["success"]]
-        x = [p["worst_alpha_deg"] for p in ok]
-        y = [p["power_loss_W"] for p in ok]
-        line, = ax.plot(x, y, "o-", label=label)
-        for p in ok:
-            if p.get("variant_file"):
-                ax.annotate(Path(p["variant_file"]).stem, (p["worst_alpha_deg"], p["power_loss_W"]), fontsize=6,
-                            xytext=(4, 3), textcoords="offset points", color=line.get_color())
+        line, = ax.plot([p["worst_alpha_deg"] for p in ok], [p["power_loss_W"] for p in ok], "o-", label=label)
+        labels += [((p["worst_alpha_deg"], p["power_loss_W"]), p["label"], line.get_color(), 1.0) for p in ok
+                   if p.get("label")]
         kp = next((p for p in ok if p["point"] == k), None)
         if kp:
             ax.plot(kp["worst_alpha_deg"], kp["power_loss_W"], "*", ms=18, color=line.get_color(),
                     markeredgecolor="k", label=f"knee of {label}")
-    ax.set_xlabel("worst-case slip angle max |α| over the envelope [deg]")
+    ax.set_xlabel("worst-case slip angle max |α| over the envelope [°]")
     ax.set_ylabel("mean power loss over the envelope [W]")
-    ax.set_title("slip against power loss (ε-constraint Pareto front)")
+    ax.set_title("slip against power loss (ε-constraint Pareto front); each point labelled with its design")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.margins(x=0.25, y=0.15)          # room for the labels of the end points
+    ax.legend(fontsize=8, loc="upper right")
     fig.tight_layout()
+    place_labels(fig, ax, labels, fontsize=7, offsets=LABEL_BESIDE, markers=[anchor for anchor, *_ in labels])
     save(fig, path, dpi=110)
 
 
@@ -514,6 +498,7 @@ def resteer_figure(ratios, load, table: dict, path: Path):
     ax.set_xscale("log")
     ax.set_xticks(ratios)
     ax.set_xticklabels([f"{q:g}" for q in ratios])
+    ax.set_xticks([], minor=True)       # the log scale's own minor labels ('6×10⁻¹') among the ratios asked for
     ax.set_xlabel("requested speed ratio ω2/ω1")
     ax.set_ylabel("error (requested − achieved)/requested [%]")
     ax.set_title(f"resteering under τ⊥ = {load:+.2f} N·m (Brokowski Fig. 17)")
@@ -523,62 +508,121 @@ def resteer_figure(ratios, load, table: dict, path: Path):
     save(fig, path, dpi=110)
 
 
-def cad_picture(image, caption: str, path):
-    """A CAD assembly's shaded picture (an RGB array (rows, columns, 3), 8-bit or 0..1 floats, as
-    cad.picture.rasterise draws it) with a caption above it, as PNG."""
+def scale_bar(width_mm: float) -> float:
+    """A round length [mm] (1, 2 or 5 × a power of ten) near a fifth of `width_mm`, for a drawing's scale bar."""
+    target = width_mm / 5
+    base = 10 ** np.floor(np.log10(target))
+    return float(max(m * base for m in (1, 2, 5) if m * base <= target))
+
+
+def cad_picture(image, extent, caption: str, path, notes: dict):
+    """A CAD assembly's shaded picture (an RGB array (rows, columns, 3), 8-bit or 0..1 floats, spanning
+    `extent` (left, right, bottom, top) [mm] of the view plane, as cad.picture.raster draws it) with a
+    caption above it, the parts named as in the STEP file, a scale bar and a legend below (`notes`: as
+    cad.picture.annotations gives them), as PNG."""
     mpl = _mpl()
-    fig = mpl.figure(figsize=(8, 8.4))
-    ax = fig.add_axes((0, 0, 1, 8 / 8.4))
-    ax.imshow(image, interpolation="none")
+    fig = mpl.figure(figsize=(8, 9.6))
+    ax = fig.add_axes((0.02, 0.17, 0.96, 0.8))
+    ax.imshow(image, interpolation="none", extent=extent)
     ax.axis("off")
-    fig.text(0.5, 0.975, caption, ha="center", va="center", fontsize=10)
+    fig.text(0.5, 0.985, caption, ha="center", va="top", fontsize=10)
+    x0, x1, y0, y1 = extent
+    bar = scale_bar(x1 - x0)
+    ax.plot([x0 + 0.03 * (x1 - x0), x0 + 0.03 * (x1 - x0) + bar], [y0 + 0.03 * (y1 - y0)] * 2, "k-", lw=3,
+            solid_capstyle="butt")
+    ax.text(x0 + 0.03 * (x1 - x0) + bar / 2, y0 + 0.045 * (y1 - y0), f"{bar:g} mm", ha="center", va="bottom",
+            fontsize=9)
+    place_labels(fig, ax, [(at, name, "k", 1.0) for name, at in notes["labels"]], fontsize=8, boxed=True)
+    handles = [mpl.Rectangle((0, 0), 1, 1, fc=colour, ec="k", lw=0.5, label=text) for text, colour in notes["legend"]]
+    fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.045), ncol=2, fontsize=8, frameon=False,
+               title="parts, named as in the STEP file", title_fontsize=8)
+    if notes["note"]:
+        fig.text(0.5, 0.015, notes["note"], ha="center", va="bottom", fontsize=8, wrap=True)
     save(fig, Path(path), dpi=100)
 
 
-CONTACT_CURVES = (("curve_longitudinal", "longitudinal creepage ξ [-]", "Fx/(μN) [-]"),
-                  ("curve_lateral", "lateral creepage η [-]", "Fy/(μN) [-]"),
-                  ("curve_spin", "spin creepage φ [1/m]", "Fy/(μN) [-]"),
-                  ("curve_spin_moment", "spin creepage φ [1/m]", "Mz/(μNℓ) [-]"))
+CONTACT_CURVES = (("curve_longitudinal", "longitudinal creepage ξ [-]", "Fx/(μN) [-]", "longitudinal force"),
+                  ("curve_lateral", "lateral creepage η [-]", "Fy/(μN) [-]", "lateral force"),
+                  ("curve_spin", "spin creepage φ [1/m]", "Fy/(μN) [-]", "lateral force from spin"),
+                  ("curve_spin_moment", "spin creepage φ [1/m]", "Mz/(μNℓ) [-]", "spin moment"))
+ROLLER_STYLES = (("tab:blue", "-", "o"), ("tab:orange", "--", "s"), ("tab:green", "-.", "^"), ("tab:red", ":", "D"),
+                 ("tab:purple", (0, (5, 1, 1, 1)), "v"), ("tab:brown", (0, (1, 2)), "P"))
 
 
-def contact_figures(name: str, records: dict, folder: Path) -> list[Path]:
-    """`cvtdesign contact`'s figures: the creep–force curves of every roller (one panel per creepage, the
-    linear theory's slope dotted), the pure-spin moment against the pivoting moment μNℓ, and the contact
+def same_contacts(records: dict) -> list[list[str]]:
+    """The rollers grouped by contact: rollers whose four curves agree to 1e-9 share a group (Kim's two
+    drive rollers are one contact drawn twice), in the order of `records`."""
+    groups: list[list[str]] = []
+    for name, r in records.items():
+        for g in groups:
+            other = records[g[0]]
+            if all(np.allclose(r[k], other[k], rtol=1e-9, atol=1e-12) for k, _, _, _ in CONTACT_CURVES):
+                g.append(name)
+                break
+        else:
+            groups.append([name])
+    return groups
+
+
+def group_label(group: list[str], records: dict) -> str:
+    """'A, A_, B, B_ (drive, follower)': the rollers of a contact group and their roles."""
+    roles = dict.fromkeys(records[n]["role"] for n in group)
+    return f"{', '.join(group)} ({', '.join(roles)})"
+
+
+def contact_figures(name: str, records: dict, folder: Path, stem: str) -> list[Path]:
+    """`cvtdesign contact`'s figures, `<stem>_contact_curves.png` and `<stem>_contact_patches.png` in `folder`
+    (stem: the variant file's): the creep–force curves (one panel per creepage, the linear theory's slope
+    dotted; rollers with the same contact drawn once and named together, the others each in a colour, line
+    style and marker of their own), the pure-spin moment against the pivoting moment μNℓ, and the contact
     patches drawn to scale [mm]. Returns the files written."""
     mpl = _mpl()
-    fig, axes = mpl.subplots(1, 4, figsize=(19, 4.2))
-    for (key, xlabel, ylabel), ax in zip(CONTACT_CURVES, axes):
-        for n, r in records.items():
+    fig, axes = mpl.subplots(1, 4, figsize=(19, 4.6), layout="constrained")
+    groups = same_contacts(records)
+    for (key, xlabel, ylabel, what), ax in zip(CONTACT_CURVES, axes):
+        for k, g in enumerate(groups):
+            r = records[g[0]]
+            colour, ls, marker = ROLLER_STYLES[k % len(ROLLER_STYLES)]
             s, f = np.array(r[key]).T
-            line, = ax.plot(s, f, label=f"{n} ({r['role']})")
-            ax.plot(s[:8], s[:8] * (f[1] / s[1]), ":", color=line.get_color(), lw=0.8)
+            ax.plot(s, f, ls=ls, color=colour, lw=1.6, marker=marker, ms=4, markevery=(3 * k, 12),
+                    label=group_label(g, records))
+            ax.plot(s[:8], s[:8] * (f[1] / s[1]), ":", color=colour, lw=0.8)
         ax.axhline(1.0, color="k", lw=0.8)
         limit = "μNℓ (pivoting)" if key == "curve_spin_moment" else "μN (full slip)"
-        ax.text(0.02, 1.01, limit, transform=ax.get_yaxis_transform(), fontsize=8, va="bottom")
-        ax.set(xlabel=xlabel, ylabel=ylabel, ylim=(0, 1.1))
+        ax.text(0.98, 1.01, limit, transform=ax.get_yaxis_transform(), fontsize=8, va="bottom", ha="right")
+        ax.set(xlabel=xlabel, ylabel=ylabel, ylim=(0, 1.12), title=what)
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=7)
+    axes[0].legend(fontsize=8, loc="lower right")
     fig.suptitle(f"{name}: creep–force curves and the spin moment at the preload (FASTSIM, Hertz traction bound; "
-                 "dotted: linear theory)")
-    fig.tight_layout()
-    curves_png = folder / "contact_curves.png"
+                 "dotted: linear theory)\nrollers with the same contact are drawn once, named together; curves on top "
+                 "of each other are contacts that behave alike")
+    curves_png = folder / f"{stem}_contact_curves.png"
     save(fig, curves_png, dpi=90)
-    return [curves_png, _patch_figure(name, records, folder / "contact_patches.png", mpl)]
+    return [curves_png, _patch_figure(name, records, folder / f"{stem}_contact_patches.png", mpl)]
 
 
 def _patch_figure(name: str, records: dict, path: Path, mpl) -> Path:
-    """Each roller's Hertz ellipse to scale [mm]: a along the rolling direction, b across it."""
-    n = len(records)
-    fig, axes = mpl.subplots(1, n, figsize=(2.4 * n, 2.8), squeeze=False)
-    half = 1.15 * max(max(r["a_mm"], r["b_mm"]) for r in records.values())
+    """Each contact's Hertz ellipse to scale [mm] (rollers with the same contact in one panel), its
+    semi-axes drawn: a along the rolling direction, b across it (the patch is 2a × 2b)."""
+    groups = same_contacts(records)
+    n = len(groups)
+    fig, axes = mpl.subplots(1, n, figsize=(max(3.2 * n + 0.6, 8.0), 4.4), squeeze=False, layout="constrained")
+    half = 1.2 * max(max(r["a_mm"], r["b_mm"]) for r in records.values())
     t = np.linspace(0, 2 * np.pi, 200)
-    for ax, (roller, r) in zip(axes[0], records.items()):
-        ax.fill(r["a_mm"] * np.cos(t), r["b_mm"] * np.sin(t), alpha=0.4)
+    for ax, g in zip(axes[0], groups):
+        r = records[g[0]]
+        a, b = r["a_mm"], r["b_mm"]
+        ax.fill(a * np.cos(t), b * np.sin(t), alpha=0.4)
+        for end, label, align in (((a, 0), "a", {"ha": "center", "va": "bottom"}),
+                                  ((0, b), "b", {"ha": "left", "va": "center"})):
+            ax.annotate("", xy=end, xytext=(0, 0), arrowprops={"arrowstyle": "->", "color": "k", "lw": 1})
+            ax.annotate(label, (end[0] / 2, end[1] / 2), xytext=(2, 2), textcoords="offset points", fontsize=9, **align)
         ax.set(xlim=(-half, half), ylim=(-half, half), aspect="equal", xlabel="rolling direction [mm]",
-               title=f"{roller}: {r['a_mm']:.2f} × {r['b_mm']:.2f} mm\np0 {r['p0_MPa']:.2f} MPa")
+               title=f"{group_label(g, records)}\nsemi-axes a × b = {a:.2f} × {b:.2f} mm\npeak pressure p0 = "
+                     f"{r['p0_MPa']:.2f} MPa")
+        ax.title.set_fontsize(9)
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("across [mm]")
-    fig.suptitle(f"{name}: contact patches at the preload (to scale)")
-    fig.tight_layout()
+    fig.suptitle(f"{name}: Hertz contact patches at the preload, to scale\n(the patch is 2a × 2b)")
     save(fig, path, dpi=90)
     return path

@@ -420,3 +420,59 @@ def test_a_layout_the_tool_accepts_is_exported(case, tmp_path_factory):
         return
     failed = [f"{c['check']}: {c['detail']}" for c in res["checks"] if not c["ok"]]
     assert not failed, failed
+
+
+# ------------------------------------------------------------------ drawings a review can use (issue 28)
+
+from figure_checks import captured, text_problems  # noqa: E402
+
+from cvtdesign.io import plots  # noqa: E402
+
+
+def test_svg_centred_named_scaled_without_empty_groups(exported):
+    """The SVG was off-centre, had an empty hidden-line group, no part names, scale or legend, and the
+    couplings' loops round the box. Now its lines sit in the middle of the drawing's square, every group
+    holds something, each roller, fork and the sphere is named as in the STEP file, a scale bar and a legend
+    say what is what, and the couplings are left out, the legend saying which rollers they join."""
+    _, res = exported
+    for name, r in res.items():
+        svg = Path(r["svg"]).read_text()
+        assert svg.count("<g") == 1 and "stroke-dasharray" not in svg          # the hidden-line group is gone
+        transform = re.search(r'translate\(([-\d.]+),([-\d.]+)\) scale\(([-\d.]+),', svg)
+        tx, ty, k = map(float, transform.groups())
+        lines = svg.split("<!-- solid lines -->")[1].split("</g>")[0]
+        xy = np.array(re.findall(r"[ML]\s*(-?[\d.]+(?:e-?\d+)?),(-?[\d.]+(?:e-?\d+)?)", lines), float)
+        left, right = tx + k * xy[:, 0].min(), tx + k * xy[:, 0].max()
+        top, bottom = ty - k * xy[:, 1].max(), ty - k * xy[:, 1].min()         # the drawing's y is up
+        assert abs((left + right) / 2 - picture.SVG_SIZE / 2) < 1 and abs((top + bottom) / 2 - (40 + picture.SVG_SIZE / 2)) < 1
+        assert min(left, top - 40) > 0.05 * picture.SVG_SIZE
+        texts = re.findall(r">([^<>]+)</text>", svg)
+        named = [p for p in r["parts"] if p.split("_")[0] in ("sphere", "drive", "follower", "steering", "fork")]
+        assert set(named) <= set(texts) and any(t.endswith(" mm") for t in texts)
+        assert ("A_ turns with A (shaft 1); B_ turns with B (shaft 2)" in svg) == (name == "box")
+    p = plan.plan(load_variant(BOX))
+    assert "coupling_A_" in p.names()                      # still in the STEP file
+
+
+def test_png_names_parts_with_a_scale_and_a_legend(monkeypatch, tmp_path):
+    """The PNG had no part labels, no scale and no legend. Each named part's label sits on a pixel of that
+    part; the scale bar's length is round and a fifth of the picture or less; no text is cut or overlaps."""
+    figures = captured(monkeypatch, plots)
+    p = plan.plan(load_variant(BOX))
+    solids, _ = step.build(p)
+    image, part, extent = picture.raster(*picture.view_mesh(p, solids), [q.colour for q in p.parts], 400)
+    notes = picture.annotations(p, part, extent)
+    names = [n for n, _ in notes["labels"]]
+    assert names == [q.name for q in p.parts if q.kind in ("sphere", "roller", "fork")]
+    x0, x1, y0, y1 = extent
+    for n, (x, y) in notes["labels"]:
+        row, col = int((y1 - y) / (y1 - y0) * 400), int((x - x0) / (x1 - x0) * 400)
+        assert p.parts[part[row, col]].name == n
+    assert not any(q.kind == "coupling" for q in p.parts if q.name in (p.parts[i].name for i in np.unique(part[part >= 0])))
+    plots.cad_picture(np.round(255 * image).astype(np.uint8), extent, picture.picture_caption(p), tmp_path / "b.png", notes)
+    fig = figures[-1]
+    assert text_problems(fig) == []
+    texts = [t.get_text() for t in fig.axes[0].texts]
+    assert set(names) <= set(texts) and f"{plots.scale_bar(x1 - x0):g} mm" in texts
+    assert plots.scale_bar(x1 - x0) in (50.0, 100.0)
+    assert [t.get_text() for t in fig.legends[0].get_texts()][:2] == ["sphere", "drive roller: drive_<roller>"]

@@ -27,4 +27,4 @@ def test_compare_imports_no_pyplot_dask_or_cadquery(tmp_path):
     assert "cvtdesign.cli.compare" in imported and "matplotlib.figure" in imported   # both processes reported
     loaded = sorted(m for m in imported if m.split(".")[0] in NOT_LOADED or m.startswith("matplotlib.pyplot"))
     assert not loaded, f"loaded on the compare path: {loaded}"
-    assert (tmp_path / "compare.png").stat().st_size > 20_000
+    assert (tmp_path / "box.png").stat().st_size > 20_000

@@ -46,9 +46,9 @@ def test_single_file_compares_with_ideal_and_existing(box_vs_existing, monkeypat
 
 def test_plot_written(box_vs_existing):
     _, tmp = box_vs_existing
-    png = tmp / "plots" / "compare.png"
+    png = tmp / "plots" / "box.png"                # named after the input file
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
-    assert [p.name for p in (tmp / "plots").iterdir()] == ["compare.png"]   # no temporary files left
+    assert [p.name for p in (tmp / "plots").iterdir()] == ["box.png"]   # no temporary files left
 
 
 def test_three_variants_side_by_side(tmp_path, capsys):
@@ -146,7 +146,7 @@ def test_the_files_are_written_before_the_table_and_a_closed_pipe_is_quiet(tmp_p
     err = proc.stderr.read()
     assert proc.wait(timeout=120) == 1 and err == "", err
     assert json.loads((tmp_path / "f.json").read_text())["variants"][-1]["name"] == "box"
-    assert (tmp_path / "r.html").stat().st_size > 0 and (tmp_path / "p" / "compare.png").exists()
+    assert (tmp_path / "r.html").stat().st_size > 0 and (tmp_path / "p" / "box.png").exists()
 
 
 class ClosedPipe(io.StringIO):

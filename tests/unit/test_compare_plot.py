@@ -96,3 +96,96 @@ def test_closing_the_plotting_process_leaves_no_half_written_file(results, tmp_p
     if files:
         data = (tmp_path / "compare.png").read_bytes()
         assert data[:8] == PNG and data[-8:-4] == b"IEND"
+
+
+# ------------------------------------------------------------------ a figure that scales (issue 28)
+
+import sys  # noqa: E402
+
+sys.path.insert(0, str(ROOT / "tests"))
+from figure_checks import captured, text_problems  # noqa: E402
+
+from cvtdesign.cli import main  # noqa: E402
+from cvtdesign.io import plots  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def five(results):
+    return results + [coarse(n) for n in ("unequal", "box_kalker", "existing_kalker")]
+
+
+def legend_colours(fig) -> dict:
+    """{label: colour} of the figure's legend entries drawn as lines."""
+    from matplotlib.colors import to_hex
+    return {h.get_label(): to_hex(h.get_color()) for h in fig.legends[0].legend_handles if hasattr(h, "get_color")}
+
+
+@pytest.mark.parametrize("count", [2, 3, 5])
+def test_legend_and_labels_inside_the_canvas(five, count, monkeypatch, tmp_path):
+    """With 3 or more variants the legend ran off both edges. Now it takes as many columns as fit, the
+    panels start below it, and no text is cut or overlaps another."""
+    figures = captured(monkeypatch, plots)
+    compare_figure(five[:count], tmp_path / "c.png", LOADS)
+    assert text_problems(figures[-1]) == []
+
+
+def test_beyond_three_variants_each_gets_its_column(five, monkeypatch, tmp_path):
+    """Five variants overlaid made 20 curves a panel. Beyond OVERLAY_MAX each variant has a column of its
+    own (its four loads only), every row still on one y-scale; beyond PANELS_MAX the figure draws existing
+    and the variants of smallest worst |α|, and says the table has the rest."""
+    figures = captured(monkeypatch, plots)
+    limits = compare_figure(five, tmp_path / "c.png", LOADS)
+    assert limits["shown"] == [n for n, _ in five]
+    for key, _, _ in COMPARE_ROWS:
+        assert len(limits["ylim"][key]) == 5 and len(set(limits["ylim"][key])) == 1
+    panel = next(ax for ax in figures[-1].axes if ax.get_title() == "box")
+    assert len([line for line in panel.get_lines() if len(line.get_xdata()) > 2]) == len(LOADS)
+    eight = five + [(f"copy_{n}", r) for n, r in five[:3]]        # copies of existing, box, unequal
+    limits = compare_figure(eight, tmp_path / "c8.png", LOADS)
+    worst = {n: np.nanmax(np.abs(r["alpha"][r["status"] == 0])) for n, r in eight}
+    assert len(limits["shown"]) == plots.PANELS_MAX and "existing" in limits["shown"]
+    left = set(worst) - set(limits["shown"])
+    assert min(worst[n] for n in left) >= max(worst[n] for n in limits["shown"] if n != "existing")
+    assert "6 of 8 variants drawn" in figures[-1]._suptitle.get_text()
+    assert text_problems(figures[-1]) == []
+
+
+def test_colours_do_not_depend_on_the_order():
+    names = ["unequal", "box", "existing", "box_kalker", "existing_kalker"]
+    colours = plots.variant_colours(names)
+    assert colours == plots.variant_colours(reversed(names)) == plots.variant_colours(names[:2] + ["existing"])\
+        | {n: colours[n] for n in names[3:]}
+    assert colours["existing"] == plots.EXISTING_COLOUR and len(set(colours.values())) == len(names)
+    assert plots.IDEAL_COLOUR not in colours.values()
+
+
+class InlinePainter:
+    """The plotting process's part done in this process, so that a test sees the figure."""
+
+    def draw(self, name, *args):
+        self.limits = getattr(plots, name)(*args)
+
+    def wait(self):
+        return None
+
+    def close(self):
+        pass
+
+
+def test_two_runs_in_another_order_give_each_variant_its_colour(monkeypatch, tmp_path, capsys):
+    """existing was blue, then green, then orange, by its place on the command line. Two runs of compare
+    with the variants in another order draw each in the same colour (existing's always), write one figure
+    named after the set (not compare.png, which every run overwrote), and say that the second replaced it."""
+    monkeypatch.setattr(plots, "Background", InlinePainter)
+    figures = captured(monkeypatch, plots)
+    files = [str(ROOT / f"variants/{n}.yaml") for n in ("unequal", "existing", "box")]
+    runs = []
+    for order in (files, files[::-1]):
+        assert main(["compare", *order, "--out", str(tmp_path)]) == 0
+        runs.append(legend_colours(figures[-1]))
+    assert runs[0] == runs[1] and runs[0]["existing"] == plots.EXISTING_COLOUR
+    assert runs[0]["ideal CVT (α = 0, efficiency 1)"] == plots.IDEAL_COLOUR
+    assert len({runs[0][n] for n in ("unequal", "existing", "box")}) == 3
+    assert [p.name for p in tmp_path.iterdir()] == ["box+existing+unequal.png"]
+    out = capsys.readouterr().out
+    assert out.count("(replaced the earlier figure of these variants)") == 1

@@ -1,13 +1,17 @@
 """`cvtdesign contact`: every roller's Hertz patch against an independent Hertz solution, Kalker's creep
 constants, and creep–force curves with linear theory's slope that saturate at μN."""
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import variant_data, write_yaml
+from figure_checks import captured, text_problems
 from hertz_reference import hertz_axes
+from matplotlib.colors import to_hex
 
 from cvtdesign.cli import main
+from cvtdesign.io import plots
 from cvtdesign.core.contact.patch import forces
 
 
@@ -39,7 +43,7 @@ def test_every_contact_is_reported_with_its_curves(kalker_existing):
             "spin_coefficient_Nm", "curve_longitudinal", "curve_lateral", "curve_spin"}
     for r in out["rollers"].values():
         assert keys <= set(r)
-    for f in ("contact_curves.png", "contact_patches.png"):
+    for f in ("kalker_contact_curves.png", "kalker_contact_patches.png"):     # named after the file
         assert (tmp / "plots" / f).read_bytes().startswith(b"\x89PNG")
 
 
@@ -93,3 +97,23 @@ def test_bad_variant_is_one_line(tmp_path, capsys):
     assert main(["contact", str(bad)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "bad.yaml" in err and "Traceback" not in err
+
+
+def test_contact_figures_read_as_they_are(monkeypatch, tmp_path):
+    """The x-axis label was cut off, the title ran into the panel titles, '5.70 × 3.57 mm' (semi-axes) read
+    like the patch's size, and the four creep curves lay on top of each other. Now no text is cut or
+    overlaps another; the patches say 'semi-axes a × b' and draw a and b; rollers with the same contact
+    (Kim's two drive rollers, his two steering rollers) are one curve named together, each contact in a
+    colour, line style and marker of its own."""
+    figures = captured(monkeypatch, plots)
+    variant = Path(__file__).resolve().parents[2] / "variants" / "unequal.yaml"
+    assert main(["contact", str(variant), "--plots", str(tmp_path)]) == 0
+    curves, patches = figures
+    assert text_problems(curves) == [] and text_problems(patches) == []
+    legend = curves.axes[0].get_legend()
+    assert [t.get_text() for t in legend.get_texts()] == ["D1 (drive)", "D2 (drive)", "S1, S2 (steering)"]
+    styles = {(to_hex(h.get_color()), str(h.get_linestyle()), h.get_marker()) for h in legend.legend_handles}
+    assert len(styles) == 3
+    titles = [ax.get_title() for ax in patches.axes]
+    assert len(titles) == 3 and all("semi-axes a × b = " in t for t in titles)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["unequal_contact_curves.png", "unequal_contact_patches.png"]

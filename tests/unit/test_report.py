@@ -2,6 +2,7 @@
 diagnose, opened in a headless browser: its tables hold the printed values and its figures decode."""
 import json
 import math
+import re
 import shutil
 import subprocess
 from html.parser import HTMLParser
@@ -14,6 +15,8 @@ import pytest
 import yaml
 
 from cvtdesign.cli import main
+from cvtdesign.cli.compare import COLUMNS
+from cvtdesign.cli.compare_report import MEANINGS
 from cvtdesign.cli.diagnosis_text import value_pm
 from cvtdesign.cli.printing import degrees, engineering, kind_of, number
 from cvtdesign.cli.study import best_optima, optima_table, pareto_blocks
@@ -26,9 +29,18 @@ ROOT = Path(__file__).resolve().parents[2]
 BOX = ROOT / "variants" / "box.yaml"
 EXISTING = ROOT / "variants" / "existing.yaml"
 BROWSER = next((shutil.which(b) for b in ("chromium", "chromium-browser", "google-chrome") if shutil.which(b)), None)
-# run once the page and its images have loaded: each <img> gets its decoded width, the body a mark
+# run once the page and its images have loaded: each <img> gets its decoded width; the body the page's width,
+# its scroll width and the elements that reach past the page's edges (a table scrolling in its own box may),
+# and a mark
 ONLOAD = ('<script>window.addEventListener("load", () => { for (const i of document.images) '
-          'i.setAttribute("data-natural-width", i.naturalWidth); document.body.setAttribute("data-loaded", "yes"); });'
+          'i.setAttribute("data-natural-width", i.naturalWidth); '
+          'const w = document.documentElement.clientWidth, out = []; '
+          'for (const e of document.body.querySelectorAll("*")) { if (e.parentElement.closest(".scroll")) continue; '
+          'const r = e.getBoundingClientRect(); if (r.right > w + 0.5 || r.left < -0.5) out.push(e.tagName); } '
+          'document.body.setAttribute("data-page-width", w); '
+          'document.body.setAttribute("data-scroll-width", document.documentElement.scrollWidth); '
+          'document.body.setAttribute("data-overflow", out.join(" ") || "none"); '
+          'document.body.setAttribute("data-loaded", "yes"); });'
           '</script></body>')
 
 
@@ -60,11 +72,13 @@ def test_report_escapes_text():
 
 class Tables(HTMLParser):
     """The tables of a document by caption ({caption: [[cell text, ...] per row, header row first]}), the
-    <img> elements' attributes, and the text of the elements with an id."""
+    <img> elements' attributes, the text of the elements with an id, the body's attributes, the glossary's
+    terms, and the order of the sections, figures, tables and headings (by id, else by tag)."""
 
     def __init__(self):
         super().__init__()
-        self.tables, self.images, self.ids = {}, [], {}
+        self.tables, self.images, self.ids, self.body, self.terms, self.order = {}, [], {}, {}, [], []
+        self._term = None
         self._rows, self._cell, self._caption, self._id = None, None, None, None
 
     def handle_starttag(self, tag, attrs):
@@ -79,6 +93,12 @@ class Tables(HTMLParser):
             self._caption = ""
         elif tag == "img":
             self.images.append(attrs)
+        elif tag == "body":
+            self.body = attrs
+        elif tag == "dt":
+            self._term = ""
+        if tag in ("section", "figure", "table", "h2"):
+            self.order.append(attrs.get("id", tag))
         if "id" in attrs:
             self._id = attrs["id"]
             self.ids[self._id] = ""
@@ -90,10 +110,15 @@ class Tables(HTMLParser):
         elif tag == "table":
             self.tables[self._caption.strip()] = self._rows
             self._rows = self._caption = None
-        elif tag in ("code", "span"):
+        elif tag in ("code", "span", "section"):
             self._id = None
+        elif tag == "dt":
+            self.terms.append(self._term)
+            self._term = None
 
     def handle_data(self, data):
+        if self._term is not None:
+            self._term += data
         if self._cell is not None:
             self._cell += data
         elif self._rows is not None and self._caption is not None and not self._rows:
@@ -102,20 +127,44 @@ class Tables(HTMLParser):
             self.ids[self._id] += data
 
 
-def rendered(report: Path, tmp_path: Path) -> Tables:
-    """The report as the browser renders it (its DOM after the load event), parsed."""
+def browser(tmp_path: Path, *args) -> subprocess.CompletedProcess:
+    """Headless Chromium on its own profile in tmp_path (skips the test when there is none)."""
     if BROWSER is None:
         pytest.skip("no headless browser: install Debian's chromium package (apt-get install chromium) to open "
                     "the HTML reports")
+    return subprocess.run([BROWSER, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+                           f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000", *args],
+                          capture_output=True, text=True, timeout=120)
+
+
+def rendered(report: Path, tmp_path: Path, width: int | None = None) -> Tables:
+    """The report as the browser renders it (its DOM after the load event), parsed; in a window `width`
+    pixels wide when given."""
     page = tmp_path / f"open_{report.name}"
     page.write_text(report.read_text().replace("</body>", ONLOAD))
-    dom = subprocess.run([BROWSER, "--headless", "--no-sandbox", "--disable-gpu", f"--user-data-dir={tmp_path / 'profile'}",
-                          "--virtual-time-budget=10000", "--dump-dom", page.as_uri()],
-                         capture_output=True, text=True, timeout=120).stdout
+    size = [f"--window-size={width},900"] if width else []
+    dom = browser(tmp_path, *size, "--dump-dom", page.as_uri()).stdout
     assert 'data-loaded="yes"' in dom, dom[-2000:]
     parsed = Tables()
     parsed.feed(dom)
     return parsed
+
+
+def fits(report: Path, tmp_path: Path, widths=(1280, 700)) -> list[Path]:
+    """Open the report at each width: nothing reaches past the page's edges (a wide table scrolls in its own
+    box), the page does not scroll sideways, every image decodes. Keeps a screenshot of each (its first 2400
+    pixels), in tmp_path; returns them."""
+    shots = []
+    for w in widths:
+        doc = rendered(report, tmp_path, w)
+        assert doc.body["data-overflow"] == "none", f"{w} px: {doc.body['data-overflow']}"
+        assert int(doc.body["data-scroll-width"]) <= int(doc.body["data-page-width"]) <= w
+        assert doc.images and all(int(img["data-natural-width"]) > 300 for img in doc.images)
+        shot = tmp_path / f"{report.stem}_{w}px.png"
+        browser(tmp_path, f"--window-size={w},2400", f"--screenshot={shot}", report.as_uri())
+        assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 20_000
+        shots.append(shot)
+    return shots
 
 
 def column(rows, name):
@@ -150,7 +199,29 @@ def test_compare_report(tmp_path, capsys):
     lo, hi = js[1]["max_abs_alpha_deg_interval"]
     assert column(rows, "existing")["max |α| [°]"] == f"{js[1]['max_abs_alpha_deg']:.3f} [{lo:.3f}, {hi:.3f}]" \
         == "10.761 [10.597, 10.925]"
-    assert "│ max |α| [°]                   │         0.000 │ 10.761 [10.597, 10.925] │ 4.166 [4.100, 4.232] │" in printed
+    assert re.search(r"│ max \|α\| \[°\] +│ +0\.000 │ +10\.761 \[10\.597, 10\.925\] │ 4\.166 \[4\.100, 4\.232\] │",
+                     printed)       # whatever the widths
+    # a summary in plain words first, the figure, the table, then a glossary of the figure and every row
+    assert doc.order[:5] == ["summary", "h2", "h2", "figure", "h2"] and doc.order[-2:] == ["glossary", "h2"]
+    assert doc.ids["summary"].startswith("SummaryBox slips least: its largest slip angle is 4.166°, against 10.761° "
+                                         "for Kim's existing CVT (2.6 times less). It also keeps the highest "
+                                         "worst-case efficiency, 0.729 (existing 0.424).How sure: ".replace("Box", "box"))
+    assert "every operating point of every variant is ok (357 each)" in doc.ids["summary"]
+    assert {r[0] for r in rows[1:]} <= set(doc.terms) and "Figure 1" in doc.terms
+
+
+def test_every_row_of_compare_has_its_meaning_in_the_glossary():
+    """A row added to compare's table needs its definition in the report's glossary (compare_report.MEANINGS)."""
+    assert {key for key, _, _ in COLUMNS} <= set(MEANINGS)
+
+
+def test_compare_report_of_five_fits_any_width(tmp_path, capsys):
+    """Five variants: the page fits 1280 and 700 pixels (the table scrolls in its own box), its images
+    decode; the screenshots are kept."""
+    report = tmp_path / "compare5.html"
+    assert main(["compare", *map(str, sorted((ROOT / "variants").glob("*.yaml"))), "--out", str(tmp_path / "c"),
+                 "--report", str(report), "--as-written"]) == 0
+    assert len(fits(report, tmp_path)) == 2
 
 
 def test_bad_report_path_refused_before_computing(tmp_path, capsys):
@@ -175,7 +246,7 @@ def test_optimise_report(tmp_path, capsys):
     d = 0.0635 * (2 * 0.038 + 0.002) / (0.0635 + 0.038)
     assert res["design"]["d"] == pytest.approx(d, rel=1e-4) and engineering(d, "length") == "48.8 mm"
     doc = rendered(report, tmp_path)
-    check_header_and_images(doc, f"cvtdesign optimise {study}", 0)
+    check_header_and_images(doc, f"cvtdesign optimise {study}", 3)
     title = f"optimum: worst |α| = {degrees(res['objective'])}"
     design = doc.tables[title]
     assert design == [["variable", "optimum", "base", "lower", "upper"], ["d", "48.8 mm", "60 mm", "30 mm", "110 mm"]]
@@ -184,6 +255,14 @@ def test_optimise_report(tmp_path, capsys):
     assert cons["clearance"][2:4] == ["2 mm", "2 mm"] and cons["clearance"][6] == "yes"
     assert cons["clearance"][5].endswith(" °/mm") and cons["normal_force"][3] == "5 N"   # 5 % of the 100 N preload
     assert title in printed and "│ d        │ 48.8 mm │ 60 mm │ 30 mm │ 110 mm │" in printed
+    # the summary first; the optimum beside the base design, the convergence and the slack figures; a glossary
+    assert doc.order[0] == "summary" and doc.order[-2:] == ["glossary", "h2"] and len(doc.images) == 3
+    summary = doc.ids["summary"]
+    assert f"The optimum of study t: {title[len('optimum: '):]}" in summary and "d = 48.8 mm (base 60 mm)" in summary
+    assert "1 of 1 starts reached it" in summary and "It sits on clearance" in summary
+    assert {"Figure 1", "Figure 2", "Figure 3", "clearance", "normal_force", "slack", "multiplier"} <= set(doc.terms)
+    assert res["details"]["history"] and res["details"]["base_envelope_check"]["max_abs_alpha_deg"] > 0
+    assert len(fits(report, tmp_path)) == 2
 
 
 def test_diagnose_report(tmp_path, capsys):

@@ -95,3 +95,29 @@ def test_fitted_effect_parameters_widen_the_interval(tmp_path):
     half_a, half_b = (a[1] - a[0]) / 2, (b[1] - b[0]) / 2
     assert half_b ** 2 == pytest.approx(half_a ** 2 + (uncertainty.Z95 * g[2] * 0.05e-3) ** 2, rel=1e-9)
     assert half_b > 1.05 * half_a
+
+
+def test_the_figures_bands_are_the_points_intervals(tmp_path):
+    """The compare figure's band at the point where max |α| is taken is that figure's interval (one
+    computation, two views); the figure shades the calibrated variant's curves and says THEORY ONLY in the
+    legend for a variant without a calibration (its curves get no band)."""
+    from cvtdesign.io import plots
+    model = shipped_model("existing")
+    res = envelope(model)
+    row = metrics(model, res)
+    bands = uncertainty.point_bands(model, res)
+    lo, hi = uncertainty.intervals(model, res, row)["max_abs_alpha_deg_interval"]
+    k = np.nanargmax(np.abs(res["alpha"]))
+    assert np.degrees(bands["alpha_band"].ravel()[k]) == pytest.approx((hi - lo) / 2, rel=1e-9)
+    d = variant_data("existing")
+    d["name"], d["sphere"]["material"] = "steel_ball", "steel"
+    del d["contact"], d["materials"]["urethane_82A"], d["materials"]["urethane_84A"]
+    theory = compile_model(load_variant(write_yaml(tmp_path / "t.yaml", d)))
+    res_t = envelope(theory)
+    keys = plots.COMPARE_KEYS
+    got = plots.compare_figure([("existing", {k: res[k] for k in keys} | bands | {"theory_only": False}),
+                                ("steel_ball", {k: res_t[k] for k in keys} | uncertainty.point_bands(theory, res_t)
+                                 | {"theory_only": True})], tmp_path / "f.png")
+    assert "steel_ball — THEORY ONLY (uncalibrated: likely too stiff)" in got["legend"]
+    assert "shaded: 95 % interval from the calibration's uncertainty" in got["legend"]
+    assert got["bands"] == 4 * 4           # 4 quantities × 4 loads of existing only, in the two panels per row
