@@ -36,6 +36,7 @@ COMMANDS = {     # name -> one-line help; cvtdesign.cli.<name> runs it
     "resteer": "steering commands for requested speed ratios under a known load (Brokowski sec. 5)",
     "selfcheck": "prove the diagnosis on rig data with withheld effects; exit 1 if a target is missed",
     "cache": "show the compiled-model cache (its folder and size), or empty it with --clear",
+    "tolerance": "Monte Carlo over a variant's manufacturing tolerances on Dask, against the first-order prediction",
 }
 
 # Short commands that draw one figure. A plotting process (args.painter, an io.plots.Background) draws it, started
@@ -53,7 +54,7 @@ def build_parser():
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     adders = {"new": _add_new, "show": _add_show, "compare": _add_compare, "optimise": _add_optimise,
               "study": _add_study, "export": _add_export, "contact": _add_contact, "rig": _add_rig, "diagnose": _add_diagnose,
-              "resteer": _add_resteer, "selfcheck": _add_selfcheck, "cache": _add_cache}
+              "resteer": _add_resteer, "selfcheck": _add_selfcheck, "cache": _add_cache, "tolerance": _add_tolerance}
     for name, text in COMMANDS.items():
         adders[name](sub.add_parser(name, help=text, description=text))
     return p
@@ -179,12 +180,23 @@ def _add_contact(p):
     p.add_argument("--plots", help="folder for <file stem>_contact_curves.png and <file stem>_contact_patches.png")
 
 
+def _add_tolerance(p):
+    p.add_argument("variant", help="variant YAML file")
+    p.add_argument("--tolerances", required=True, metavar="FILE.yaml",
+                   help="the toleranced dimensions and their distributions (docs/tolerances.md; e.g. studies/box_tolerances.yaml)")
+    p.add_argument("--samples", type=int, default=200, help="Monte Carlo samples (default 200)")
+    p.add_argument("--json", help="also write the figures' distributions, first-order predictions and effects to this JSON file")
+    p.add_argument("--plots", help="folder for <variant stem>_<tolerances stem>_tolerance.png")
+    p.add_argument("--store", help="store of the samples, resumed when run again (default: results/<variant stem>_<name>)")
+    p.add_argument("--workers", type=int, help="local cluster size (default: one single-threaded worker per core)")
+
+
 def _add_cache(p):
     p.add_argument("--clear", action="store_true", help="remove every compiled model from the cache (each is "
                    "compiled again when next needed)")
 
 
-INPUTS = ("variant", "variants", "study", "data", "protocol", "calibration")   # arguments naming files a command reads
+INPUTS = ("variant", "variants", "study", "data", "protocol", "calibration", "tolerances")   # arguments naming files a command reads
 
 
 def _not_an_input(path: str, kind: str, args) -> None:

@@ -43,11 +43,12 @@ def ideal_model(layout) -> CompiledModel:
     return compile_model(dataclasses.replace(layout, contact_law=IDEAL), effects=())
 
 
-def envelope(model: CompiledModel, theta=None) -> dict:
-    """Evaluate the model on the variant's γ × τ⊥ grid; arrays have shape (n_gamma, n_load)."""
+def envelope(model: CompiledModel, theta=None, design=None) -> dict:
+    """Evaluate the model on the variant's γ × τ⊥ grid (at effect parameters θ and design values, default the
+    model's own and none); arrays have shape (n_gamma, n_load)."""
     L = model.layout
     G, T = np.meshgrid(L.gamma_grid, L.load_grid, indexing="ij")
-    res = model.evaluate(G, T, theta=theta)
+    res = model.evaluate(G, T, theta=theta, design=design)
     res["efficiency"] = efficiency(res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"])
     return res
 

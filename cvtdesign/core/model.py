@@ -391,11 +391,16 @@ def _initial_guess(layout: Layout, frame: ShaftFrame, gamma, w1, phi, om_ref):
                       ca.SX.zeros(2 * nc))
 
 
-def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> CompiledModel:
+def compile_model(layout: Layout, effects=None, design: ca.SX | None = None,
+                  as_built: Layout | None = None) -> CompiledModel:
     """Compile `layout` with the given effects (default: the variant's) into a CompiledModel.
 
     `design` is the vector of CasADi symbols that the layout's fields may depend on (design variables of
-    an optimisation study); numeric layouts need none."""
+    an optimisation study); numeric layouts need none. `as_built`: the machine as manufactured, `layout`
+    with rollers whose fields are expressions of `design` (toleranced dimensions: design.tolerance). Its
+    rollers are what the equations hold, while the ideal law, γ and α and the linkage's inverse kinematics
+    stay those of `layout`, the drawing: a machine built off its drawing is commanded, and judged, by it."""
+    built = layout if as_built is None else as_built
     law = contact_law(layout.contact_law)
     effects = check_effects(tuple(layout.effects if effects is None else effects), f"{layout.file}: effects",
                             layout.contact_law)
@@ -404,21 +409,21 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None) -> 
     theta = ca.SX.sym("theta", len(pnames))
     hooks = _Hooks(effects, theta, pnames)
     frame = shaft_frame(layout)
-    const = [law.constants(layout, r) for r in layout.rollers]
+    const = [law.constants(built, r) for r in built.rollers]
     gamma, w1, load, brake, phi_cmd = (ca.SX.sym(s) for s in ("gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_cmd"))
     phi = hooks.transform("steering_angle", phi_cmd)
-    u = _unknowns(layout, w1)
+    u = _unknowns(built, w1)
     calls = DeferredCalls()
-    slip, moment, idle, tau, per, sat = _equations(layout, hooks, law, const, u, w1, phi, calls)
+    slip, moment, idle, tau, per, sat = _equations(built, hooks, law, const, u, w1, phi, calls)
     per["F_t"], per["F_a"] = ca.vertsplit(u.Ft), ca.vertsplit(u.Fa)
-    hertz_p0, peak_pressure, p0_all = _peak_pressure_functions(layout, const, design)
+    hertz_p0, peak_pressure, p0_all = _peak_pressure_functions(built, const, design)
     tau_perp, _ = frame.load_split(gamma, tau[1], tau[2])
     load_res = (1 - brake) * (tau_perp - load) + brake * (tau[2] - load)
-    resid = ca.vertcat(*slip, moment / (layout.sphere_radius * F_SCALE), *idle, load_res)
+    resid = ca.vertcat(*slip, moment / (built.sphere_radius * F_SCALE), *idle, load_res)
     params = ca.vertcat(gamma, w1, load, brake, phi_cmd, theta, design)
     G = calls.close("residual", [u.x, params], [resid])
     G_jac = calls.jacobian("residual_jac", [u.x, params], resid, 0)
-    x0 = _initial_guess(layout, frame, gamma, w1, phi, u.om_ref)
+    x0 = _initial_guess(built, frame, gamma, w1, phi, u.om_ref)
     x0_fn = ca.Function("x0", [params], [x0])
 
     alpha = frame.slip_angle(w1, u.w2, gamma)

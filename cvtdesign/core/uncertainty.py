@@ -58,12 +58,14 @@ def covariance(model: CompiledModel) -> tuple[list[int], np.ndarray] | None:
 
 
 def sensitivities(model: CompiledModel, res: dict, points: np.ndarray, theta_idx: list[int],
-                  outputs=OUTPUTS) -> dict:
-    """d(output)/dθ[theta_idx] at the given flat point indices: {output: array (points, [contacts,] k)}."""
+                  outputs=OUTPUTS, wrt: str = "theta") -> dict:
+    """d(output)/dθ[theta_idx] at the given flat point indices: {output: array (points, [contacts,] k)}. With
+    wrt='design', the derivatives in the model's design inputs [theta_idx] instead, at design 0 (a tolerance
+    study's deviations: design.tolerance)."""
     pf = model.point_function(list(outputs))
     ins = [ca.MX.sym(n, pf.sparsity_in(i)) for i, n in enumerate(pf.name_in())]
     outs = pf.call(ins)
-    th = ins[pf.name_in().index("theta")]
+    th = ins[pf.name_in().index(wrt)]
     jac = ca.Function("sens", ins, [ca.jacobian(o, th)[:, theta_idx] for o in outs])
     g, t = np.ravel(res["gamma_cmd"])[points], np.ravel(res["load"])[points]
     phi0, _ = model.steering_guess(g)

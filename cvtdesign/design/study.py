@@ -315,15 +315,15 @@ def write_case(out_dir: Path, case_id: str, rows: list[dict], files: dict | None
                 kind={case_file: "case file"} | {p: "variant file" for p in files or {}})
 
 
-def read_case(path: Path, rows: set[int] | None = None):
-    """A case file, checked: readable Parquet with the store's columns (CASE_COLUMNS), only its own case id
+def read_case(path: Path, rows: set[int] | None = None, columns=CASE_COLUMNS):
+    """A case file, checked: readable Parquet with the store's `columns` (a study's: CASE_COLUMNS), only its own case id
     (the file's name) and, when `rows` is given, a row count in it. Returns the pyarrow Table; raises
     ValueError saying what is wrong."""
     try:
         table = pq.read_table(path)
     except (OSError, ValueError, pa.ArrowException):
         raise ValueError("unreadable (truncated or not a Parquet file)") from None
-    missing = [c for c in CASE_COLUMNS if c not in table.column_names]
+    missing = [c for c in columns if c not in table.column_names]
     if missing:
         raise ValueError(f"no column {', '.join(missing)}")
     ids = set(table.column("case_id").to_pylist())
@@ -340,10 +340,12 @@ def expected_rows(case: dict, spec) -> set[int]:
     return {1, spec.pareto.points} if case["kind"] == "pareto" else {1}
 
 
-def done_cases(out_dir: Path, cases: list[dict] | None = None, spec=None, notice=None) -> set[str]:
+def done_cases(out_dir: Path, cases: list[dict] | None = None, spec=None, notice=None, columns=CASE_COLUMNS,
+               rows=None) -> set[str]:
     """The ids of the cases whose files are in the store and pass `read_case` (with `cases` and `spec`:
-    only the study's cases, with their row counts), except those that ended in a RUN_FAILURES status. A
-    corrupt file is said in one line by `notice` and left out, so its case runs again."""
+    only the study's cases, with their row counts; `rows(case)`: another command's counts, with its
+    `columns`), except those that ended in a RUN_FAILURES status. A corrupt file is said in one line by
+    `notice` and left out, so its case runs again."""
     d = Path(out_dir) / "cases"
     if not d.is_dir():
         return set()
@@ -352,7 +354,8 @@ def done_cases(out_dir: Path, cases: list[dict] | None = None, spec=None, notice
     done = set()
     for cid in wanted:
         try:
-            table = read_case(files[cid], None if cases is None else expected_rows(wanted[cid], spec))
+            counts = None if cases is None else (rows or (lambda c: expected_rows(c, spec)))(wanted[cid])
+            table = read_case(files[cid], counts, columns)
         except ValueError as e:
             if notice:
                 notice(f"case file {files[cid]}: {e}; running the case again")
@@ -362,12 +365,13 @@ def done_cases(out_dir: Path, cases: list[dict] | None = None, spec=None, notice
     return done
 
 
-def read_store(out_dir) -> pd.DataFrame:
-    """Every case file of the store that passes `read_case`, as one DataFrame (empty if none)."""
+def read_store(out_dir, columns=CASE_COLUMNS) -> pd.DataFrame:
+    """Every case file of the store that passes `read_case` (with these `columns`), as one DataFrame (empty
+    if none)."""
     tables = []
     for f in sorted((Path(out_dir) / "cases").glob("[!.]*.parquet")):
         with contextlib.suppress(ValueError):
-            tables.append(read_case(f).to_pandas())
+            tables.append(read_case(f, columns=columns).to_pandas())
     return pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
 
 
@@ -378,9 +382,10 @@ def manifest(study_file, spec, digest: str) -> dict:
             "solver": {"name": "ipopt", "max_iter": spec.max_iter} | IPOPT_OPTIONS}
 
 
-def prepare_store(study_file, spec, digest: str, out_dir: Path) -> dict:
+def prepare_store(study_file, spec, digest: str, out_dir: Path, man: dict | None = None, option: str = "--out") -> dict:
     """Create or reopen the store; refuse one that belongs to another version of the study (`digest`, its
-    study_hash)."""
+    study_hash; `option` names the command's option for another folder). `man`: the manifest to write
+    (default: a study's, `manifest`), with the study_hash `digest`."""
     mpath = out_dir / "manifest.json"
     if mpath.exists():
         try:
@@ -391,8 +396,8 @@ def prepare_store(study_file, spec, digest: str, out_dir: Path) -> dict:
         old = old if isinstance(old, dict) else {}
         if old.get("study_hash") != digest:
             raise InputError(f"{study_file}: the results folder {out_dir} holds another version of this study "
-                             f"(hash {old.get('study_hash')} ≠ {digest}); use --out for a new folder")
-    man = manifest(study_file, spec, digest)
+                             f"(hash {old.get('study_hash')} ≠ {digest}); use {option} for a new folder")
+    man = man or manifest(study_file, spec, digest)
     write_file(mpath, json.dumps(man, indent=2) + "\n", kind="store manifest")
     return man
 
@@ -448,7 +453,7 @@ def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: i
 
         if todo:
             try:
-                startup, seconds = _run_cases(content, todo, out_dir, (scheduler, workers), written, step)
+                startup, seconds = run_cases(content, todo, out_dir, (scheduler, workers), written, step)
             except KeyboardInterrupt:
                 kept = len(done_cases(out_dir, cases, spec))      # what is in the store, counted from its files
                 raise Interrupted(f"interrupted: {kept} of {len(cases)} cases finished and kept in {out_dir}; "
@@ -458,11 +463,14 @@ def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: i
             "seconds": seconds, "startup_seconds": startup, "table": table}
 
 
-def _run_cases(content: StudyContent, todo: list[dict], out_dir: Path, where: tuple, written: list,
-               progress) -> tuple[float, float]:
+def run_cases(content, todo: list[dict], out_dir: Path, where: tuple, written: list, progress, task=run_case,
+              failure=failure_rows, assign=None) -> tuple[float, float]:
     """Run `todo` on Dask (where: (scheduler, workers)), writing each case's file as it finishes and
-    appending its id to `written`; returns (cluster start-up, cases) seconds. The study's content is sent
-    once to every worker (scattered), not with each case."""
+    appending its id to `written`; returns (cluster start-up, cases) seconds. The content (a StudyContent,
+    or another command's with a `digest`) is sent once to every worker (scattered), not with each case.
+    `task(content, case, out_dir)` runs a case in a worker ({"rows", "files"}, as run_case), `failure(case,
+    status)` gives the rows of a case that raised, `assign(todo, workers)` the (case, preferred worker,
+    priority) of each (default: a study's `plan`)."""
     t_start = time.perf_counter()
     with cluster.dask_client(*where) as client:
         warm(client, where[0])
@@ -470,10 +478,10 @@ def _run_cases(content: StudyContent, todo: list[dict], out_dir: Path, where: tu
         t0 = time.perf_counter()
         names = sorted(client.scheduler_info()["workers"])
         shared = client.scatter(content, broadcast=True, hash=False)
-        futures = {client.submit(run_case, shared, c, str(out_dir), key=f"case-{content.digest}-{c['id']}",
+        futures = {client.submit(task, shared, c, str(out_dir), key=f"case-{content.digest}-{c['id']}",
                                  retries=0, pure=False, priority=prio,
                                  **({} if w is None else {"workers": [w], "allow_other_workers": True})): c
-                   for c, w, prio in plan(todo, names, content.spec.pareto.points)}
+                   for c, w, prio in (assign(todo, names) if assign else plan(todo, names, content.spec.pareto.points))}
         lost = 0
         for fut in as_completed(futures):
             case = futures[fut]
@@ -485,9 +493,9 @@ def _run_cases(content: StudyContent, todo: list[dict], out_dir: Path, where: tu
                 lost += 1
                 continue
             except KilledWorker:
-                rows = failure_rows(case, "worker_crashed")
+                rows = failure(case, "worker_crashed")
             except Exception as e:  # recorded in the store, never swallowed
-                rows = failure_rows(case, f"error: {type(e).__name__}: {e}")
+                rows = failure(case, f"error: {type(e).__name__}: {e}")
             write_case(out_dir, case["id"], rows, files)
             written.append(case["id"])
             progress(rows[0])

@@ -626,3 +626,34 @@ def _patch_figure(name: str, records: dict, path: Path, mpl) -> Path:
     fig.suptitle(f"{name}: Hertz contact patches at the preload, to scale\n(the patch is 2a × 2b)")
     save(fig, path, dpi=90)
     return path
+
+
+def tolerance_figure(title: str, label: str, sampled, first_order, nominal: float, effects: list[tuple[str, float]],
+                     path: Path, top: int = 15):
+    """A tolerance study's figure for one figure of merit (`label`, with its unit): left, the sampled values'
+    histogram, the first-order prediction's (the linearised envelope's draws) outlined over it and the
+    nominal marked; right, the dimensions ranked by their first-order effect (each alone, in the figure's
+    unit), the `top` largest."""
+    mpl = _mpl()
+    fig, (ax, bx) = mpl.subplots(1, 2, figsize=(13, 5.2), gridspec_kw={"width_ratios": [1, 1.2]})
+    sampled, first_order = np.asarray(sampled, float), np.asarray(first_order, float)
+    both = np.concatenate([sampled[np.isfinite(sampled)], first_order[np.isfinite(first_order)], [nominal]])
+    bins = np.linspace(both.min(), both.max(), 31) if np.ptp(both) > 0 else 10
+    ax.hist(sampled[np.isfinite(sampled)], bins=bins, density=True, color="tab:blue", alpha=0.55,
+            label=f"sampled ({np.isfinite(sampled).sum()} samples)")
+    ax.hist(first_order[np.isfinite(first_order)], bins=bins, density=True, histtype="step", color="k", lw=1.6,
+            label="first order (linearised envelope, exact derivatives)")
+    ax.axvline(nominal, color="tab:red", ls="--", label=f"nominal {nominal:.4g}")
+    ax.set_xlabel(label)
+    ax.set_ylabel("probability density")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    shown = effects[:top][::-1]
+    bx.barh(range(len(shown)), [e for _, e in shown], color="tab:orange")
+    bx.set_yticks(range(len(shown)), [n for n, _ in shown], fontsize=8)
+    bx.set_xlabel(f"effect of each tolerance alone (first order, spread of {label})")
+    bx.set_title(f"which tolerance matters most ({min(top, len(effects))} of {len(effects)})", fontsize=10)
+    bx.grid(alpha=0.3, axis="x")
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    save(fig, path, dpi=100)

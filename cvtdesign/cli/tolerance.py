@@ -1,0 +1,127 @@
+"""`cvtdesign tolerance`: how sensitive a variant is to manufacturing. Monte Carlo over the toleranced
+dimensions of a tolerances file on Dask, resumable, against the first-order prediction from the model's exact
+derivatives, with the tolerances ranked by their effect (design.tolerance, docs/tolerances.md)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from rich.console import Console
+
+from cvtdesign.cli.compare import COLUMNS
+from cvtdesign.cli.printing import engineering, json_text, progress_bar, show
+from cvtdesign.core.tolerances import KINDS
+from cvtdesign.design.tolerance import (
+    FIGURES,
+    LINEAR_DRAWS,
+    built_model,
+    check_directions,
+    figures,
+    run_samples,
+    tolerance_content,
+)
+from cvtdesign.design.tolerance_stats import effects, first_order, summary
+from cvtdesign.io import plots
+from cvtdesign.io.output import make_folder, write_file
+from cvtdesign.io.report import Note, Table
+
+LABELS = {key: label for key, label, _ in COLUMNS}
+FORMATS = {key: fmt for key, _, fmt in COLUMNS}
+RANKED = 10          # dimensions printed in the ranking (all of them in --json)
+
+
+def run(args):
+    content = tolerance_content(args.variant, args.tolerances)
+    model, nominal = built_model(content)
+    check_directions(model, content.dims, args.tolerances)
+    store = Path(args.store or Path("results") / f"{Path(args.variant).stem}_{content.name}")
+    console = Console(width=150)
+    start = []
+    with progress_bar(console, "samples", lambda row: f"last: sample {row['sample']} {row['status']}") as progress:
+        def follow(done, total, row):
+            if not start:
+                start.append(done)
+            progress(done, total, row)
+        table, failed = run_samples(content, args.samples, store, args.workers, follow,
+                                    lambda text: console.print(text, style="yellow", markup=False, soft_wrap=True))
+    xs = table[[f"x.{d.label}" for d in content.dims]].to_numpy(float)
+    fo = first_order(model, nominal, content.dims, xs, content.seed)
+    eff = effects(model, nominal, fo, content.dims)
+    out = {"variant": content.layout.name, "variant_file": args.variant, "tolerances_file": args.tolerances,
+           "contact_law": content.layout.contact_law, "store": str(store),
+           **summary(table, figures(model, nominal), fo, eff, content.dims)}
+    written = [f"store: {store} ({min(start[0], args.samples)} samples were there, the rest drawn now)"]
+    if args.json:
+        write_file(args.json, json_text(out), kind="--json")
+        written.append(f"figures written to {args.json}")
+    if args.plots:
+        path = make_folder(args.plots, kind="--plots") / f"{Path(args.variant).stem}_{Path(args.tolerances).stem}_tolerance.png"
+        key = FIGURES[0]
+        plots.tolerance_figure(f"{content.layout.name}: {LABELS[key]} under the tolerances of {Path(args.tolerances).name}",
+                               LABELS[key], table[key].where(table["status"] == "ok"), fo["values"][:, 0],
+                               out["figures"][key]["nominal"],
+                               [(e["dimension"], e["effect"]) for e in out["effects"][key]], path)
+        written.append(f"plot: {path}")
+    show(console, [figure_table(out, content), effect_table(out, content), *notes(out, failed)])
+    for line in written:
+        console.print(line, markup=False)
+    return 0 if out["samples_held"] else 1
+
+
+def figure_table(out: dict, content) -> Table:
+    """Each figure: nominal, the samples' mean, σ and 5–95 % range, and the first-order mean and σ."""
+    t = Table(f"{out['variant']}: compare's figures over {out['samples_held']} samples of {Path(content.path).name} "
+              f"(law {out['contact_law']})", ["figure", "nominal", "mean", "σ", "5 % … 95 %", "first order: mean",
+                                              "first order: σ"])
+    for key in FIGURES:
+        f, fmt = out["figures"][key], FORMATS[key]
+        t.add(LABELS[key], _cell(f["nominal"], fmt), _cell(f["mean"], fmt), _cell(f["std"], "{:.3g}"),
+              f"{_cell(f['p05'], fmt)} … {_cell(f['p95'], fmt)}", _cell(f["first_order_mean"], fmt),
+              _cell(f["first_order_std"], "{:.3g}"))
+    return t
+
+
+def _cell(value, fmt: str) -> str:
+    return "—" if value is None else fmt.format(value)
+
+
+def tolerance_text(d) -> str:
+    """A dimension's distribution as an engineer writes it: 'σ 0.1°', '± 0.1 mm', '± 10 %'."""
+    kind = KINDS[d.kind]
+    size = f"{100 * d.size:.4g} %" if kind == "dimensionless" else engineering(d.size, kind)
+    return ("σ " if d.distribution == "normal" else "± ") + size
+
+
+def effect_table(out: dict, content) -> Table:
+    """The dimensions that matter most for max |α|, each alone, first order."""
+    key = FIGURES[0]
+    ranked = out["effects"][key]
+    by_label = {d.label: d for d in content.dims}
+    t = Table(f"which tolerance matters most for {LABELS[key]}: each alone, first order "
+              f"({min(RANKED, len(ranked))} of {len(ranked)}; all in --json)", ["dimension", "tolerance", "effect [°]"])
+    for e in ranked[:RANKED]:
+        t.add(e["dimension"], tolerance_text(by_label[e["dimension"]]), "—" if e["effect"] is None else f"{e['effect']:.3g}")
+    return t
+
+
+def notes(out: dict, failed: list) -> list[Note]:
+    """The check of the first order against the samples, what was left out, and how the first order is taken."""
+    key = FIGURES[0]
+    f, at = out["figures"][key], out["first_order_at_samples"][key]
+    lines = []
+    if f["std"] is not None and at["std"] is not None:
+        lines.append(Note(f"first order at the samples' own deviations, {LABELS[key]}: mean shift "
+                          f"{at['mean'] - f['nominal']:+.3g}° (sampled {f['mean'] - f['nominal']:+.3g}°), σ "
+                          f"{at['std']:.3g}° ({f['std']:.3g}°), each sample within {at['rms_difference']:.2g}° RMS"))
+    if out["samples_left_out"]:
+        why = ", ".join(f"{k} in {v}" for k, v in out["samples_left_out"].items())
+        lines.append(Note(f"{out['samples'] - out['samples_held']} of {out['samples']} samples left out: points that "
+                          f"hold at the drawing stopped holding ({why})", "bad"))
+    if failed:
+        lines.append(Note(f"{len(failed)} chunks of samples failed to run ({failed[0]}); their samples are missing: "
+                          "run again to retry them", "bad"))
+    lines.append(Note(f"first order: every output at every point linear in the deviations (the model's exact "
+                      f"derivatives), each figure taken over that linearised envelope ({LINEAR_DRAWS} draws); no "
+                      "second-order term; a figure whose extreme several points share shifts its mean even so "
+                      "(docs/tolerances.md)"))
+    return lines

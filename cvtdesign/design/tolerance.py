@@ -1,0 +1,229 @@
+"""Tolerance studies (`cvtdesign tolerance`): Monte Carlo over a variant's toleranced dimensions on Dask, and
+what the model's exact derivatives predict of it to first order.
+
+The model. The variant is compiled once with the deviations x of its toleranced dimensions (io.tolerance_file,
+core.tolerances) as symbols: its rollers are as built (core.tolerances.as_built), while the ideal law, γ, α
+and the linkage's inverse kinematics stay the drawing's (core.model.compile_model's `as_built`: the machine
+is commanded, and judged, by its drawing). A sample is one evaluation of the envelope at its x, and every
+output's derivatives in x at x = 0 are exact (core.uncertainty.sensitivities: the implicit function theorem
+through the Newton solve).
+
+Sampling. The samples are drawn chunk by chunk (CHUNK samples; chunk c from the seed sequence (seed, c)), so
+sample i is the same however many samples are asked for and however many workers draw them. Each chunk is a
+case of the study runner (design.study: Dask with progress, one Parquet file a chunk in the store under its
+lock): a re-run on the same store continues where it stopped, and asking for more samples adds chunks. A
+sample's figures are compare's (core.metrics). A sample in which a point that holds at the drawing stops
+holding (lost contact, gross slip, no convergence) gets no figures: it is counted, with why, and left out.
+
+First order. Every output at every point of the envelope is taken to first order in x (its value at x = 0
+plus its exact derivative times x), and each figure, a maximum, minimum or RMS over the points, is taken on
+that linearised envelope. Where the extreme lies at one point, clear of the others, this gives mean = nominal
+and σ² = Σ_j (∂f/∂x_j σ_j)². Where several points come close (the box's four symmetric worst corners), the
+largest of their linearised values shifts the mean at first order in the tolerances, which the linearised
+envelope predicts; no second-order term is used. Its mean and spread over LINEAR_DRAWS draws of its own are
+`first_order_mean` and `first_order_std`. The same linearised envelope at each sample's own x gives that
+sample's first-order value (the check on the same draws, free of sampling noise). The slope of a figure on
+x_j over the draws, times σ_j, is x_j's effect on it in the figure's unit (with one extreme point: ∂f/∂x_j
+σ_j): the ranking of which tolerance matters most; the same slope fitted to the samples checks it.
+
+Rigid directions. A direction tolerance (axle, contact, fork) means something only where the contacts are
+compliant across it. Each is probed before anything is sampled: turned by PROBE (its contact moved by PROBE·R)
+at the envelope point nearest γ = 0, τ⊥ = 0. Where the contacts then fight with more than RIGID_FORCE × the
+smallest preload, or the point stops holding, the study is refused in one line. Under Kim's law the drive
+rollers are rigid across their rolling direction: 1e-5° of box.yaml's axle A makes its contacts fight with
+131 N against a 100 N preload (existing.yaml's: 87 N).
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pandas as pd
+
+from cvtdesign.core.layout import Layout
+from cvtdesign.core.metrics import efficiency, envelope, metrics
+from cvtdesign.core.model import STATUS, CompiledModel, compile_model
+from cvtdesign.core.tolerances import DIRECTIONS, as_built, draw
+from cvtdesign.core.uncertainty import sensitivities
+from cvtdesign.design import cluster
+from cvtdesign.design.study import (
+    Interrupted,
+    done_cases,
+    prepare_store,
+    read_store,
+    remove_stale_temps,
+    run_cases,
+    store_lock,
+)
+from cvtdesign.errors import InputError
+from cvtdesign.io.tolerance_file import load_tolerances
+from cvtdesign.io.variant import load_variant
+
+CHUNK = 10                 # samples a case of the store
+LINEAR_DRAWS = 2000        # draws of the linearised envelope (its mean to ~2 % of its spread)
+LINEAR_STREAM = 2 ** 32 - 1    # the seed sequence's second key of those draws (chunks count from 0)
+PROBE = math.radians(1e-5)     # [rad] turn of a direction tolerance's probe
+RIGID_FORCE = 0.01         # × the smallest preload: the contact force beyond which a probed direction is rigid
+MAX_SAMPLES = 100_000
+COLUMNS = ("case_id", "sample", "status")    # every chunk file has these (then the figures and x.<dimension>)
+FIGURES = ("max_abs_alpha_deg", "rms_alpha_deg", "max_abs_alpha_steering_deg", "max_abs_alpha_drive_deg",
+           "ratio_error_pct_at_max_load", "min_efficiency", "max_loss_no_output_W", "max_traction_utilisation",
+           "max_hertz_pressure_MPa")     # compare's figures (core.metrics)
+
+
+@dataclass(frozen=True)
+class ToleranceContent:
+    """A tolerance study as it travels to the workers: the resolved layout and dimensions (no worker reads a
+    file), the seed, its name and `digest` (of the variant and tolerances files: an edited file is a new
+    study), and the tolerances file as this process names it (messages only)."""
+    path: str
+    name: str
+    digest: str
+    layout: Layout
+    dims: tuple
+    seed: int
+
+
+def tolerance_content(variant, tolerances) -> ToleranceContent:
+    """Read and check the variant and the tolerances file (one InputError line for a bad one)."""
+    layout = load_variant(variant)
+    spec, dims = load_tolerances(tolerances, layout)
+    h = hashlib.sha256(Path(variant).read_bytes())
+    h.update(Path(tolerances).read_bytes())
+    h.update(f"chunk {CHUNK}".encode())
+    return ToleranceContent(str(tolerances), spec.name, h.hexdigest()[:16], layout, dims, spec.seed)
+
+
+def tolerance_model(layout: Layout, dims) -> CompiledModel:
+    """The layout compiled with its dimensions' deviations as the design symbols (module docstring)."""
+    x = ca.SX.sym("x", len(dims))
+    return compile_model(layout, design=x, as_built=as_built(layout, dims, [x[j] for j in range(len(dims))]))
+
+
+_MODELS: dict = {}      # process-local: the content's model and its envelope at the drawing, by digest
+
+
+def built_model(content: ToleranceContent) -> tuple[CompiledModel, dict]:
+    """(the content's model, its envelope at x = 0), built once per process."""
+    if content.digest not in _MODELS:
+        _MODELS.clear()
+        model = tolerance_model(content.layout, content.dims)
+        _MODELS[content.digest] = model, envelope(model, design=np.zeros(len(content.dims)))
+    return _MODELS[content.digest]
+
+
+def check_directions(model: CompiledModel, dims, where: str) -> None:
+    """Each direction tolerance probed (module docstring); one InputError line for the first that is rigid."""
+    L = model.layout
+    g, t = L.gamma_grid[np.argmin(np.abs(L.gamma_grid))], L.load_grid[np.argmin(np.abs(L.load_grid))]
+    pf = model.point_function(["status", "F_t", "F_a"])
+    phi0 = model.steering_guess([g])[0][0]
+    preload = min(float(r.preload) for r in L.rollers)
+
+    def forces(x):
+        status, ft, fa = (np.asarray(v, float).ravel() for v in pf(g, L.motor_speed, t, 0.0, phi0, model.param_values, x))
+        return status[0], np.column_stack([ft, fa])
+
+    _, drawn = forces(np.zeros(len(dims)))
+    for j, d in enumerate(dims):
+        if d.kind not in DIRECTIONS:
+            continue
+        x = np.zeros(len(dims))
+        x[j] = PROBE * (float(L.sphere_radius) if d.kind == "contact" else 1.0)
+        status, built = forces(x)
+        force = float(np.max(np.linalg.norm(built - drawn, axis=1)))
+        if status == 0 and force <= RIGID_FORCE * preload:
+            continue
+        moved = f"moved by only {x[j] * 1e3:.2g} mm" if d.kind == "contact" else "turned by only 1e-5°"
+        held = "" if status == 0 else f", where they {STATUS[int(status)].replace('_', ' ')}"
+        roles = sorted({r.role for r in L.rollers if r.name in d.rollers})
+        why = (f"law kim holds {' and '.join(roles)} rollers rigid across their rolling direction (no effect makes it "
+               "compliant), so their directions would have to be exact to about 1e-9 rad" if L.contact_law == "kim"
+               else f"law {L.contact_law} holds that direction rigid")
+        raise InputError(f"{where}: tolerances.{d.entry}: the {d.label} is not a meaningful tolerance under contact law "
+                         f"{L.contact_law}: {moved}, it already makes the contacts fight with {force:.3g} N more "
+                         f"({force / preload:.2g} × the {preload:g} N preload) at γ = {math.degrees(g):g}°, "
+                         f"τ⊥ = {t:g} N·m{held}; {why}; expected contact.law: kalker, under which every direction is "
+                         "compliant, or direction tolerances on the compliant rollers only")
+
+
+def chunk_draws(content: ToleranceContent, chunk: int) -> np.ndarray:
+    """The deviations of chunk `chunk`'s CHUNK samples, (CHUNK, dimensions) [SI]."""
+    return draw(content.dims, np.random.default_rng([content.seed, chunk]), CHUNK)
+
+
+def figures(model: CompiledModel, res: dict) -> dict:
+    """compare's figures (FIGURES) of an envelope result, NaN where one has no point to be taken over."""
+    m = metrics(model, res)
+    return {k: np.nan if m[k] is None else float(m[k]) for k in FIGURES}
+
+
+def sample_row(model: CompiledModel, nominal: dict, dims, x: np.ndarray) -> dict:
+    """One sample: its status ('ok', or how many of the drawing's ok points stopped holding, by status), its
+    figures (NaN unless ok) and its deviations x.<dimension> [SI]."""
+    res = envelope(model, design=x)
+    lost = np.ravel(nominal["ok"] & ~res["ok"])
+    codes = np.ravel(res["status"])[lost]
+    status = "ok" if not lost.any() else ", ".join(f"{STATUS[c]} ×{int(np.sum(codes == c))}" for c in np.unique(codes))
+    figs = figures(model, res) if status == "ok" else dict.fromkeys(FIGURES, np.nan)
+    return {"status": status, "points_lost": int(lost.sum()), **figs} | {f"x.{d.label}": float(v) for d, v in zip(dims, x)}
+
+
+def run_chunk(content: ToleranceContent, case: dict, out_dir: str) -> dict:
+    """One chunk of samples in a worker, from `content` alone: {"rows", "files"} as design.study.run_case."""
+    model, nominal = built_model(content)
+    x = chunk_draws(content, case["chunk"])
+    rows = [{"case_id": case["id"], "sample": case["chunk"] * CHUNK + i} | sample_row(model, nominal, content.dims, x[i])
+            for i in range(CHUNK)]
+    return {"rows": rows, "files": {}}
+
+
+def failure_rows(case: dict, status: str) -> list[dict]:
+    """The row of a chunk that raised (its status says why; the next run runs it again)."""
+    return [{"case_id": case["id"], "sample": -1, "status": status}]
+
+
+def run_samples(content: ToleranceContent, n: int, out_dir, workers: int | None = None, progress=None,
+                notice=None) -> tuple[pd.DataFrame, list[str]]:
+    """The first n samples, drawn on Dask into the store `out_dir` where it does not hold them yet (module
+    docstring); `progress(done, n, row)` follows them. Returns (one row a sample, in order; the statuses of
+    the chunks that failed to run, whose samples are missing: the next run runs them again)."""
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_SAMPLES:
+        raise InputError(f"--samples: expected a number of samples from 1 to {MAX_SAMPLES}, got {n}")
+    cluster.check_workers(workers)
+    out_dir = Path(out_dir)
+    cases = [{"id": f"chunk{c:05d}", "chunk": c} for c in range(math.ceil(n / CHUNK))]
+    versions = {p: metadata.version(p) for p in ("cvtdesign", "casadi", "numpy", "dask", "pyarrow")}
+    man = {"tolerance_study": content.name, "tolerances_file": content.path, "variant_file": content.layout.file,
+           "study_hash": content.digest, "seed": content.seed, "samples_per_chunk": CHUNK, "versions": versions}
+    with store_lock(out_dir):
+        prepare_store(content.path, None, content.digest, out_dir, man=man, option="--store")
+        for folder in (out_dir, out_dir / "cases"):
+            if folder.is_dir():
+                remove_stale_temps(folder)
+        finished = done_cases(out_dir, cases, notice=notice, columns=COLUMNS, rows=lambda c: {CHUNK})
+        todo = [c for c in cases if c["id"] not in finished]
+        written: list[str] = []
+
+        def step(row):
+            if progress:
+                progress(min(n, CHUNK * (len(finished) + len(written))), n, row)
+
+        step(None)
+        if todo:
+            try:
+                run_cases(content, todo, out_dir, (None, workers), written, step, task=run_chunk,
+                          failure=failure_rows, assign=lambda todo_, names: [(c, None, 0) for c in todo_])
+            except KeyboardInterrupt:
+                kept = len(done_cases(out_dir, cases, columns=COLUMNS, rows=lambda c: {CHUNK}))
+                raise Interrupted(f"interrupted: {min(n, kept * CHUNK)} of {n} samples finished and kept in "
+                                  f"{out_dir}; run again to resume") from None
+        table = read_store(out_dir, COLUMNS)
+    failed = table[(table["sample"] < 0) & table["case_id"].isin([c["id"] for c in cases])]
+    table = table[table["sample"].between(0, n - 1)].sort_values("sample", ignore_index=True)
+    return table, list(failed["status"])

@@ -1,0 +1,109 @@
+"""The statistics of a tolerance study: each of compare's figures over the samples, its first-order prediction
+from the model's exact derivatives (the linearised envelope), the check of one against the other, and each
+toleranced dimension's effect. The method is in design.tolerance's docstring and docs/tolerances.md.
+"""
+from __future__ import annotations
+
+from statistics import NormalDist
+
+import numpy as np
+import pandas as pd
+
+from cvtdesign.core.metrics import efficiency
+from cvtdesign.core.model import CompiledModel
+from cvtdesign.core.tolerances import KINDS, draw
+from cvtdesign.core.uncertainty import OUTPUTS, sensitivities
+from cvtdesign.design.tolerance import FIGURES, LINEAR_DRAWS, LINEAR_STREAM, figures
+
+EFFECT_NODES = 33       # equal-probability points of a dimension's distribution for its effect
+
+
+def first_order(model: CompiledModel, nominal: dict, dims, xs: np.ndarray, seed: int) -> dict:
+    """The linearised envelope and its figures: {"draws": LINEAR_DRAWS deviations of its own (draws,
+    dimensions), "values": its figures at them (draws, FIGURES), "at_samples": its figures at the deviations
+    `xs`, "ok": the points it is taken over (flat indices), "slopes": every output's derivatives there}."""
+    ok = np.flatnonzero(np.ravel(nominal["ok"]))
+    slopes = sensitivities(model, nominal, ok, list(range(len(dims))), OUTPUTS, wrt="design")
+    draws = draw(dims, np.random.default_rng([seed, LINEAR_STREAM]), LINEAR_DRAWS)
+    return {"draws": draws, "values": linearised_figures(model, nominal, ok, slopes, draws),
+            "at_samples": linearised_figures(model, nominal, ok, slopes, xs), "ok": ok, "slopes": slopes}
+
+
+def linearised_figures(model: CompiledModel, nominal: dict, ok: np.ndarray, slopes: dict, xs: np.ndarray) -> np.ndarray:
+    """FIGURES of the envelope with every output at the ok points `ok` (flat indices) moved to first order,
+    nominal + slopes·x, for each row x of `xs`: (len(xs), FIGURES), NaN where a figure has no point."""
+    out = np.full((len(xs), len(FIGURES)), np.nan)
+    for i, x in enumerate(xs):
+        res = dict(nominal)
+        for name, d in slopes.items():
+            v = np.array(nominal[name], float)
+            flat = v.reshape(v.shape[0], -1) if d.ndim == 3 else v.reshape(1, -1)     # views of v
+            flat[:, ok] += (d @ x).T if d.ndim == 3 else (d @ x)[None, :]
+            res[name] = v
+        res["efficiency"] = efficiency(res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"])
+        out[i] = list(figures(model, res).values())
+    return out
+
+
+def effects(model: CompiledModel, nominal: dict, fo: dict, dims) -> np.ndarray:
+    """Each dimension's effect on each figure [figure unit], (FIGURES, dimensions): the figure's spread on
+    the linearised envelope when that dimension alone deviates, taken over EFFECT_NODES equal-probability
+    points of its distribution (scaled to its σ exactly). With the extreme at one point it is |∂f/∂x_j| σ_j;
+    where several points come close it is what x_j alone does to their largest."""
+    out = np.full((len(FIGURES), len(dims)), np.nan)
+    for j, d in enumerate(dims):
+        p = (np.arange(EFFECT_NODES) + 0.5) / EFFECT_NODES
+        z = np.array([NormalDist().inv_cdf(q) for q in p]) if d.distribution == "normal" else 2 * p - 1
+        xs = np.zeros((EFFECT_NODES, len(dims)))
+        xs[:, j] = z / np.std(z) * d.std
+        values = linearised_figures(model, nominal, fo["ok"], fo["slopes"], xs)
+        out[:, j] = np.std(values, axis=0)
+    return out
+
+
+def summary(table: pd.DataFrame, nominal: dict, fo: dict, eff: np.ndarray, dims) -> dict:
+    """The study's JSON body: `samples` and `figures` (each: nominal, mean, std, p05, p95 over the samples
+    that held; first_order_mean, first_order_std of the linearised envelope), `first_order_at_samples`
+    (mean, std and RMS difference from the samples of the first-order values at the samples' own
+    deviations), `effects` (per figure, the dimensions ranked by their first-order effect `eff`, from
+    `effects`), the samples left out by status, and the dimensions."""
+    held = (table["status"] == "ok").to_numpy()
+    sampled = table[list(FIGURES)].to_numpy(float)
+    out = {"samples": int(len(table)), "samples_held": int(held.sum()),
+           "samples_left_out": {str(k): int(v) for k, v in table.loc[~held, "status"].value_counts().items()},
+           "figures": {}, "first_order_at_samples": {}, "effects": {}}
+    for f, key in enumerate(FIGURES):
+        v, lin, at = sampled[held, f], fo["values"][:, f], fo["at_samples"][held, f]
+        out["figures"][key] = {"nominal": _value(nominal[key]), **_spread(v), "first_order_mean": _mean(lin),
+                               "first_order_std": _std(lin)}
+        both = np.isfinite(v) & np.isfinite(at)
+        out["first_order_at_samples"][key] = {"mean": _mean(at[both]), "std": _std(at[both]), "rms_difference":
+                                              _value(np.sqrt(np.mean((at[both] - v[both]) ** 2)) if both.any() else None)}
+        rank = np.argsort(-np.nan_to_num(np.abs(eff[f]), nan=-1.0))
+        out["effects"][key] = [{"dimension": dims[j].label, "effect": _value(eff[f, j])} for j in rank]
+    out["dimensions"] = [{"label": d.label, "dimension": d.kind, "rollers": list(d.rollers), "distribution": d.distribution,
+                          "size": d.size, "std": d.std, "unit": {"angle": "rad", "length": "m"}.get(KINDS[d.kind], "")}
+                         for d in dims]
+    return out
+
+
+def _value(v):
+    return None if v is None or not np.isfinite(v) else float(v)
+
+
+def _mean(v):
+    v = v[np.isfinite(v)]
+    return _value(np.mean(v)) if v.size else None
+
+
+def _std(v):
+    v = v[np.isfinite(v)]
+    return _value(np.std(v, ddof=1)) if v.size > 1 else None
+
+
+def _spread(v) -> dict:
+    """mean, std, p05 and p95 of the finite values (None where there are none; std needs two)."""
+    v = v[np.isfinite(v)]
+    if not v.size:
+        return dict.fromkeys(("mean", "std", "p05", "p95"))
+    return {"mean": _mean(v), "std": _std(v), "p05": _value(np.percentile(v, 5)), "p95": _value(np.percentile(v, 95))}
