@@ -188,6 +188,7 @@ def _add_tolerance(p):
     p.add_argument("--json", help="also write the figures' distributions, first-order predictions and effects to this JSON file")
     p.add_argument("--plots", help="folder for <variant stem>_<tolerances stem>_tolerance.png")
     p.add_argument("--store", help="store of the samples, resumed when run again (default: results/<variant stem>_<name>)")
+    p.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a local cluster)")
     p.add_argument("--workers", type=int, help="local cluster size (default: one single-threaded worker per core)")
 
 

@@ -16,11 +16,12 @@ from cvtdesign.design.tolerance import (
     LINEAR_DRAWS,
     built_model,
     check_directions,
+    check_run,
     figures,
     run_samples,
     tolerance_content,
 )
-from cvtdesign.design.tolerance_stats import effects, first_order, summary
+from cvtdesign.design.tolerance_stats import effects, first_order, slopes, summary
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_file
 from cvtdesign.io.report import Note, Table
@@ -31,6 +32,7 @@ RANKED = 10          # dimensions printed in the ranking (all of them in --json)
 
 
 def run(args):
+    check_run(args.samples, args.workers, args.scheduler)
     content = tolerance_content(args.variant, args.tolerances)
     model, nominal = built_model(content)
     check_directions(model, content.dims, args.tolerances)
@@ -42,30 +44,36 @@ def run(args):
             if not start:
                 start.append(done)
             progress(done, total, row)
-        table, failed = run_samples(content, args.samples, store, args.workers, follow,
+        table, failed = run_samples(content, args.samples, store, (args.scheduler, args.workers), follow,
                                     lambda text: console.print(text, style="yellow", markup=False, soft_wrap=True))
     xs = table[[f"x.{d.label}" for d in content.dims]].to_numpy(float)
     fo = first_order(model, nominal, content.dims, xs, content.seed)
     eff = effects(model, nominal, fo, content.dims)
     out = {"variant": content.layout.name, "variant_file": args.variant, "tolerances_file": args.tolerances,
            "contact_law": content.layout.contact_law, "store": str(store),
-           **summary(table, figures(model, nominal), fo, eff, content.dims)}
+           **summary(table, figures(model, nominal), fo, eff, slopes(table, fo, content.dims), content.dims)}
     written = [f"store: {store} ({min(start[0], args.samples)} samples were there, the rest drawn now)"]
     if args.json:
         write_file(args.json, json_text(out), kind="--json")
         written.append(f"figures written to {args.json}")
     if args.plots:
-        path = make_folder(args.plots, kind="--plots") / f"{Path(args.variant).stem}_{Path(args.tolerances).stem}_tolerance.png"
-        key = FIGURES[0]
-        plots.tolerance_figure(f"{content.layout.name}: {LABELS[key]} under the tolerances of {Path(args.tolerances).name}",
-                               LABELS[key], table[key].where(table["status"] == "ok"), fo["values"][:, 0],
-                               out["figures"][key]["nominal"],
-                               [(e["dimension"], e["effect"]) for e in out["effects"][key]], path)
-        written.append(f"plot: {path}")
+        written.append(f"plot: {plot(args, content, table, fo, out)}")
     show(console, [figure_table(out, content), effect_table(out, content), *notes(out, failed)])
     for line in written:
         console.print(line, markup=False)
     return 0 if out["samples_held"] else 1
+
+
+def plot(args, content, table, fo: dict, out: dict) -> Path:
+    """The figure of max |α|: its sampled and first-order distributions, and the tolerances ranked."""
+    path = make_folder(args.plots, kind="--plots") / f"{Path(args.variant).stem}_{Path(args.tolerances).stem}_tolerance.png"
+    key = FIGURES[0]
+    by_label = {d.label: d for d in content.dims}
+    ranked = [(f"{e['dimension']}, {tolerance_text(by_label[e['dimension']])}", e["effect"]) for e in out["effects"][key]]
+    return plots.tolerance_figure(f"{content.layout.name}: {LABELS[key]} under the tolerances of "
+                                  f"{Path(args.tolerances).name} (law {content.layout.contact_law})", LABELS[key],
+                                  table[key].where(table["status"] == "ok"), fo["values"][:, 0],
+                                  out["figures"][key]["nominal"], ranked, path)
 
 
 def figure_table(out: dict, content) -> Table:
@@ -93,14 +101,19 @@ def tolerance_text(d) -> str:
 
 
 def effect_table(out: dict, content) -> Table:
-    """The dimensions that matter most for max |α|, each alone, first order."""
+    """The dimensions that matter most for max |α|: each alone, first order; and the check of its sensitivity
+    against the samples: the least-squares slope × σ of the samples less that of the first order at the same
+    deviations (0 where the exact derivative is the samples' own; the draws' noise is in both)."""
     key = FIGURES[0]
     ranked = out["effects"][key]
     by_label = {d.label: d for d in content.dims}
     t = Table(f"which tolerance matters most for {LABELS[key]}: each alone, first order "
-              f"({min(RANKED, len(ranked))} of {len(ranked)}; all in --json)", ["dimension", "tolerance", "effect [°]"])
+              f"({min(RANKED, len(ranked))} of {len(ranked)}; all in --json)",
+              ["dimension", "tolerance", "effect [°]", "check: sampled − first-order slope × σ [°]"])
     for e in ranked[:RANKED]:
-        t.add(e["dimension"], tolerance_text(by_label[e["dimension"]]), "—" if e["effect"] is None else f"{e['effect']:.3g}")
+        check = None if e["slope_sampled"] is None else e["slope_sampled"] - e["slope_first_order"]
+        t.add(e["dimension"], tolerance_text(by_label[e["dimension"]]), _cell(e["effect"], "{:.3g}"),
+              _cell(check, "{:+.2g}"))
     return t
 
 
@@ -113,10 +126,11 @@ def notes(out: dict, failed: list) -> list[Note]:
         lines.append(Note(f"first order at the samples' own deviations, {LABELS[key]}: mean shift "
                           f"{at['mean'] - f['nominal']:+.3g}° (sampled {f['mean'] - f['nominal']:+.3g}°), σ "
                           f"{at['std']:.3g}° ({f['std']:.3g}°), each sample within {at['rms_difference']:.2g}° RMS"))
+    lines.append(slope_note(out))
     if out["samples_left_out"]:
         why = ", ".join(f"{k} in {v}" for k, v in out["samples_left_out"].items())
-        lines.append(Note(f"{out['samples'] - out['samples_held']} of {out['samples']} samples left out: points that "
-                          f"hold at the drawing stopped holding ({why})", "bad"))
+        lines.append(Note(f"{out['samples'] - out['samples_held']} of {out['samples']} samples left out, with no figures: "
+                          f"points that are ok at the drawing were not there ({why})", "bad"))
     if failed:
         lines.append(Note(f"{len(failed)} chunks of samples failed to run ({failed[0]}); their samples are missing: "
                           "run again to retry them", "bad"))
@@ -125,3 +139,19 @@ def notes(out: dict, failed: list) -> list[Note]:
                       "second-order term; a figure whose extreme several points share shifts its mean even so "
                       "(docs/tolerances.md)"))
     return lines
+
+
+def slope_note(out: dict) -> Note:
+    """How far the sensitivities of max |α| to each deviation, fitted to the samples, are from the first
+    order's at the same deviations (or why they are not checked yet)."""
+    key = FIGURES[0]
+    pairs = [(e["slope_sampled"], e["slope_first_order"]) for e in out["effects"][key] if e["slope_sampled"] is not None]
+    if not pairs:
+        return Note(f"the sensitivities are checked against the samples (least-squares slopes) from "
+                    f"{len(out['dimensions']) + 2} samples that hold on: run again with more")
+    s, f = np.array(pairs, float).T
+    worst = float(np.max(np.abs(s - f)))
+    largest = max(e["effect"] or 0.0 for e in out["effects"][key])
+    return Note(f"sensitivities of {LABELS[key]} checked against the {out['samples_held']} samples: the least-squares "
+                f"slopes × σ of the samples and of the first order at the same deviations differ by at most "
+                f"{worst:.2g}° ({100 * worst / max(largest, 1e-300):.2g} % of the largest effect)")

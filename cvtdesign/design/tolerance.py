@@ -22,9 +22,11 @@ and σ² = Σ_j (∂f/∂x_j σ_j)². Where several points come close (the box's
 largest of their linearised values shifts the mean at first order in the tolerances, which the linearised
 envelope predicts; no second-order term is used. Its mean and spread over LINEAR_DRAWS draws of its own are
 `first_order_mean` and `first_order_std`. The same linearised envelope at each sample's own x gives that
-sample's first-order value (the check on the same draws, free of sampling noise). The slope of a figure on
-x_j over the draws, times σ_j, is x_j's effect on it in the figure's unit (with one extreme point: ∂f/∂x_j
-σ_j): the ranking of which tolerance matters most; the same slope fitted to the samples checks it.
+sample's first-order value (the check on the same draws, free of sampling noise). A dimension's effect on a
+figure is the figure's spread on the linearised envelope when that dimension alone deviates, in the figure's
+unit (with one extreme point: |∂f/∂x_j| σ_j): the ranking of which tolerance matters most. The sensitivities
+are checked against the sampling by the least-squares slope of each figure on each x_j (times σ_j), fitted to
+the samples and to the first-order values at the same x (design.tolerance_stats.slopes).
 
 Rigid directions. A direction tolerance (axle, contact, fork) means something only where the contacts are
 compliant across it. Each is probed before anything is sampled: turned by PROBE (its contact moved by PROBE·R)
@@ -188,14 +190,20 @@ def failure_rows(case: dict, status: str) -> list[dict]:
     return [{"case_id": case["id"], "sample": -1, "status": status}]
 
 
-def run_samples(content: ToleranceContent, n: int, out_dir, workers: int | None = None, progress=None,
-                notice=None) -> tuple[pd.DataFrame, list[str]]:
-    """The first n samples, drawn on Dask into the store `out_dir` where it does not hold them yet (module
-    docstring); `progress(done, n, row)` follows them. Returns (one row a sample, in order; the statuses of
-    the chunks that failed to run, whose samples are missing: the next run runs them again)."""
+def check_run(n, workers: int | None, scheduler: str | None = None) -> None:
+    """One InputError line for a number of samples or of workers that cannot be run."""
     if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_SAMPLES:
         raise InputError(f"--samples: expected a number of samples from 1 to {MAX_SAMPLES}, got {n}")
-    cluster.check_workers(workers)
+    cluster.check_workers(workers, scheduler)
+
+
+def run_samples(content: ToleranceContent, n: int, out_dir, where: tuple = (None, None), progress=None,
+                notice=None) -> tuple[pd.DataFrame, list[str]]:
+    """The first n samples, drawn on Dask (where: (scheduler, workers), as design.study's) into the store
+    `out_dir` where it does not hold them yet (module docstring); `progress(done, n, row)` follows them.
+    Returns (one row a sample, in order; the statuses of the chunks that failed to run, whose samples are
+    missing: the next run runs them again)."""
+    check_run(n, where[1], where[0])
     out_dir = Path(out_dir)
     cases = [{"id": f"chunk{c:05d}", "chunk": c} for c in range(math.ceil(n / CHUNK))]
     versions = {p: metadata.version(p) for p in ("cvtdesign", "casadi", "numpy", "dask", "pyarrow")}
@@ -217,7 +225,7 @@ def run_samples(content: ToleranceContent, n: int, out_dir, workers: int | None 
         step(None)
         if todo:
             try:
-                run_cases(content, todo, out_dir, (None, workers), written, step, task=run_chunk,
+                run_cases(content, todo, out_dir, where, written, step, task=run_chunk,
                           failure=failure_rows, assign=lambda todo_, names: [(c, None, 0) for c in todo_])
             except KeyboardInterrupt:
                 kept = len(done_cases(out_dir, cases, columns=COLUMNS, rows=lambda c: {CHUNK}))

@@ -61,12 +61,32 @@ def effects(model: CompiledModel, nominal: dict, fo: dict, dims) -> np.ndarray:
     return out
 
 
-def summary(table: pd.DataFrame, nominal: dict, fo: dict, eff: np.ndarray, dims) -> dict:
+def slopes(table: pd.DataFrame, fo: dict, dims) -> np.ndarray:
+    """The check of the sensitivities against the sampling: each figure's least-squares slope on each
+    deviation over the samples that held, times the deviation's σ [figure unit], (2, FIGURES, dimensions):
+    [0] of the sampled figures, [1] of the first-order values at the same deviations (`fo`'s at_samples, so
+    the draws' noise is the same in both). NaN where a figure has no more values than dimensions + 1."""
+    held = (table["status"] == "ok").to_numpy()
+    xs = table[[f"x.{d.label}" for d in dims]].to_numpy(float)[held]
+    basis = np.column_stack([np.ones(len(xs)), xs])
+    std = np.array([d.std for d in dims])
+    out = np.full((2, len(FIGURES), len(dims)), np.nan)
+    for k, values in enumerate((table[list(FIGURES)].to_numpy(float)[held], fo["at_samples"][held])):
+        for f in range(len(FIGURES)):
+            y = values[:, f]
+            m = np.isfinite(y)
+            if m.sum() > len(dims) + 1:
+                out[k, f] = np.linalg.lstsq(basis[m], y[m], rcond=None)[0][1:] * std
+    return out
+
+
+def summary(table: pd.DataFrame, nominal: dict, fo: dict, eff: np.ndarray, slope: np.ndarray, dims) -> dict:
     """The study's JSON body: `samples` and `figures` (each: nominal, mean, std, p05, p95 over the samples
     that held; first_order_mean, first_order_std of the linearised envelope), `first_order_at_samples`
     (mean, std and RMS difference from the samples of the first-order values at the samples' own
     deviations), `effects` (per figure, the dimensions ranked by their first-order effect `eff`, from
-    `effects`), the samples left out by status, and the dimensions."""
+    `effects`, each with its `slopes` check: slope_sampled, slope_first_order), the samples left out by
+    status, and the dimensions."""
     held = (table["status"] == "ok").to_numpy()
     sampled = table[list(FIGURES)].to_numpy(float)
     out = {"samples": int(len(table)), "samples_held": int(held.sum()),
@@ -80,7 +100,8 @@ def summary(table: pd.DataFrame, nominal: dict, fo: dict, eff: np.ndarray, dims)
         out["first_order_at_samples"][key] = {"mean": _mean(at[both]), "std": _std(at[both]), "rms_difference":
                                               _value(np.sqrt(np.mean((at[both] - v[both]) ** 2)) if both.any() else None)}
         rank = np.argsort(-np.nan_to_num(np.abs(eff[f]), nan=-1.0))
-        out["effects"][key] = [{"dimension": dims[j].label, "effect": _value(eff[f, j])} for j in rank]
+        out["effects"][key] = [{"dimension": dims[j].label, "effect": _value(eff[f, j]), "slope_sampled":
+                                _value(slope[0, f, j]), "slope_first_order": _value(slope[1, f, j])} for j in rank]
     out["dimensions"] = [{"label": d.label, "dimension": d.kind, "rollers": list(d.rollers), "distribution": d.distribution,
                           "size": d.size, "std": d.std, "unit": {"angle": "rad", "length": "m"}.get(KINDS[d.kind], "")}
                          for d in dims]

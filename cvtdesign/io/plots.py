@@ -633,7 +633,7 @@ def tolerance_figure(title: str, label: str, sampled, first_order, nominal: floa
     """A tolerance study's figure for one figure of merit (`label`, with its unit): left, the sampled values'
     histogram, the first-order prediction's (the linearised envelope's draws) outlined over it and the
     nominal marked; right, the dimensions ranked by their first-order effect (each alone, in the figure's
-    unit), the `top` largest."""
+    unit; None: none), the `top` largest. Returns `path`."""
     mpl = _mpl()
     fig, (ax, bx) = mpl.subplots(1, 2, figsize=(13, 5.2), gridspec_kw={"width_ratios": [1, 1.2]})
     sampled, first_order = np.asarray(sampled, float), np.asarray(first_order, float)
@@ -649,7 +649,7 @@ def tolerance_figure(title: str, label: str, sampled, first_order, nominal: floa
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     shown = effects[:top][::-1]
-    bx.barh(range(len(shown)), [e for _, e in shown], color="tab:orange")
+    bx.barh(range(len(shown)), [0.0 if e is None else e for _, e in shown], color="tab:orange")
     bx.set_yticks(range(len(shown)), [n for n, _ in shown], fontsize=8)
     bx.set_xlabel(f"effect of each tolerance alone (first order, spread of {label})")
     bx.set_title(f"which tolerance matters most ({min(top, len(effects))} of {len(effects)})", fontsize=10)
@@ -657,3 +657,4 @@ def tolerance_figure(title: str, label: str, sampled, first_order, nominal: floa
     fig.suptitle(title, fontsize=11)
     fig.tight_layout()
     save(fig, path, dpi=100)
+    return path

@@ -197,7 +197,7 @@ def kind_name(dim) -> str:
 def _kind_hint(kind: str, a_kind: str, dim) -> str:
     """Why a unit of the dimension `dim` is not of `kind` (`a_kind`: 'a length'), where the angle is why."""
     if kind == "angle":
-        return " (a percentage or a ratio is not an angle)" if "[angle]" not in dim else ""
+        return " (a percentage or a ratio is not an angle)" if not dim else f" ({kind_name(dim)} is not an angle)"
     if kind == "speed" and "[angle]" not in dim:
         return " (a rate without an angle is not a speed: 1 Hz is 6.28 rad/s; write rad/s or rpm)"
     if "[angle]" in dim:
