@@ -3,8 +3,8 @@
 The model is compiled with the free parameters as CasADi symbols, so the objective and every constraint
 over the operating envelope have exact derivatives (through the model's Newton solves by the implicit
 function theorem). `build_problem` formulates it (Problem): the design variables normalised to [0, 1], the
-objective (`worst_alpha` as an epigraph variable t with −t ≤ α_k ≤ t; `rms_alpha`; `power_loss`, the
-weighted mean power loss over the duty cycle [W]; `pareto`, power loss with worst |α| ≤ ε), a row per
+objective (design.objectives: `worst_alpha` as an epigraph variable t with −t ≤ α_k ≤ t; `rms_alpha`;
+`power_loss`, the weighted mean power loss over the duty cycle [W]; `pareto`, power loss with worst |α| ≤ ε), a row per
 constraint per envelope point, and the rows that depend on the design alone: roller–roller clearance
 (distance of roller centres minus both radii: exact for rollers in one plane such as a tandem pair,
 conservative otherwise) and the assembly envelope radius. The formulation has 9415 rows for the box
@@ -39,6 +39,7 @@ import numpy as np
 from cvtdesign.core.geometry import roller_pose, steering_angle_guess, steering_data
 from cvtdesign.core.kinematics import ShaftFrame, shaft_frame, vec
 from cvtdesign.core.model import compile_model, failed_contact, status_codes
+from cvtdesign.design.objectives import Objective, objective
 from cvtdesign.design.solution import EnvelopeCheck, check_envelope
 from cvtdesign.design.study_file import (
     StudySpec,
@@ -190,7 +191,7 @@ class _NLP:
     design as symbols p, the NLP's variables and the envelope points."""
     where: str
     spec: StudySpec
-    kind: str                 # the objective kind ('pareto': the ε-constraint problem)
+    objective: Objective      # what is minimised (design.objectives; 'pareto': the ε-constraint problem)
     vspec: object
     base: object              # the base layout at the sweep point (numeric)
     layout: object            # the same with the design variables as the symbols p
@@ -217,20 +218,15 @@ class _NLP:
 
     @property
     def epigraph(self) -> bool:
-        return self.kind in ("worst_alpha", "pareto")
+        return self.objective.epigraph
 
-    @property
-    def duty(self) -> list | None:
-        return self.spec.objective.duty_cycle if self.kind in ("power_loss", "pareto") else None
-
-    @property
-    def grid_objective(self) -> bool:
-        """Whether the objective is a mean over the envelope points (rms α, or power loss without a duty cycle)."""
-        return self.kind == "rms_alpha" or (self.kind in ("power_loss", "pareto") and not self.duty)
-
-    @property
-    def obj_name(self) -> str:
-        return "alpha" if self.kind == "rms_alpha" else "power_loss"
+    def duty_mean(self, output: str):
+        """The weighted mean of a model output over the study's duty cycle, as a function of the design."""
+        dg, dl, w = duty_cycle(self.spec, self.g_pts, self.l_pts, self.where)
+        dphi, _ = steering_angle_guess(*steering_data(self.base), dg)
+        values = self.model.point_function([output]).map(len(dg), "serial")(dg, self.w1, dl, 0.0, dphi, self.theta,
+                                                                            self.P)
+        return ca.dot(ca.DM(w / w.sum()), ca.vec(values))
 
     @property
     def npts(self) -> int:
@@ -269,13 +265,13 @@ class _Rows:
 
 
 def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | None = None,
-                  fixed: dict | None = None, objective: str | None = None) -> Problem:
-    """The NLP of a study. `fixed` sets other variant parameters (SI) for a sweep case; `objective`
-    overrides the study's objective kind ('pareto' builds the ε-constraint problem)."""
+                  fixed: dict | None = None, kind: str | None = None) -> Problem:
+    """The NLP of a study. `fixed` sets other variant parameters (SI) for a sweep case; `kind` overrides the
+    study's objective kind (design.objectives; 'pareto' builds the ε-constraint problem)."""
     if spec is None:
         spec, base_file = load_study(study_path)
     fixed = fixed or {}
-    nlp = _setup(study_path, spec, base_file, fixed, objective or spec.objective.kind)
+    nlp = _setup(study_path, spec, base_file, fixed, objective(kind or spec.objective.kind))
     rows = _Rows()
     point_rows, blocks, pt_index, reach_index, misfit_row, obj_grid = _envelope_rows(nlp, rows)
     design_start, n_point_blocks = len(rows.lb), len(rows.exprs)
@@ -284,8 +280,8 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
     design_index = np.arange(design_start, len(rows.lb))
     # the design rows on their own (a slice of g_full would still depend on every envelope point)
     g_design = ca.vertcat(*rows.exprs[n_point_blocks:]) if design_index.size else ca.MX(0, 1)
-    f = _objective(nlp, obj_grid)
-    inputs = [nlp.x, nlp.eps] if nlp.kind == "pareto" else [nlp.x]
+    f = nlp.objective.value(nlp, obj_grid)
+    inputs = [nlp.x, nlp.eps] if nlp.objective.eps_row else [nlp.x]
     evaluate = ca.Function("evaluate", inputs, [f, g_full])
     row_r, row_k, row_scale = _row_maps(nlp, blocks, pt_index, reach_index, misfit_row, len(rows.lb))
     big = np.abs(nlp.l_pts) >= np.max(np.abs(nlp.l_pts)) * (1 - 1e-12)
@@ -300,7 +296,7 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
                    motor_speed=float(nlp.w1))
 
 
-def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, kind: str) -> _NLP:
+def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, goal: Objective) -> _NLP:
     """The checked inputs (study_file.problem_inputs), the model compiled with the design variables as
     symbols, the NLP's variables x = (z, t) and ε, the envelope points and the constraint settings."""
     where = str(study_path)
@@ -310,7 +306,7 @@ def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, kind: str)
     model = compile_model(layout, effects=spec.effects, design=p)
     g_pts, l_pts, phi0, nload = _envelope_points(spec, base, where)
     z = ca.MX.sym("z", len(names))
-    t = ca.MX.sym("t") if kind in ("worst_alpha", "pareto") else ca.MX(0, 1)
+    t = ca.MX.sym("t") if goal.epigraph else ca.MX(0, 1)
     eps = ca.MX.sym("eps")
     x = ca.vertcat(z, t)
     P = ca.DM(lower) + ca.DM(upper - lower) * z
@@ -322,7 +318,7 @@ def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, kind: str)
     pre0 = np.array([float(r.preload) for r in base.rollers])
     n_min = min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
     preload = ca.Function("preload", [p], [ca.vertcat(*[r.preload for r in layout.rollers])])
-    return _NLP(where, spec, kind, vspec, base, layout, model, names, lower, upper, p, z, t, eps, x, P, P0,
+    return _NLP(where, spec, goal, vspec, base, layout, model, names, lower, upper, p, z, t, eps, x, P, P0,
                 g_pts, l_pts, phi0, nload, margin, allow, pre0, n_min, preload)
 
 
@@ -392,7 +388,7 @@ def _point_function(nlp: _NLP, outputs: list, objective: bool = False, extra: tu
         blocks.append((-np.inf, 1e-6, "reach_gamma", None, 1e-6))
     res = [ca.vertcat(*rows_) if rows_ else ca.MX(0, 1)]
     if objective:
-        res.append(out[nlp.obj_name] * (180 / np.pi if nlp.obj_name == "alpha" else 1))
+        res.append(out[nlp.objective.per_point(nlp)])
     return ca.Function("point_rows", [xs, gs, ls, ps, p0s], res + [out[k] for k in extra]), blocks
 
 
@@ -405,8 +401,9 @@ def _envelope_rows(nlp: _NLP, rows: _Rows) -> tuple:
     point_rows, blocks = _point_function(nlp, need)
     misfit_row = len(blocks) - 1 if cs.reach_gamma else None
     grid_args = [nlp.x, nlp.g_pts[None, :], nlp.l_pts[None, :], nlp.phi0[None, :], nlp.P0]
-    if nlp.grid_objective:
-        point_all = _point_function(nlp, list(dict.fromkeys(need + [nlp.obj_name])), objective=True)[0]
+    per_point = nlp.objective.per_point(nlp)
+    if per_point:
+        point_all = _point_function(nlp, list(dict.fromkeys(need + [per_point])), objective=True)[0]
         M, obj_grid = point_all.map(nlp.npts, "serial").call(grid_args)
     else:
         M, obj_grid = point_rows.map(nlp.npts, "serial").call(grid_args)[0], None
@@ -470,23 +467,8 @@ def _design_rows(nlp: _NLP, rows: _Rows) -> None:
         for size, lo, hi, fam, labs in design_spec:
             rows.add(D[at: at + size], lo, hi, fam, labs)
             at += size
-    if nlp.kind == "pareto":
+    if nlp.objective.eps_row:
         rows.add(nlp.t - nlp.eps, -np.inf, 0, "epsilon", ["worst |α| ≤ ε"])
-
-
-def _objective(nlp: _NLP, obj_grid):
-    """The objective: t (worst |α| [deg]); the rms of α over the envelope [deg]; the mean power loss [W]
-    over the duty cycle (weighted) or, without one, over the envelope (also for 'pareto')."""
-    if nlp.kind == "rms_alpha":
-        return ca.sqrt(ca.sumsqr(obj_grid) / nlp.npts)
-    if nlp.kind not in ("power_loss", "pareto"):
-        return nlp.t
-    if not nlp.duty:
-        return ca.sum2(obj_grid) / nlp.npts
-    dg, dl, w = duty_cycle(nlp.spec, nlp.g_pts, nlp.l_pts, nlp.where)
-    dphi, _ = steering_angle_guess(*steering_data(nlp.base), dg)
-    loss = nlp.model.point_function(["power_loss"]).map(len(dg), "serial")(dg, nlp.w1, dl, 0.0, dphi, nlp.theta, nlp.P)
-    return ca.dot(ca.DM(w / w.sum()), ca.vec(loss))
 
 
 def _start_t(nlp: _NLP) -> ca.Function | None:

@@ -19,6 +19,7 @@ import casadi as ca
 import numpy as np
 from scipy.stats import qmc
 
+from cvtdesign.design.objectives import objective
 from cvtdesign.design.problem import Problem, build_problem, nlpsol
 from cvtdesign.design.report import constraint_report, variant_text, write_variant
 from cvtdesign.design.solution import Solution
@@ -259,19 +260,20 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
     spec, base = load_study(study_path)
     if calibration is not None:
         spec.calibration = str(Path(calibration).resolve())
-    problem = build_problem(study_path, spec, base)
     if n_starts is not None:
-        problem.spec.multistart.starts = n_starts
-    zs = starts(problem)
-    solutions = []
-    for k, z0 in enumerate(zs):
-        solutions.append(solve_from(problem, z0, k))
-        if progress:
-            progress(k + 1, len(zs), solutions[-1])
-    optima = distinct_optima(solutions)
-    result = {"study": problem.spec.name, "starts": len(zs),
+        spec.multistart.starts = n_starts
+    if objective(spec.objective.kind).eps_row:       # the front (kind pareto); its knee is the optimum
+        problem, solutions, front = _front_knee(study_path, spec, base, progress)
+        optima = [(solutions[0], 1)] if solutions[0].success else []
+    else:
+        (problem, solutions), front = _multistart(study_path, spec, base, progress), None
+        optima = distinct_optima(solutions)
+    result = {"study": problem.spec.name, "starts": len(solutions),
               "statuses": [s.status for s in solutions],
               "optima": [{"objective": s.objective, "design": s.design, "found": n} for s, n in optima]}
+    if front is not None:
+        result["front"] = [{k: p[k] for k in ("eps", "worst_alpha_deg", "power_loss_W", "design", "status")}
+                           for p in front]
     result["envelope_checks"] = [s.check.as_dict() if s.check else None for s in solutions]
     if not write:
         result["pending_files"] = {}
@@ -301,14 +303,37 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
     return result
 
 
+def _multistart(study_path, spec: StudySpec, base: Path, progress) -> tuple[Problem, list[Solution]]:
+    """The study's problem solved from each of its starts."""
+    problem = build_problem(study_path, spec, base)
+    zs = starts(problem)
+    solutions = []
+    for k, z0 in enumerate(zs):
+        solutions.append(solve_from(problem, z0, k))
+        if progress:
+            progress(k + 1, len(zs), solutions[-1])
+    return problem, solutions
+
+
+def _front_knee(study_path, spec: StudySpec, base: Path, progress) -> tuple[Problem, list[Solution], list]:
+    """A `pareto` study: the front (pareto_front), its knee's solution first (the optimum reported), then the
+    other points' (the front's ε-constraint problem)."""
+    front = pareto_front(study_path, spec, base)
+    k = knee(front)
+    order = [k] + [i for i in range(len(front)) if i != k]
+    if progress:
+        progress(len(front), len(front), front[k]["solution"])
+    return front[k]["problem"], [front[i]["solution"] for i in order], front
+
+
 def pareto_front(study_path, spec: StudySpec, base_file: Path, fixed: dict | None = None,
                  points: int | None = None) -> list[dict]:
     """Slip/efficiency trade-off by the ε-constraint method: minimise power loss subject to worst |α| ≤ ε,
     ε from the slip optimum's worst |α| to that of the loss optimum, each point warm-started from the last.
     Returns one dict per point: eps, worst_alpha_deg, power_loss_W, design, status, solution."""
-    slip = build_problem(study_path, spec, base_file, fixed, objective="worst_alpha")
-    loss = build_problem(study_path, spec, base_file, fixed, objective="power_loss")
-    front = build_problem(study_path, spec, base_file, fixed, objective="pareto")
+    slip = build_problem(study_path, spec, base_file, fixed, kind="worst_alpha")
+    loss = build_problem(study_path, spec, base_file, fixed, kind="power_loss")
+    front = build_problem(study_path, spec, base_file, fixed, kind="pareto")
     z0 = starts(slip)[0]
     s_slip, s_loss = solve_from(slip, z0), solve_from(loss, z0)
     lo, hi = s_slip.objective, float(slip.start_t(s_loss.z))

@@ -5,8 +5,9 @@ constraints (StudySpec). `load_study` reads it; `problem_inputs` checks, for one
 point, everything the NLP is built from (parameters, bounds, geometry, and by `check_settings` the effects,
 envelope, constraint values, duty cycle and solver options), without compiling anything.
 
-Objectives: `worst_alpha` (max |α| over the envelope), `rms_alpha`, `power_loss` (weighted mean power loss
-over a duty cycle of (γ, τ⊥) points [W]).
+Objectives (design.objectives): `worst_alpha` (max |α| over the envelope), `rms_alpha`, `power_loss`
+(weighted mean power loss over a duty cycle of (γ, τ⊥) points [W]), `pareto` (the slip/loss front; its
+knee is the optimum).
 Constraints: Hertz peak pressure ≤ the material's allowable, traction |F| ≤ (1 − margin)·μN (no gross
 slip), normal force N ≥ N_min at every contact (the rollers stay in contact), roller–roller clearance, an
 assembly envelope radius, and the steering linkage still reaching every γ of the envelope.
@@ -34,6 +35,7 @@ from pydantic import BeforeValidator, Field, StrictBool
 
 from cvtdesign.core.checks import check_layout
 from cvtdesign.core.contact.laws import check_effects
+from cvtdesign.design.objectives import OBJECTIVES
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.fitted import read_fitted
 from cvtdesign.io.schema import MAX_COUNT, EnvelopeSpec, Name, Num, Strict, VariantSpec, no_bool
@@ -64,8 +66,10 @@ class DutyPoint(Strict):
     weight: Weight = 1.0   # finite, >= 0
 
 
-class Objective(Strict):
-    kind: Literal["worst_alpha", "rms_alpha", "power_loss"] = "worst_alpha"
+class ObjectiveSpec(Strict):
+    """What the study minimises: `kind` one of design.objectives.OBJECTIVES, and for the power-loss kinds an
+    optional duty cycle of (γ, τ⊥) points with weights (without one, the mean over the envelope)."""
+    kind: Literal[tuple(OBJECTIVES)] = "worst_alpha"
     duty_cycle: list[DutyPoint] | None = None
 
 
@@ -108,7 +112,7 @@ class StudySpec(Strict):
     base: str
     effects: list[str] | None = None
     design: dict[str, DesignVar]
-    objective: Objective = Objective()
+    objective: ObjectiveSpec = ObjectiveSpec()
     constraints: Constraints = Constraints()
     multistart: Multistart = Multistart()
     envelope: EnvelopeSpec | None = None              # default: the variant's envelope
