@@ -102,6 +102,12 @@ def result_blocks(res: dict, kinds: dict) -> list:
     for n, v in res["design"].items():
         k, lo, hi = kinds[n]
         t.add(n, *(engineering(x, k) for x in (v, res["base_design"][n], lo, hi)))
+    if "robust" in res:
+        r = res["robust"]
+        blocks.append(Note(f"robust over the calibration's {r['confidence']:.0%} region: worst |α| "
+                           f"{degrees(r['worst_alpha_deg'])} over its {len(r['corners'])} corners "
+                           f"({'; '.join(r['corners'])}); {degrees(r['nominal_worst_alpha_deg'])} at the nominal "
+                           "calibration"))
     return blocks + [t, constraint_table(res, kinds),
                      Note(f"optimised variant: {res['variant_file']}  (try: cvtdesign compare {res['variant_file']})")]
 

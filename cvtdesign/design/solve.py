@@ -50,11 +50,12 @@ def _ws_solver(problem: Problem, npoints: int, nrows: int) -> ca.Function:
     if key not in problem.solvers:
         pt = problem.parts
         m = pt.pt_lb.size
-        data = ca.MX.sym("points", 3, npoints)
+        data = ca.MX.sym("points", 3 + pt.theta_pts.shape[0], npoints)
         select = ca.MX.sym("select", nrows, m * npoints)
         g = pt.g_design
         if npoints and nrows:
-            rows = pt.point_rows.map(npoints, "serial").call([pt.x, data[0, :], data[1, :], data[2, :], pt.P0])[0]
+            rows = pt.point_rows.map(npoints, "serial").call([pt.x, data[0, :], data[1, :], data[2, :], pt.P0,
+                                                              data[3:, :]])[0]
             g = ca.vertcat(g, ca.mtimes(select, ca.vec(rows)))
         problem.solvers[key] = nlpsol(pt.x, pt.f, g, ca.vertcat(pt.eps, ca.vec(data), ca.vec(select)),
                                        problem.spec.max_iter)
@@ -66,11 +67,17 @@ def rows_at(problem: Problem, x, points) -> np.ndarray:
     pt = problem.parts
     key = ("rows", len(points))
     if key not in problem.solvers:
-        data = ca.MX.sym("points", 3, len(points))
-        rows = pt.point_rows.map(len(points), "serial").call([pt.x, data[0, :], data[1, :], data[2, :], pt.P0])[0]
+        data = ca.MX.sym("points", 3 + pt.theta_pts.shape[0], len(points))
+        rows = pt.point_rows.map(len(points), "serial").call([pt.x, data[0, :], data[1, :], data[2, :], pt.P0,
+                                                              data[3:, :]])[0]
         problem.solvers[key] = ca.Function("rows_at", [pt.x, data], [rows])
-    data = np.vstack([pt.gamma[points], pt.load[points], pt.phi0[points]])
+    data = point_data(pt, points)
     return np.asarray(problem.solvers[key](x, data)).reshape(-1, len(points), order="F")
+
+
+def point_data(pt, points) -> np.ndarray:
+    """The point rows' inputs at these envelope points: γ, load, φ guess and the model's θ, one column each."""
+    return np.vstack([pt.gamma[points], pt.load[points], pt.phi0[points], pt.theta_pts[:, points]])
 
 
 def _near_binding(problem: Problem, g: np.ndarray, t: float, rows=None) -> np.ndarray:
@@ -183,7 +190,7 @@ def _working_set_solve(problem: Problem, work: np.ndarray, points: np.ndarray, x
     pad = nrows - work.size
     lbg = np.concatenate([problem.g_lb[pt.design_index], problem.g_lb[work], np.full(pad, -np.inf)])
     ubg = np.concatenate([problem.g_ub[pt.design_index], problem.g_ub[work], np.full(pad, np.inf)])
-    data = np.vstack([pt.gamma[slots], pt.load[slots], pt.phi0[slots]])
+    data = point_data(pt, slots)
     extra = {} if lam_full is None else \
         {"lam_g0": np.concatenate([lam_full[pt.design_index], lam_full[work], np.zeros(pad)])}
     solver = _ws_solver(problem, npoints, nrows)
@@ -300,6 +307,10 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
                   constraints=report, active_constraints=[r["name"] for r in report if r["active"]],
                   variant_file=str(variant), objective_kind=problem.spec.objective.kind,
                   base_variant=str(problem.base_file), base_design=base_design)
+    if problem.spec.robust is not None:     # the worst case over the region, and the same design at its middle
+        result["robust"] = {"confidence": problem.spec.robust.confidence, "corners": problem.parts.nlp.scenarios,
+                            "worst_alpha_deg": best.objective,
+                            "nominal_worst_alpha_deg": problem.nominal_worst_alpha(best.design)}
     return result
 
 

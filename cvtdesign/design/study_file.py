@@ -106,6 +106,13 @@ class Pareto(Strict):
     points: Int = 8
 
 
+class RobustSpec(Strict):
+    """Optimise the worst case over a confidence region (design.robust): `over` what is uncertain (the
+    calibration of the contact law), `confidence` the region's probability, in (0, 1)."""
+    over: Literal["calibration"] = "calibration"
+    confidence: Weight = 0.95
+
+
 class StudySpec(Strict):
     name: Name          # part of the results folder's and the optimised variant's file names
     description: str = ""
@@ -119,6 +126,7 @@ class StudySpec(Strict):
     batch: Batch = Batch()
     pareto: Pareto = Pareto()
     max_iter: Int = 200
+    robust: RobustSpec | None = None   # the worst case over the calibration's confidence region
     calibration: str | None = None     # a diagnosis report (cvtdesign diagnose --json) whose fitted effect
                                        # parameters the base variants carry (path relative to the study)
 
@@ -325,6 +333,13 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
     min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
     duty_cycle(spec, gammas, loads, where)
     check_counts(where, spec)
+    if spec.robust is not None:
+        if not 0 < spec.robust.confidence < 1:
+            raise InputError(f"{where}: robust.confidence: expected a probability between 0 and 1 (e.g. 0.95), "
+                             f"got {spec.robust.confidence:g}")
+        if spec.objective.kind != "worst_alpha":
+            raise InputError(f"{where}: robust: the worst case over the region is built for objective kind "
+                             f"worst_alpha; expected that kind with robust (got {spec.objective.kind})")
 
 
 def duty_cycle(spec: StudySpec, gammas: np.ndarray, loads: np.ndarray, where: str) -> tuple:
