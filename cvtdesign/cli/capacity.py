@@ -12,7 +12,7 @@ from rich.console import Console
 
 from cvtdesign.cli.printing import json_text, number, progress_bar, show
 from cvtdesign.core import basis
-from cvtdesign.core.capacity import LIMITS, capacity
+from cvtdesign.core.capacity import LIMITS, capacity, smallest_capacity
 from cvtdesign.core.metrics import allowable_pressures
 from cvtdesign.core.model import compile_model
 from cvtdesign.errors import InputError
@@ -25,11 +25,11 @@ LIMIT_WORDS = {"gross_slip": "gross slip", "lost_contact": "lost contact", "pres
 
 
 def check_safety(value: float) -> float:
-    """The safety factor S the capacity is divided by: finite and at least 1 (below 1 it would raise the
-    capacity past the limit)."""
+    """The safety factor S on friction (gross slip once F/(μN) reaches 1/S): finite and at least 1 (below 1
+    it would let a contact pass its friction)."""
     if not (math.isfinite(value) and value >= 1):
-        raise InputError(f"--safety: expected a finite safety factor of at least 1 (the capacity is divided by "
-                         f"it), got {value:g}")
+        raise InputError(f"--safety: expected a finite safety factor of at least 1 (gross slip is counted once "
+                         f"F/(μN) reaches 1/S), got {value:g}")
     return float(value)
 
 
@@ -63,8 +63,17 @@ def variant_record(name: str, model, cap: dict) -> dict:
     return {"name": name, "file": L.file, "safety": cap["safety"], "capacity": rows,
             "envelope": {"gamma_deg": [float(np.degrees(L.gamma_grid.min())), float(np.degrees(L.gamma_grid.max()))],
                          "tau_perp_Nm": [float(L.load_grid.min()), float(L.load_grid.max())]},
-            "pressure_not_checked": unchecked, "search_bound_Nm": cap["bound"],
+            "pressure_not_checked": unchecked, "search_bound_Nm": cap["bound"], "smallest": smallest_record(model, cap),
             "unknown": sum(r[f"unknown_{s}"] is not None for r in rows for s in ("max", "min"))}
+
+
+def smallest_record(model, cap: dict) -> dict:
+    """core.capacity.smallest_capacity as JSON: tau_perp_Nm (null where not known), gamma_deg, side, limit,
+    contact."""
+    least = smallest_capacity(cap)
+    return {"tau_perp_Nm": None if np.isnan(least["tau_perp"]) else float(least["tau_perp"]), "gamma_deg": None if np.isnan(least["gamma"]) else
+            round(float(np.degrees(least["gamma"])), 9), "side": least["side"], "limit": least["limit"],
+            "contact": model.roller_names[least["contact"]] if least["contact"] >= 0 else None}
 
 
 def torque_text(value) -> str:
@@ -87,7 +96,7 @@ def capacity_blocks(record: dict) -> list:
     notes: the smallest capacity against the envelope, the safety factor, the searches that ended on no
     limit of the CVT, the contacts whose pressure is not checked."""
     s = record["safety"]
-    t = Table(f"{record['name']}: load capacity τ⊥ at each γ" + (f", divided by the safety factor {s:g}" if s != 1 else ""),
+    t = Table(f"{record['name']}: load capacity τ⊥ at each γ" + (f", gross slip at F/(μN) = 1/{s:g}" if s != 1 else ""),
               ["γ [°]", "τ⊥ max [N·m]", "limit", "contact", "τ1 [N·m]", "τ2 [N·m]",
                "τ⊥ min [N·m]", "limit", "contact", "τ1 [N·m]", "τ2 [N·m]"])
     for row in record["capacity"]:
@@ -95,8 +104,9 @@ def capacity_blocks(record: dict) -> list:
               style="bad" if row["unknown_max"] or row["unknown_min"] else "")
     blocks = [t, Note(summary_text(record))]
     if s != 1:
-        blocks.append(Note(f"safety factor {s:g}: every capacity and its shaft torques are the limit's load divided "
-                           f"by {s:g}; the limit itself is reached at {s:g}× the load shown"))
+        blocks.append(Note(f"safety factor {s:g} on friction: a contact counts as slipping grossly once its "
+                           f"utilisation F/(μN) reaches 1/{s:g} = {1 / s:.3g}; lost contact and the allowable "
+                           "pressure are as without it"))
     if record["unknown"]:
         blocks.append(Note(f"³ {record['name']}: {record['unknown']} of {2 * len(record['capacity'])} searches ended "
                            f"where the model has no steady solution, so no capacity is given there: "
@@ -132,21 +142,20 @@ def unknown_texts(record: dict) -> list[str]:
 
 
 def summary_text(record: dict) -> str:
-    """'box: at least 4.267 N·m at every γ (γ 0°, τ⊥ < 0: gross slip at B, B_), 4.27× the envelope's 1 N·m'."""
-    worst = None
-    for row in record["capacity"]:
-        for side in ("max", "min"):
-            tau = row[f"tau_perp_{side}_Nm"]
-            if tau is not None and np.isfinite(tau) and (worst is None or abs(tau) < worst[0]):
-                worst = (abs(tau), row, side)
-    env = max(abs(v) for v in record["envelope"]["tau_perp_Nm"])
-    if worst is None:
+    """'box: smallest capacity 4.267 N·m (γ 0°, τ⊥ > 0: gross slip at B, B_), 4.27× the envelope's largest load
+    1 N·m', or where the model stopped first, that the smallest capacity is not known and where."""
+    least, env = record["smallest"], max(abs(v) for v in record["envelope"]["tau_perp_Nm"])
+    if least["gamma_deg"] is None:
         return f"{record['name']}: no capacity is known at any γ"
-    tau, row, side = worst
-    where = f"γ {number(row['gamma_deg'], 4)}°, τ⊥ {'>' if side == 'max' else '<'} 0"
-    return (f"{record['name']}: smallest capacity {number(tau, 4)} N·m ({where}: {LIMIT_WORDS[row[f'limit_{side}']]} "
-            f"at {', '.join(row[f'contacts_{side}'])}), {tau / env:.3g}× the envelope's largest load {number(env, 4)} N·m"
-            + (" (where known)" if record["unknown"] else ""))
+    row = next(r for r in record["capacity"] if r["gamma_deg"] == least["gamma_deg"])
+    side = least["side"]
+    where = f"γ {number(least['gamma_deg'], 4)}°, τ⊥ {'>' if side == 'max' else '<'} 0"
+    if least["tau_perp_Nm"] is None:
+        return (f"{record['name']}: smallest capacity not known: at {where} the model stops at "
+                f"{number(abs(row[f'held_{side}_Nm']), 4)} N·m before any limit (³), below every capacity found")
+    tau = least["tau_perp_Nm"]
+    return (f"{record['name']}: smallest capacity {number(tau, 4)} N·m ({where}: {LIMIT_WORDS[least['limit']]} "
+            f"at {', '.join(row[f'contacts_{side}'])}), {tau / env:.3g}× the envelope's largest load {number(env, 4)} N·m")
 
 
 def run(args):

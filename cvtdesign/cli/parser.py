@@ -96,7 +96,8 @@ def _add_capacity(p):
     p.add_argument("--plots", help="folder for <file stems joined by +>_capacity.png: capacity against γ, the "
                                    "envelope drawn in, each point marked by its limit and contact")
     p.add_argument("--safety", type=float, default=1.0,
-                   help="safety factor S ≥ 1: every capacity is divided by it (default 1)")
+                   help="safety factor S ≥ 1 on friction: a contact counts as slipping grossly once its "
+                        "utilisation F/(μN) reaches 1/S (default 1)")
 
 
 def _add_optimise(p):

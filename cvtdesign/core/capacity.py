@@ -3,7 +3,8 @@ first contact reaches a limit, which contact that is and which limit.
 
 The limits are the model's own (core.model, `status`), so that capacity and `compare` judge a point alike:
  * gross_slip: some contact's tangential force reaches its friction, |F| > μN (under a saturation law, its
-   utilisation |F|/(μN) passes model.SAT_LIMIT);
+   utilisation |F|/(μN) passes model.SAT_LIMIT); with a safety factor S > 1, once some contact's utilisation
+   reaches 1/S;
  * lost_contact: some contact's normal force N falls to zero;
  * pressure: at a point that holds, some contact's Hertz peak pressure p_max exceeds its allowable pressure,
    the smaller allowable_pressure of its roller's and the sphere's materials (core.metrics.allowable_pressures;
@@ -35,15 +36,21 @@ PRESSURE = len(STATUS)    # code of a point that holds with some contact over it
 NO_LIMIT = -1             # code where no limit was met up to the search bound
 
 
-def limit_codes(model: CompiledModel, res: dict, allow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def limit_codes(model: CompiledModel, res: dict, allow: np.ndarray, safety: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """Per point of an `evaluate` result: (code, contact). code is 0 where the point holds within every
-    limit, its STATUS code where the model flags it, PRESSURE where it holds but a contact's Hertz peak
-    pressure is over its allowable `allow` [Pa] (NaN: not checked); contact is the index of the roller behind
-    gross_slip, lost_contact or pressure (the one most over its allowable), −1 otherwise."""
+    limit, its STATUS code where the model flags it, gross_slip too where it holds but a contact's traction
+    utilisation |F|/(μN) has reached 1/`safety`, PRESSURE where it holds but a contact's Hertz peak pressure is
+    over its allowable `allow` [Pa] (NaN: not checked); contact is the index of the roller behind gross_slip
+    (the most utilised), lost_contact or pressure (the one most over its allowable), −1 otherwise."""
     code, contact = res["status"].copy(), res["failed_contact"].copy()
+    shape = (-1, *([1] * code.ndim))
+    used = np.where(np.isfinite(res["utilisation"]), res["utilisation"], -np.inf)
     with np.errstate(invalid="ignore"):
-        over = res["p_max"] / allow.reshape(-1, *([1] * code.ndim))
+        over = res["p_max"] / allow.reshape(shape)
     over = np.where(np.isfinite(over), over, -np.inf)
+    slipping = (code == 0) & (used.max(axis=0) >= 1 / safety)
+    code[slipping] = STATUS.index("gross_slip")
+    contact[slipping] = np.argmax(used[:, slipping], axis=0)
     pressed = (code == 0) & (over.max(axis=0) > 1)
     code[pressed] = PRESSURE
     contact[pressed] = np.argmax(over[:, pressed], axis=0)
@@ -52,11 +59,11 @@ def limit_codes(model: CompiledModel, res: dict, allow: np.ndarray) -> tuple[np.
 
 def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, progress=None) -> dict:
     """The load capacity of `model` at each commanded γ [rad] (module docstring), searched up to |τ⊥| =
-    `bound` [N m] (e.g. io.variant.load_capacity: all the traction the preloads allow) and divided by `safety`.
+    `bound` [N m] (e.g. io.variant.load_capacity: all the traction the preloads allow), a contact counted as
+    slipping grossly once its utilisation |F|/(μN) reaches 1/`safety` (safety ≥ 1).
 
     Returns a dict of arrays over γ, for side in ('max', 'min') (τ⊥ > 0 and τ⊥ < 0):
-     * tau_perp_<side> [N m]: the capacity / safety (NaN where unknown, and where the point fails without
-       load);
+     * tau_perp_<side> [N m]: the capacity (NaN where unknown, and where the point fails without load);
      * tau_1_<side>, tau_2_<side> [N m]: the shaft torques at that load (the model evaluated there);
      * limit_<side>: a LIMITS name, 'not_converged', 'reversed' or 'multiple_roots' (the model has no number
        where the search ended: capacity unknown), or 'none' (no limit up to `bound`: capacity unknown);
@@ -76,21 +83,20 @@ def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, pr
     h = float(bound) / SCAN_STEPS
 
     def judge(loads):
-        return limit_codes(model, model.evaluate(G[:, None], sign[:, None] * np.atleast_2d(loads)), allow)
+        return limit_codes(model, model.evaluate(G[:, None], sign[:, None] * np.atleast_2d(loads)), allow, safety)
 
     steps = SCAN_STEPS // SCAN_BLOCK + int(np.ceil(np.log2(1 / RTOL))) + 1
     lo, hi, code, contact = _scan(judge, 2 * n, h, progress, steps)
     lo, hi, code, contact = _bisect(judge, lo, hi, code, contact, progress, steps)
     limited = np.isin(code, [STATUS.index("gross_slip"), STATUS.index("lost_contact"), PRESSURE])
     known = limited & (hi > 0)          # failing without load: the limit is named, there is no capacity
-    at_limit = model.evaluate(G, sign * lo)      # the last load that held (0 where none)
-    res = at_limit if safety == 1 else model.evaluate(G, sign * np.where(known, lo / safety, 0.0))
-    shared = _sharing(at_limit, code, allow, model.layout) & known
+    res = model.evaluate(G, sign * lo)      # the last load that held (0 where none)
+    shared = _sharing(res, code, allow, model.layout) & known
     names = {**dict(enumerate(STATUS)), PRESSURE: "pressure", NO_LIMIT: "none"}
     out = {"gamma": g, "bound": float(bound), "safety": float(safety)}
     for side, part in (("max", slice(0, n)), ("min", slice(n, 2 * n))):
         held = known[part] & res["ok"][part]
-        out[f"tau_perp_{side}"] = np.where(held, sign[part] * lo[part] / safety, np.nan)
+        out[f"tau_perp_{side}"] = np.where(held, sign[part] * lo[part], np.nan)
         for k in ("tau_1", "tau_2"):
             out[f"{k}_{side}"] = np.where(held, res[k][part], np.nan)
         out[f"limit_{side}"] = np.array([names[int(c)] for c in code[part]], dtype=object)
@@ -98,7 +104,7 @@ def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, pr
         out[f"sharing_{side}"] = shared[:, part]
         stopped = ~limited[part] & (lo[part] > 0)
         out[f"held_{side}"] = np.where(stopped, sign[part] * lo[part], np.nan)
-        out[f"held_axis_{side}"] = np.where(stopped, at_limit["gamma_axis"][part], np.nan)
+        out[f"held_axis_{side}"] = np.where(stopped, res["gamma_axis"][part], np.nan)
     if progress:
         progress(steps, steps, None)
     return out
@@ -173,3 +179,28 @@ def _bisect(judge, lo, hi, code, contact, progress, steps):
         if progress:
             progress(min(done, steps), steps, "bisection")
     return lo, hi, code, contact
+
+
+def smallest_capacity(cap: dict) -> dict:
+    """The smallest load capacity over γ and both signs of a `capacity` result: the largest |τ⊥| [N m] that every
+    γ carries within the limits, and where it is reached; what an optimiser maximises or bounds from below
+    (docs/capacity.md, "Capacity in a design study"). Returns {'tau_perp': |τ⊥| [N m], 'gamma' [rad], 'side'
+    ('max' or 'min'), 'limit', 'contact' (roller index), 'unknown': the searches that ended on no limit of the
+    CVT}. A point that fails without load carries 0. Where a search that ended on no limit held less than
+    every known capacity, the smallest capacity is not known: tau_perp is NaN and gamma, side say where
+    (limit None)."""
+    best = {"tau_perp": np.inf, "gamma": np.nan, "side": None, "limit": None, "contact": -1, "unknown": 0}
+    for side in ("max", "min"):
+        for i, g in enumerate(cap["gamma"]):
+            limit, tau = cap[f"limit_{side}"][i], abs(cap[f"tau_perp_{side}"][i])
+            if limit in LIMITS:
+                value, where = (tau if np.isfinite(tau) else 0.0), {"limit": limit, "contact": int(cap[f"contact_{side}"][i])}
+            else:
+                best["unknown"] += 1
+                value, where = abs(cap[f"held_{side}"][i]), {"limit": None, "contact": -1}
+                value = 0.0 if not np.isfinite(value) else value
+            if value < best["tau_perp"]:
+                best |= {"tau_perp": value, "gamma": float(g), "side": side, **where}
+    if best["limit"] is None:
+        best["tau_perp"] = np.nan
+    return best

@@ -526,8 +526,7 @@ def _capacity_runs(gammas, contacts) -> list[tuple[float, str]]:
 def capacity_figure(records: list[dict], path: Path):
     """Load capacity τ⊥ max and min [N·m] against γ [°] (the `capacity --json` records), one colour per
     variant, its envelope drawn in as a band, each point marked by its limit, the limiting contacts named
-    once per run of γ they limit; where the model stopped (no capacity) a + at the load it held to (every load
-    divided by the records' safety factor)."""
+    once per run of γ they limit; where the model stopped (no capacity) a + at the load it held to."""
     mpl = _mpl()
     fig, ax = mpl.subplots(figsize=(11.5, 6.5))
     colours = variant_colours([r["name"] for r in records])
@@ -543,7 +542,7 @@ def capacity_figure(records: list[dict], path: Path):
             for limit, (marker, _) in LIMIT_MARKERS.items():
                 on = np.array([row[f"limit_{side}"] == limit for row in r["capacity"]]) & np.isfinite(tau)
                 ax.plot(g[on], tau[on], marker, color=c, ms=6, ls="none", mfc="white" if limit != "gross_slip" else c)
-            held = np.array([np.nan if row[f"held_{side}_Nm"] is None else row[f"held_{side}_Nm"] / r["safety"]
+            held = np.array([np.nan if row[f"held_{side}_Nm"] is None else row[f"held_{side}_Nm"]
                              for row in r["capacity"]], float)
             ax.plot(g, held, "+", color=c, ms=10, mew=2, ls="none")
             names = [", ".join(row[f"contacts_{side}"]) for row in r["capacity"]]
@@ -557,7 +556,7 @@ def capacity_figure(records: list[dict], path: Path):
     ax.axhline(0, color="k", lw=0.5)
     safety = {r["safety"] for r in records}
     ax.set_title("load capacity: the largest τ⊥ before the first contact reaches a limit"
-                 + (f" (divided by the safety factor {safety.pop():g})" if safety != {1.0} and len(safety) == 1 else ""))
+                 + (f" (gross slip at F/(μN) = 1/{safety.pop():g})" if safety != {1.0} and len(safety) == 1 else ""))
     ax.set_xlabel("commanded γ [°]")
     ax.set_ylabel("lateral load τ⊥ [N·m]")
     ax.grid(alpha=0.3)
