@@ -73,7 +73,7 @@ def test_box_carries_more_than_existing_for_kims_reason(box_and_existing):
     Why (Kim sec. 5.1): in existing, two steering rollers carry the load's moment, each with the whole lateral
     force, and the moment moves their normal forces in opposite directions, so the unloaded one slips first
     while the drive rollers still have friction to spare; the box's pole rollers act at the full moment arm,
-    four sharing it (0.44–0.57 of the lateral force per N·m), and keep every normal force at the preload,
+    four sharing it (0.40–0.57 of the lateral force per N·m), and keep every normal force at the preload,
     so what slips is a drive roller and its follower, which share each tractive force: at γ = 0 when
     τ2 = 2·μ·P·r_D."""
     box, existing = rep = box_and_existing[0]["variants"]
