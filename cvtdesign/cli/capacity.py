@@ -63,7 +63,8 @@ def variant_record(name: str, model, cap: dict) -> dict:
     return {"name": name, "file": L.file, "safety": cap["safety"], "capacity": rows,
             "envelope": {"gamma_deg": [float(np.degrees(L.gamma_grid.min())), float(np.degrees(L.gamma_grid.max()))],
                          "tau_perp_Nm": [float(L.load_grid.min()), float(L.load_grid.max())]},
-            "pressure_not_checked": unchecked, "search_bound_Nm": cap["bound"], "smallest": smallest_record(model, cap),
+            "pressure_not_checked": unchecked, "search_bound_Nm": cap["bound"],
+            "smallest": smallest_record(model, cap),
             "unknown": sum(r[f"unknown_{s}"] is not None for r in rows for s in ("max", "min"))}
 
 
@@ -71,8 +72,10 @@ def smallest_record(model, cap: dict) -> dict:
     """core.capacity.smallest_capacity as JSON: tau_perp_Nm (null where not known), gamma_deg, side, limit,
     contact."""
     least = smallest_capacity(cap)
-    return {"tau_perp_Nm": None if np.isnan(least["tau_perp"]) else float(least["tau_perp"]), "gamma_deg": None if np.isnan(least["gamma"]) else
-            round(float(np.degrees(least["gamma"])), 9), "side": least["side"], "limit": least["limit"],
+    known, placed = np.isfinite(least["tau_perp"]), np.isfinite(least["gamma"])
+    return {"tau_perp_Nm": float(least["tau_perp"]) if known else None,
+            "gamma_deg": round(float(np.degrees(least["gamma"])), 9) if placed else None,
+            "side": least["side"], "limit": least["limit"],
             "contact": model.roller_names[least["contact"]] if least["contact"] >= 0 else None}
 
 
