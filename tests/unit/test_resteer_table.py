@@ -109,3 +109,18 @@ def test_controller_loop_example_in_the_docs_runs(cli, tmp_path, monkeypatch):
     assert gamma is not None and abs(model_ratio(gamma, 0.35)[0] - 1.2) < 1e-3
     assert scope["steering_command"](9.0, 0.0) is None                   # off the table: None, not a number
 
+
+
+def test_table_from_measured_data_uses_the_fitted_model(cli, tmp_path):
+    """`resteer DATA.csv --variant V --table`: the commands of the model fitted to the rig's data (Kim's own
+    effects, so the fitted scales are 1 within their σ and the commands within 0.01° of the nominal ones, but
+    not the nominal ones), with the fitted parameters printed."""
+    data = tmp_path / "rig.csv"
+    assert cli("rig", EXISTING, "--out", data, "--seed", "1")[0] == 0
+    grid = ("--table-ratios", "0.5,1,2", "--table-loads=-1,1")
+    rc, out, err = cli("resteer", data, "--variant", EXISTING, "--table", tmp_path / "fit.csv", *grid)
+    assert rc == 0 and err == "", err
+    assert "from the fitted model" in out and "fitted: drive_longitudinal_creep.scale = " in " ".join(out.split())
+    assert cli("resteer", EXISTING, "--table", tmp_path / "nominal.csv", *grid)[0] == 0
+    shift = read_table(tmp_path / "fit.csv")["gamma_cmd_deg"] - read_table(tmp_path / "nominal.csv")["gamma_cmd_deg"]
+    assert 1e-6 < np.max(np.abs(shift)) < 0.01
