@@ -52,9 +52,10 @@ def build_parser():
                 epilog="`cvtdesign COMMAND --help` describes a command; docs/ has the rest.")
     p.add_argument("--version", action="version", version=f"%(prog)s {version('cvtdesign')}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
-    adders = {"new": _add_new, "show": _add_show, "compare": _add_compare, "capacity": _add_capacity, "optimise": _add_optimise,
+    adders = {"new": _add_new, "show": _add_show, "compare": _add_compare, "optimise": _add_optimise,
               "study": _add_study, "export": _add_export, "contact": _add_contact, "rig": _add_rig, "diagnose": _add_diagnose,
               "resteer": _add_resteer, "selfcheck": _add_selfcheck, "cache": _add_cache}
+    adders["capacity"] = _add_capacity          # issue 27
     for name, text in COMMANDS.items():
         adders[name](sub.add_parser(name, help=text, description=text))
     return p
