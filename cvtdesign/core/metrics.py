@@ -171,12 +171,17 @@ def metrics(model: CompiledModel, res: dict) -> dict:
     }
 
 
+def allowable_pressures(layout) -> np.ndarray:
+    """Per contact (roller), its allowable Hertz peak pressure [Pa]: the smaller allowable_pressure of the
+    roller's and the sphere's materials; NaN where neither gives one (not checked)."""
+    return np.array([min((m.p_allow for m in (r.material, layout.sphere_material) if m.p_allow is not None),
+                         default=np.nan) for r in layout.rollers], float)
+
+
 def pressure_against_allowable(model: CompiledModel, res: dict) -> dict:
     """The envelope's Hertz peak pressures against each contact's allowable (module docstring)."""
     L = model.layout
-    allow = [min((m.p_allow for m in (r.material, L.sphere_material) if m.p_allow is not None), default=np.nan)
-             for r in L.rollers]
-    allow = np.asarray(allow, float).reshape(-1, *([1] * (res["p_max"].ndim - 1)))
+    allow = allowable_pressures(L).reshape(-1, *([1] * (res["p_max"].ndim - 1)))
     with np.errstate(invalid="ignore"):
         ratio = res["p_max"] / allow
     if not np.any(np.isfinite(ratio)):
