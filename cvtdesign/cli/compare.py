@@ -10,7 +10,7 @@ from rich.console import Console
 from cvtdesign.cli import compare_report
 from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
 from cvtdesign.core import basis
-from cvtdesign.core.metrics import envelope, ideal_model, metrics
+from cvtdesign.core.metrics import at_key, envelope, ideal_model, metrics
 from cvtdesign.core.model import compile_model
 from cvtdesign.core.uncertainty import intervals, point_bands
 from cvtdesign.io import plots
@@ -31,6 +31,8 @@ COLUMNS = [
     ("max_loss_no_output_W", "max loss without output [W] ²", "{:.2f}"),
     ("max_traction_utilisation", "max F/(μN)", "{:.3f}"),
     ("max_hertz_pressure_MPa", "max Hertz p [MPa]", "{:.2f}"),
+    ("max_steering_torque_Nm", "max steering torque [N·m]", "{:.3f}"),
+    ("max_standstill_steering_torque_Nm", "steering at standstill [N·m]", "{:.3f}"),
 ]
 
 
@@ -146,6 +148,8 @@ def comparison_blocks(rows: list[dict]) -> list:
     for r in rows:
         blocks.append(Note(f"{r['name']}: {r['ideal_law']}; calibration: {r['calibration']['text']}",
                            "bad" if r["calibration"]["uncalibrated"] else ""))
+        if r["ok"] and not r["name"].startswith("ideal"):
+            blocks.append(Note(f"{r['name']}: where: {where_text(r)}"))
         if r["ok"] < r["points"]:
             blocks.append(Note(f"{r['name']}: {r['points'] - r['ok']} of {r['points']} operating points left out "
                                f"of the figures: {left_out_text(r)}", "bad"))
@@ -154,6 +158,23 @@ def comparison_blocks(rows: list[dict]) -> list:
             blocks.append(Note(f"{r['name']}: Hertz peak pressure over the contact's allowable pressure "
                                f"({r['hertz_allowable_pressure_MPa']:.3g} MPa) at {at} points", "bad"))
     return blocks
+
+
+WHERE = {"max_abs_alpha_deg": "max |α|", "ratio_error_pct_at_max_load": "ratio error", "min_efficiency":
+         "worst efficiency", "max_loss_no_output_W": "max loss without output", "max_traction_utilisation":
+         "max F/(μN)", "max_hertz_pressure_MPa": "max Hertz p", "max_steering_torque_Nm": "max steering torque",
+         "max_standstill_steering_torque_Nm": "steering torque at standstill"}    # the extremes whose place the notes give
+
+
+def where_text(r: dict) -> str:
+    """Where each extreme figure of a variant is taken: 'max |α| at γ 40°, τ⊥ +1 N·m; max F/(μN) at B, …'."""
+    parts = []
+    for key, label in WHERE.items():
+        at = r.get(at_key(key))
+        if at:
+            contact = f"{at['contact']}, " if at.get("contact") else ""
+            parts.append(f"{label} at {contact}γ {at['gamma_deg']:g}°, τ⊥ {at['tau_perp_Nm']:+g} N·m")
+    return "; ".join(parts)
 
 
 def figure_cell(r: dict, key: str, fmt: str) -> str:

@@ -29,6 +29,13 @@ MEANINGS = {
                                 "contact uses (1: it slides grossly)",
     "max_hertz_pressure_MPa": "the largest Hertz peak pressure at any contact, in MPa, marked when over the "
                               "material's allowable pressure",
+    "max_steering_torque_Nm": "the steering motor's largest torque while the contacts roll, through the linkage "
+                              "(each fork's share: its contact's lateral force times its lever, spin moment and "
+                              "rolling resistance about the fork axis), in N·m",
+    "max_standstill_steering_torque_Nm": "the steering motor's torque to resteer with the sphere at rest: every "
+                                         "fork's patch sliding (pivoting about its normal, μNℓ, and dragged across "
+                                         "the roller where the fork axis misses the contact), at the envelope's "
+                                         "largest normal forces, in N·m",
 }
 FIGURE = ("Figure 1", "compare's figure: per quantity a row of panels against the commanded γ: the slip angle α, "
           "its steering part γ_axis − γ_cmd, its drive part and the efficiency P_out/P_in, at the loads τ⊥ = "

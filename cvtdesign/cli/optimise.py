@@ -11,6 +11,7 @@ from cvtdesign.cli.export import export_steps
 from cvtdesign.cli.printing import ENGINEERING, degrees, engineering, json_text, kind_of, number, progress_bar, \
     report_text, show
 from cvtdesign.design import solve
+from cvtdesign.design.objectives import objective
 from cvtdesign.design.study_file import load_study
 from cvtdesign.errors import InputError
 from cvtdesign.io.output import make_folder, write_files
@@ -23,9 +24,8 @@ from cvtdesign.io.variant import load_spec, parameter_value
 # misfit are ratios, normal force in newtons, clearance and envelope radius in metres
 # a constraint row's unit (design.report.ROW_UNITS) → the kind it is shown as and its factor to SI
 UNIT_KIND = {"deg": ("angle", math.pi / 180), "N": ("force", 1.0), "m": ("length", 1.0), "": ("dimensionless", 1.0)}
-# an objective kind → how its value (in degrees or watts) is shown
-OBJECTIVE = {"worst_alpha": ("worst |α|", degrees), "rms_alpha": ("RMS α", degrees),
-             "power_loss": ("mean power loss", lambda v: engineering(v, "power"))}
+# an objective's unit (design.objectives) → how its value is shown
+SHOW = {"°": degrees, "W": lambda v: engineering(v, "power")}
 
 
 def run(args):
@@ -77,17 +77,23 @@ def design_kinds(study_path, design: dict) -> dict:
 
 def objective_text(kind: str, value) -> str:
     """'worst |α| = 3.712°', 'mean power loss = 1.25 W'."""
-    name, show_value = OBJECTIVE[kind]
-    return f"{name} = {show_value(value)}"
+    goal = objective(kind)
+    return f"{goal.title} = {SHOW[goal.unit](value)}"
 
 
 def result_blocks(res: dict, kinds: dict) -> list:
     """What optimise prints and reports: the starts, the optimum's design and its constraints (units shown)."""
     statuses = ", ".join(f"{s} ×{res['statuses'].count(s)}" for s in dict.fromkeys(res["statuses"]))
     kind = res.get("objective_kind", "worst_alpha")
-    found = ", ".join(f"{OBJECTIVE[kind][1](o['objective'])} ({o['found']}×)" for o in res["optima"])
-    blocks = [Note(f"study {res['study']}: {res['starts']} starts ({statuses}); {len(res['optima'])} distinct "
-                   f"optima found" + (f": {found}" if found else ""))]
+    found = ", ".join(f"{SHOW[objective(kind).unit](o['objective'])} ({o['found']}×)" for o in res["optima"])
+    if "front" in res:                     # objective kind pareto: the front, its knee the optimum
+        points = "; ".join(f"{degrees(p['worst_alpha_deg'])}, {engineering(p['power_loss_W'], 'power')}"
+                           for p in res["front"] if p["status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level"))
+        blocks = [Note(f"study {res['study']}: the slip/loss front, {len(res['front'])} points ({statuses}): "
+                       f"worst |α|, mean power loss = {points}; the optimum is its knee")]
+    else:
+        blocks = [Note(f"study {res['study']}: {res['starts']} starts ({statuses}); {len(res['optima'])} distinct "
+                       f"optima found" + (f": {found}" if found else ""))]
     if not res["success"]:
         chk = res.get("envelope_check")
         why = f"; worst point {chk['worst']}" if chk and chk.get("worst") else ""
@@ -96,6 +102,12 @@ def result_blocks(res: dict, kinds: dict) -> list:
     for n, v in res["design"].items():
         k, lo, hi = kinds[n]
         t.add(n, *(engineering(x, k) for x in (v, res["base_design"][n], lo, hi)))
+    if "robust" in res:
+        r = res["robust"]
+        blocks.append(Note(f"robust over the calibration's {r['confidence']:.0%} region: worst |α| "
+                           f"{degrees(r['worst_alpha_deg'])} over its {len(r['corners'])} corners "
+                           f"({'; '.join(r['corners'])}); {degrees(r['nominal_worst_alpha_deg'])} at the nominal "
+                           "calibration"))
     return blocks + [t, constraint_table(res, kinds),
                      Note(f"optimised variant: {res['variant_file']}  (try: cvtdesign compare {res['variant_file']})")]
 
@@ -103,7 +115,7 @@ def result_blocks(res: dict, kinds: dict) -> list:
 def constraint_table(res: dict, kinds: dict) -> Table:
     """The most binding row of each constraint family, in the row's unit; the multiplier is the objective's
     change per unit of the bound (e.g. °/mm)."""
-    obj_unit = "°" if res["objective_kind"] in ("worst_alpha", "rms_alpha") else "W"
+    obj_unit = objective(res["objective_kind"]).unit
     c = Table("constraints (most binding row of each; multiplier = objective change per unit of bound)",
               ["constraint", "where", "value", "bound", "slack", "multiplier", "active"])
     for r in res["constraints"]:

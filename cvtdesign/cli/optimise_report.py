@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from cvtdesign.cli.printing import degrees, engineering
+from cvtdesign.design.objectives import objective
 from cvtdesign.io.layout_drawing import beside_figure
 from cvtdesign.io.optimum_figures import convergence_figure, slack_figure
 from cvtdesign.io.report import Glossary, Heading, Summary, png_figure
@@ -94,12 +95,9 @@ def slack_rows(res: dict, table) -> list[tuple[str, str, float, bool]]:
     return out
 
 
-OBJECTIVE_AXES = {"worst_alpha": "worst |α| [°]", "rms_alpha": "RMS α [°]", "power_loss": "mean power loss [W]"}
-
-
 def figures(res: dict, kinds: dict, constraints) -> list:
     """The report's figures (written to a temporary folder, embedded, removed)."""
-    label = OBJECTIVE_AXES[res["objective_kind"]]
+    label = objective(res["objective_kind"]).axis
     with tempfile.TemporaryDirectory() as tmp:
         paths = [Path(tmp) / f"{n}.png" for n in ("beside", "convergence", "slack")]
         base = load_variant(res["base_variant"])

@@ -27,6 +27,7 @@ COMMANDS = {     # name -> one-line help; cvtdesign.cli.<name> runs it
     "new": "write a commented variant file from a template (existing, box or unequal) to start from",
     "show": "draw a variant's layout (sphere, rollers, axles, forks, frames) and print its ideal law",
     "compare": "evaluate variants over their envelope and print a side-by-side table",
+    "capacity": "the largest load τ⊥ at each γ before a contact slips grossly, loses contact or is over its pressure",
     "optimise": "optimise a variant's parameters under slip/efficiency objectives (IPOPT)",
     "study": "run a study's cases (sweeps, multistarts, Pareto fronts) in batch on Dask",
     "export": "write the variant's assembly as STEP (+ SVG, PNG) for mechanical review",
@@ -54,7 +55,9 @@ def build_parser():
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     adders = {"new": _add_new, "show": _add_show, "compare": _add_compare, "optimise": _add_optimise,
               "study": _add_study, "export": _add_export, "contact": _add_contact, "rig": _add_rig, "diagnose": _add_diagnose,
-              "resteer": _add_resteer, "selfcheck": _add_selfcheck, "cache": _add_cache, "tolerance": _add_tolerance}
+              "resteer": _add_resteer, "selfcheck": _add_selfcheck, "cache": _add_cache}
+    adders["capacity"] = _add_capacity          # issue 27
+    adders["tolerance"] = _add_tolerance        # issue 27
     for name, text in COMMANDS.items():
         adders[name](sub.add_parser(name, help=text, description=text))
     return p
@@ -88,6 +91,16 @@ def _add_compare(p):
     p.add_argument("--as-written", action="store_true",
                    help="evaluate each file as written, on its own envelope and contact law (refused otherwise "
                         "when the laws differ); each column then says what it used")
+
+
+def _add_capacity(p):
+    p.add_argument("variants", nargs="+", help="variant YAML files (each on its own envelope's γ)")
+    p.add_argument("--json", help="also write the capacities to this JSON file (format in docs/capacity.md)")
+    p.add_argument("--plots", help="folder for <file stems joined by +>_capacity.png: capacity against γ, the "
+                                   "envelope drawn in, each point marked by its limit and contact")
+    p.add_argument("--safety", type=float, default=1.0,
+                   help="safety factor S ≥ 1 on friction: a contact counts as slipping grossly once its "
+                        "utilisation F/(μN) reaches 1/S (default 1)")
 
 
 def _add_optimise(p):
@@ -154,8 +167,9 @@ def _add_selfcheck(p):
 
 
 def _add_resteer(p):
-    p.add_argument("data", nargs="?", help="measured data CSV: fit the model to it and add the inverted data lookup")
-    p.add_argument("--variant", required=True, help="variant YAML file")
+    p.add_argument("data", nargs="?", help="measured data CSV: fit the model to it and add the inverted data lookup; "
+                                           "or, without data, the variant YAML file")
+    p.add_argument("--variant", help="variant YAML file (with measured data)")
     p.add_argument("--effects", help="effects of the model (default: the variant's)")
     p.add_argument("--load", help="lateral load τ⊥, e.g. '1 N*m' (default: the data's highest load level)")
     p.add_argument("--ratios", help="requested ω2/ω1, comma-separated (default Brokowski's 0.4,0.5,0.8,1,1.25,2,2.5)")
@@ -164,6 +178,12 @@ def _add_resteer(p):
     p.add_argument("--drop-bad", action="store_true", help="drop (and count) bad data rows instead of stopping")
     p.add_argument("--json", help="write the commands and scores to this JSON file")
     p.add_argument("--plots", help="folder for the Fig. 17-style plot")
+    p.add_argument("--table", metavar="FILE.csv", help="write the controller table instead: γ_cmd over a (ratio, "
+                   "τ⊥) grid, with the ideal command and the residual ratio error (format in docs/diagnosis.md)")
+    p.add_argument("--table-ratios", metavar="LIST|START:STOP:COUNT",
+                   help="the table's ratios ω2/ω1 (default: the ideal ratio at each γ of the envelope)")
+    p.add_argument("--table-loads", metavar="LIST|START:STOP:COUNT",
+                   help="the table's loads τ⊥, e.g. '-1 N*m:1 N*m:21' (default: the envelope's loads)")
 
 
 def _add_export(p):
@@ -218,7 +238,7 @@ def check_outputs(args):
     --json, --report and the --out of rig and new are files, none of them an input of the command; --plots and
     the other commands' --out are folders."""
     files = [(k, getattr(args, k[2:].replace("-", "_"), None))
-             for k in ("--json", "--report", "--points", "--save-calibration")]
+             for k in ("--json", "--report", "--points", "--save-calibration", "--table")]
     if args.command in ("rig", "new"):
         files.append(("--out", getattr(args, "out", None)))
     elif getattr(args, "out", None):
@@ -264,11 +284,26 @@ def _drop_stdout() -> None:
         pass
 
 
+MINUS_VALUES = ("--table-ratios", "--table-loads")   # options whose value may start with '-' ('-1:1:21')
+
+
+def _joined_negative_values(argv) -> list[str]:
+    """argv with `--table-loads -1:1:21` read as `--table-loads=-1:1:21`: argparse takes a value starting with
+    '-' for an option unless it is a plain negative number."""
+    out, argv = [], list(argv)
+    for k, a in enumerate(argv):
+        if k and argv[k - 1] in MINUS_VALUES and a.startswith("-") and out and out[-1] == argv[k - 1]:
+            out[-1] = f"{out[-1]}={a}"
+        else:
+            out.append(a)
+    return out
+
+
 def main(argv=None) -> int:
     """Run one command; returns its exit status (2 for bad input, with one line on stderr; 130 after Ctrl-C,
     143 after SIGTERM; 1 when stdout's reader closed it, quietly: every command writes its files first)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_joined_negative_values(sys.argv[1:] if argv is None else argv))
     args.argv = list(sys.argv[1:] if argv is None else argv)     # the command line, for --report
     if args.command is None:
         parser.print_help()

@@ -8,7 +8,8 @@ import numpy as np
 from rich.console import Console
 
 from cvtdesign.cli.export import export_steps
-from cvtdesign.cli.optimise import OBJECTIVE
+from cvtdesign.cli.optimise import SHOW
+from cvtdesign.design.objectives import objective
 from cvtdesign.cli.printing import degrees, engineering, kind_of, progress_bar, show
 from cvtdesign.design import study
 from cvtdesign.design.solve import knee
@@ -131,20 +132,20 @@ def sweep_text(fixed: str, kinds: dict) -> str:
     return ", ".join(f"{n} = {engineering(v, kinds.get(n, 'dimensionless'))}" for n, v in point.items()) or "—"
 
 
-def optima_table(best, starts_, objective: str, kinds: dict) -> Table:
+def optima_table(best, starts_, kind: str, kinds: dict) -> Table:
     """Each variant and sweep point's best optimum: its design in units, worst |α| over the envelope (from the
     optimum's envelope check), the objective when it is another figure, power loss when it is the objective,
     and how many starts found it."""
     names = [n for n in kinds if f"design.{n}" in best.columns]
-    name, shown = OBJECTIVE[objective]
-    extra = [name] if objective == "rms_alpha" else []
+    goal = objective(kind)
+    extra = [goal.title] if goal.case_column is None else []      # an objective with no column of its own
     b = Table("best optimum per variant and sweep point", ["variant", "sweep point", *names, "worst |α|", *extra,
                                                              "power loss", "found by", "variant file"])
     for _, r in best.iterrows():
         same = starts_[(starts_["variant"] == r["variant"]) & (starts_["fixed"] == r["fixed"]) &
                        (np.abs(starts_["objective"] - r["objective"]) <= 1e-6 * max(1, abs(r["objective"])))]
         b.add(r["variant"], sweep_text(r["fixed"], kinds), *design_cells(r, {n: kinds[n] for n in names}),
-              degrees(r["worst_alpha_deg"]), *[shown(r["objective"]) for _ in extra],
+              degrees(r["worst_alpha_deg"]), *[SHOW[goal.unit](r["objective"]) for _ in extra],
               engineering(r["power_loss_W"], "power"), f"{len(same)} starts", file_name(r["variant_file"]))
     return b
 

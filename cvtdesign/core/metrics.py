@@ -14,6 +14,9 @@ Figures (all over the variant's envelope, Kim's protocol by default: γ −80°.
    or power entering both shafts), where an efficiency means nothing: under Kalker's law spin costs power
    even without load;
  * max_traction_utilisation: max |F|/(μN) over all contacts; max_hertz_pressure_MPa: max Hertz peak pressure;
+ * max_steering_torque_Nm: the steering motor's largest |torque| [N·m] while the contacts roll, through the
+   linkage; max_standstill_steering_torque_Nm: the largest it needs to resteer with the sphere at rest, at
+   the point's normal forces (core.steering); each `_at` names the fork with the largest share;
  * max_hertz_pressure_over_allowable: whether a contact's pressure exceeds its allowable (the smaller
    allowable_pressure of its two materials; None where neither gives one) at some point, with
    hertz_allowable_pressure_MPa the allowable of the contact nearest to or most over it and
@@ -34,6 +37,7 @@ import numpy as np
 
 from cvtdesign.core.contact.laws import IDEAL
 from cvtdesign.core.model import CompiledModel, compile_model, status_counts
+from cvtdesign.core.steering import standstill_torques
 
 
 def ideal_model(layout) -> CompiledModel:
@@ -50,6 +54,8 @@ def envelope(model: CompiledModel, theta=None, design=None) -> dict:
     G, T = np.meshgrid(L.gamma_grid, L.load_grid, indexing="ij")
     res = model.evaluate(G, T, theta=theta, design=design)
     res["efficiency"] = efficiency(res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"])
+    res["T_fork_standstill"], res["steering_torque_standstill"] = standstill_torques(
+        res, [r.fork_sign for r in L.rollers])
     return res
 
 
@@ -91,6 +97,21 @@ def _extreme(x, mask=None, largest=True, per_contact=False) -> Extreme:
     return Extreme(float(flat[c, k]), int(k), int(c) if per_contact else None)
 
 
+def _largest_share(e: Extreme, shares) -> Extreme:
+    """`e` (a figure summed over the contacts) with the contact whose share (contacts × points) is largest at
+    its point."""
+    if e.point is None:
+        return e
+    at = np.abs(np.reshape(shares, (len(shares), -1))[:, e.point])
+    return dataclasses.replace(e, contact=int(np.argmax(at)) if np.max(at) > 0 else None)
+
+
+def at_key(figure: str) -> str:
+    """The JSON key of where a figure is taken: '<figure>_at', with the steering torques' unit left out
+    (max_steering_torque_at: the interface outside tools read)."""
+    return f"{figure.removesuffix('_Nm') if 'steering_torque' in figure else figure}_at"
+
+
 def extremes(model: CompiledModel, res: dict) -> dict[str, Extreme]:
     """Every figure of the module docstring that is an extreme over the envelope, with where it is taken."""
     L, deg = model.layout, np.degrees
@@ -102,6 +123,7 @@ def extremes(model: CompiledModel, res: dict) -> dict[str, Extreme]:
         ratio_err = 100 * (ideal - res["omega_2"] / res["omega_1"]) / ideal
     eff_range = (np.abs(G) >= np.radians(5) - 1e-12) & (np.abs(T) >= 0.25 * np.max(np.abs(L.load_grid)))
     delivers = delivers_power(res)
+    forks = np.reshape([r.fork_sign for r in L.rollers], (-1, *([1] * G.ndim))) * res["T_fork"]
     return {
         "max_abs_alpha_deg": _extreme(np.abs(deg(res["alpha"]))),
         "max_abs_alpha_steering_deg": _extreme(np.abs(deg(res["alpha_steering"]))),
@@ -111,6 +133,9 @@ def extremes(model: CompiledModel, res: dict) -> dict[str, Extreme]:
         "max_loss_no_output_W": _extreme(res["power_loss"], res["ok"] & ~delivers),
         "max_traction_utilisation": _extreme(res["utilisation"], res["ok"], per_contact=True),
         "max_hertz_pressure_MPa": _extreme(res["p_max"] / 1e6, res["ok"], per_contact=True),
+        "max_steering_torque_Nm": _largest_share(_extreme(np.abs(res["steering_torque"]), res["ok"]), forks),
+        "max_standstill_steering_torque_Nm": _largest_share(
+            _extreme(res["steering_torque_standstill"], res["ok"]), res["T_fork_standstill"]),
     }
 
 
@@ -140,19 +165,24 @@ def metrics(model: CompiledModel, res: dict) -> dict:
         "rms_alpha_deg": float(np.sqrt(np.nanmean(a ** 2))) if np.any(np.isfinite(a)) else None,
         "efficiency_points": int(np.sum(eff_range & delivers)),
         "no_output_points": int(np.sum(eff_range & res["ok"] & ~delivers)),
-        **{f"{k}_at": where_text(model, res, e) for k, e in ext.items()},
+        **{at_key(k): where_text(model, res, e) for k, e in ext.items()},
         "not_converged_at": [where_text(model, res, Extreme(0.0, int(k))) for k in failed],
         **pressure_against_allowable(model, res),
         "points": int(res["status"].size), **status_counts(res, model.roller_names),
     }
 
 
+def allowable_pressures(layout) -> np.ndarray:
+    """Per contact (roller), its allowable Hertz peak pressure [Pa]: the smaller allowable_pressure of the
+    roller's and the sphere's materials; NaN where neither gives one (not checked)."""
+    return np.array([min((m.p_allow for m in (r.material, layout.sphere_material) if m.p_allow is not None),
+                         default=np.nan) for r in layout.rollers], float)
+
+
 def pressure_against_allowable(model: CompiledModel, res: dict) -> dict:
     """The envelope's Hertz peak pressures against each contact's allowable (module docstring)."""
     L = model.layout
-    allow = [min((m.p_allow for m in (r.material, L.sphere_material) if m.p_allow is not None), default=np.nan)
-             for r in L.rollers]
-    allow = np.asarray(allow, float).reshape(-1, *([1] * (res["p_max"].ndim - 1)))
+    allow = allowable_pressures(L).reshape(-1, *([1] * (res["p_max"].ndim - 1)))
     with np.errstate(invalid="ignore"):
         ratio = res["p_max"] / allow
     if not np.any(np.isfinite(ratio)):

@@ -56,6 +56,7 @@ from cvtdesign.core.kinematics import (
     ShaftFrame,
     shaft_frame,
     shaft_gain,
+    vec,
     wrap_axis_angle,
 )
 from cvtdesign.core.layout import Layout
@@ -71,9 +72,9 @@ STATUS = ("ok", "not_converged", "lost_contact", "gross_slip", "reversed", "mult
 ROOT_TOL = 1e-6       # scaled unknowns' largest difference beyond which two converged solutions are two roots
 UTIL_CHECK = 0.5      # traction utilisation above which a law with several roots also solves from rest
 CONTACT_OUTPUTS = ("N", "F_t", "F_a", "utilisation", "p_max", "xi", "eta", "spin", "mu", "M_spin", "loss", "a", "b",
-                   "G", "C11", "C22", "C23", "roll_sign")
+                   "G", "C11", "C22", "C23", "roll_sign", "T_fork", "fork_pivot", "fork_slide")
 POINT_OUTPUTS = ("omega_2", "tau_1", "tau_2", "phi", "gamma_axis", "alpha", "alpha_steering", "alpha_drive",
-                 "power_loss", "residual", "status", "Omega_x", "Omega_y", "Omega_z")
+                 "power_loss", "residual", "status", "Omega_x", "Omega_y", "Omega_z", "steering_torque")
 
 
 @dataclass
@@ -300,7 +301,7 @@ def _equations(layout: Layout, hooks: _Hooks, law, const, u: _Unknowns, w1, phi,
     N = _normal_forces(layout, poses, Fvec)
     slip, moment, idle, tau, sat = [], ca.SX.zeros(3), [], {1: 0, 2: 0}, []
     per = {k: [] for k in ("xi", "eta", "spin", "utilisation", "mu", "M_spin", "loss", "a", "b", "G", "C11", "C22",
-                           "C23", "roll_sign")}
+                           "C23", "roll_sign", "T_fork", "fork_pivot", "fork_slide")}
     for i, r in enumerate(layout.rollers):
         (n, a), t, c = poses[i], tdirs[i], const[i]
         drive = r.role != "steering"
@@ -319,7 +320,8 @@ def _equations(layout: Layout, hooks: _Hooks, law, const, u: _Unknowns, w1, phi,
         sat += law_rows.utilisation
         m_spin = law_rows.spin_moment
         M = sum(hooks.collect("resistance", state))
-        moment += R * ca.cross(n, Fvec[i]) - M * a + m_spin * n
+        on_sphere = R * ca.cross(n, Fvec[i]) - M * a + m_spin * n      # the contact's moment about the centre
+        moment += on_sphere
         if drive:
             tau[r.shaft] = tau[r.shaft] + r.ratio * (r_eff * u.Ft[i] - M)
         else:
@@ -329,6 +331,8 @@ def _equations(layout: Layout, hooks: _Hooks, law, const, u: _Unknowns, w1, phi,
         per["spin"].append(spin / law_rows.speed)
         per["mu"].append(state.mu)
         per["M_spin"].append(m_spin)
+        for k, v in zip(("T_fork", "fork_pivot", "fork_slide"), fork_terms(r, n, a, on_sphere, R)):
+            per[k].append(v)
         per["loss"].append(-(u.Ft[i] * s_t + u.Fa[i] * s_a + m_spin * spin) - M * (w_i - roll))
         size = (ca.fmax(N[i], 0) / r.preload) ** (1.0 / 3.0)
         per["a"].append(c["a"] * size)
@@ -342,6 +346,25 @@ def _equations(layout: Layout, hooks: _Hooks, law, const, u: _Unknowns, w1, phi,
         per["utilisation"].append(ca.sqrt(u.Ft[i] ** 2 + u.Fa[i] ** 2 + 1e-6) / (state.mu * N[i]))  # 1 mN smoothing
     per["N"] = N
     return slip, moment, idle, tau, per, sat
+
+
+def fork_terms(roller, n, a, on_sphere, R):
+    """A forked roller's steering terms (0, 0, 0 for a roller on no fork), f its fork axis through the centre:
+
+    - T_fork [N m], the torque the steering actuator applies about f to hold the fork while the contact
+      rolls: f·M_c, M_c the contact's moment on the sphere about the centre (R n × F − M a + M_spin n). The
+      roller in equilibrium passes M_c to its fork (its axle carries none about a: the idler's balance), and
+      the fork's bearings none about f.
+    - fork_pivot [-] = f·n and fork_slide [m] = R (f × n)·a: per unit fork rate, the patch's pivoting rate
+      and its slide across the roller (the part along the rolling direction the free roller takes up), from
+      which core.steering finds the torque at standstill.
+
+    Brokowski et al. ("Toward improved CVTs: theoretical and experimental results", 6.2.2): smaller contact
+    patches reduce steering effort."""
+    if roller.fork_axis is None:
+        return ca.SX(0), ca.SX(0), ca.SX(0)
+    f = vec(roller.fork_axis)
+    return ca.dot(f, on_sphere), ca.dot(f, n), R * ca.dot(ca.cross(f, n), a)
 
 
 def _status(resid, per, sat, forward):
@@ -437,7 +460,9 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None,
         "N": ca.vertcat(*per["N"]), "F_t": u.Ft, "F_a": u.Fa, "utilisation": ca.vertcat(*per["utilisation"]),
         "p_max": peak_pressure(ca.vertcat(*per["N"]), p0_all, design), "xi": ca.vertcat(*per["xi"]),
         "eta": ca.vertcat(*per["eta"]), "spin": ca.vertcat(*per["spin"]), "mu": ca.vertcat(*per["mu"]),
-        **{k: ca.vertcat(*per[k]) for k in ("M_spin", "loss", "a", "b", "G", "C11", "C22", "C23", "roll_sign")},
+        **{k: ca.vertcat(*per[k]) for k in ("M_spin", "loss", "a", "b", "G", "C11", "C22", "C23", "roll_sign",
+                                            "T_fork", "fork_pivot", "fork_slide")},
+        "steering_torque": sum(r.fork_sign * t for r, t in zip(layout.rollers, per["T_fork"])),
     }
     steer_res, misfit = _steering_residual(layout, frame, design)
     def close(name, names):       # the selected outputs as a function of (x, params)

@@ -3,8 +3,8 @@
 The model is compiled with the free parameters as CasADi symbols, so the objective and every constraint
 over the operating envelope have exact derivatives (through the model's Newton solves by the implicit
 function theorem). `build_problem` formulates it (Problem): the design variables normalised to [0, 1], the
-objective (`worst_alpha` as an epigraph variable t with −t ≤ α_k ≤ t; `rms_alpha`; `power_loss`, the
-weighted mean power loss over the duty cycle [W]; `pareto`, power loss with worst |α| ≤ ε), a row per
+objective (design.objectives: `worst_alpha` as an epigraph variable t with −t ≤ α_k ≤ t; `rms_alpha`;
+`power_loss`, the weighted mean power loss over the duty cycle [W]; `pareto`, power loss with worst |α| ≤ ε), a row per
 constraint per envelope point, and the rows that depend on the design alone: roller–roller clearance
 (distance of roller centres minus both radii: exact for rollers in one plane such as a tandem pair,
 conservative otherwise) and the assembly envelope radius. The formulation has 9415 rows for the box
@@ -39,6 +39,8 @@ import numpy as np
 from cvtdesign.core.geometry import roller_pose, steering_angle_guess, steering_data
 from cvtdesign.core.kinematics import ShaftFrame, shaft_frame, vec
 from cvtdesign.core.model import compile_model, failed_contact, status_codes
+from cvtdesign.design.objectives import Objective, objective
+from cvtdesign.design.robust import scenarios
 from cvtdesign.design.solution import EnvelopeCheck, check_envelope
 from cvtdesign.design.study_file import (
     StudySpec,
@@ -84,6 +86,7 @@ class Parts:
     gamma_of: np.ndarray      # γ index of each point
     screen: np.ndarray        # the points at the envelope's largest |load|, evaluated first
     nlp: _NLP = None          # the inputs and the model it was built from (for the functions built on first use)
+    theta_pts: np.ndarray = None   # the model's θ at each point (len(θ) × points): a robust study's corners
 
 
 @dataclass
@@ -129,7 +132,14 @@ class Problem:
         check_envelope."""
         return check_envelope(self.envelope(design, at_nlp_seeds), self.parts.nlp.model.roller_names)
 
-    def envelope(self, design: dict, at_nlp_seeds: dict | None = None) -> dict:
+    def nominal_worst_alpha(self, design: dict) -> float:
+        """Worst |α| [deg] over the envelope at the model's nominal θ (a robust study's points sit at the
+        corners of the calibration's region; this is the same design at its middle)."""
+        res = self.envelope(design, theta=np.asarray(self.parts.nlp.model.param_values, float)[:, None])
+        ok = np.ravel(res["status"]) == 0
+        return float(np.degrees(np.max(np.abs(np.ravel(res["alpha"])[ok])))) if ok.any() else float("nan")
+
+    def envelope(self, design: dict, at_nlp_seeds: dict | None = None, theta=None) -> dict:
         """The design's operating points over the whole envelope, as `CompiledModel.evaluate` gives them for
         the numeric model of the design (the base variant with this design and the case's sweep
         parameters): `status` (STATUS codes, not_converged where the solve gave no number), `failed_contact`,
@@ -140,7 +150,7 @@ class Problem:
         design's own linkage. Where that scan gives the NLP's seeds (the base design's scan) bit for bit,
         `at_nlp_seeds` (the CHECK_OUTPUTS of this design by `rows_and_points`), if given, are these numbers
         already: the same Newton solves from the same seeds. Otherwise the points are evaluated here. The
-        functions are built on first use."""
+        functions are built on first use. `theta`: the model's θ at every point instead of the study's."""
         pt, model = self.parts, self.parts.nlp.model
         p = np.array([design[n] for n in self.names], float)
         if "steering" not in self.solvers:
@@ -149,11 +159,12 @@ class Problem:
         t0, axes, u1, u2, k, c, s = (np.asarray(v, float) for v in data(p))
         frame = ShaftFrame(u1.ravel(), u2.ravel(), k.item(), c.item(), s.item())
         phi0, _ = steering_angle_guess(t0.reshape(-1, 3), (axes.reshape(-1, 3), signs), frame, pt.gamma)
-        res = at_nlp_seeds
+        res = at_nlp_seeds if theta is None else None
         if res is None or not np.array_equal(phi0, pt.phi0):
             if "envelope" not in self.solvers:
                 self.solvers["envelope"] = model.point_function(CHECK_OUTPUTS).map(pt.gamma.size, "serial")
-            out = self.solvers["envelope"](pt.gamma, self.motor_speed, pt.load, 0.0, phi0, model.param_values, p)
+            out = self.solvers["envelope"](pt.gamma, self.motor_speed, pt.load, 0.0, phi0,
+                                           pt.theta_pts if theta is None else theta, p)
             res = {k: np.asarray(v) for k, v in zip(CHECK_OUTPUTS, out)}
         status = status_codes(res)
         return res | {"status": status, "failed_contact": failed_contact(res, status), "gamma_cmd": pt.gamma,
@@ -168,7 +179,7 @@ class Problem:
             outputs = list(dict.fromkeys(_row_outputs(pt.nlp) + list(CHECK_OUTPUTS)))
             checked = _point_function(pt.nlp, outputs, extra=CHECK_OUTPUTS)[0]
             out = checked.map(pt.gamma.size, "serial").call(
-                [pt.x, pt.gamma[None, :], pt.load[None, :], pt.phi0[None, :], pt.P0])
+                [pt.x, pt.gamma[None, :], pt.load[None, :], pt.phi0[None, :], pt.P0, pt.theta_pts])
             self.solvers["rows_and_points"] = ca.Function("rows_and_points", [pt.x, pt.eps], [*out, pt.g_design])
         out = [np.asarray(v) for v in self.solvers["rows_and_points"](x, eps)]
         point = pt.row_k >= 0
@@ -190,7 +201,7 @@ class _NLP:
     design as symbols p, the NLP's variables and the envelope points."""
     where: str
     spec: StudySpec
-    kind: str                 # the objective kind ('pareto': the ε-constraint problem)
+    objective: Objective      # what is minimised (design.objectives; 'pareto': the ε-constraint problem)
     vspec: object
     base: object              # the base layout at the sweep point (numeric)
     layout: object            # the same with the design variables as the symbols p
@@ -205,8 +216,8 @@ class _NLP:
     x: ca.MX
     P: ca.MX                  # the design [SI] as a function of z
     P0: ca.MX                 # Hertz peak pressure at the preload, per roller
-    g_pts: np.ndarray         # the envelope points: γ [rad], load [N m], steering angle guess [rad]
-    l_pts: np.ndarray
+    g_pts: np.ndarray         # the envelope points: γ [rad], load [N m], steering angle guess [rad]; a robust
+    l_pts: np.ndarray         # study's envelope once per scenario (design.robust), scenario-major
     phi0: np.ndarray
     nload: int                # loads per γ
     margin: float | None      # traction margin (None: no traction rows)
@@ -214,32 +225,33 @@ class _NLP:
     pre0: np.ndarray          # P₀: the preloads at the base design [N]
     n_min: np.ndarray         # N_min per roller [N]
     preload: ca.Function      # P(design) per roller [N]
+    theta_pts: np.ndarray     # the model's θ at each point (len(θ) × points)
+    scenarios: list           # a label per scenario ([''] without `robust`)
 
     @property
     def epigraph(self) -> bool:
-        return self.kind in ("worst_alpha", "pareto")
+        return self.objective.epigraph
 
-    @property
-    def duty(self) -> list | None:
-        return self.spec.objective.duty_cycle if self.kind in ("power_loss", "pareto") else None
-
-    @property
-    def grid_objective(self) -> bool:
-        """Whether the objective is a mean over the envelope points (rms α, or power loss without a duty cycle)."""
-        return self.kind == "rms_alpha" or (self.kind in ("power_loss", "pareto") and not self.duty)
-
-    @property
-    def obj_name(self) -> str:
-        return "alpha" if self.kind == "rms_alpha" else "power_loss"
+    def duty_mean(self, output: str):
+        """The weighted mean of a model output over the study's duty cycle, as a function of the design."""
+        dg, dl, w = duty_cycle(self.spec, self.g_pts, self.l_pts, self.where)
+        dphi, _ = steering_angle_guess(*steering_data(self.base), dg)
+        values = self.model.point_function([output]).map(len(dg), "serial")(dg, self.w1, dl, 0.0, dphi, self.theta,
+                                                                            self.P)
+        return ca.dot(ca.DM(w / w.sum()), ca.vec(values))
 
     @property
     def npts(self) -> int:
         return self.g_pts.size
 
     @property
+    def per_scenario(self) -> int:
+        return self.npts // len(self.scenarios)
+
+    @property
     def first(self) -> np.ndarray:
-        """One point per γ (the linkage misfit depends on γ only)."""
-        return np.arange(0, self.npts, self.nload)
+        """One point per γ (the linkage misfit depends on γ only), in the first scenario."""
+        return np.arange(0, self.per_scenario, self.nload)
 
     @property
     def w1(self) -> float:
@@ -269,13 +281,13 @@ class _Rows:
 
 
 def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | None = None,
-                  fixed: dict | None = None, objective: str | None = None) -> Problem:
-    """The NLP of a study. `fixed` sets other variant parameters (SI) for a sweep case; `objective`
-    overrides the study's objective kind ('pareto' builds the ε-constraint problem)."""
+                  fixed: dict | None = None, kind: str | None = None) -> Problem:
+    """The NLP of a study. `fixed` sets other variant parameters (SI) for a sweep case; `kind` overrides the
+    study's objective kind (design.objectives; 'pareto' builds the ε-constraint problem)."""
     if spec is None:
         spec, base_file = load_study(study_path)
     fixed = fixed or {}
-    nlp = _setup(study_path, spec, base_file, fixed, objective or spec.objective.kind)
+    nlp = _setup(study_path, spec, base_file, fixed, objective(kind or spec.objective.kind))
     rows = _Rows()
     point_rows, blocks, pt_index, reach_index, misfit_row, obj_grid = _envelope_rows(nlp, rows)
     design_start, n_point_blocks = len(rows.lb), len(rows.exprs)
@@ -284,15 +296,16 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
     design_index = np.arange(design_start, len(rows.lb))
     # the design rows on their own (a slice of g_full would still depend on every envelope point)
     g_design = ca.vertcat(*rows.exprs[n_point_blocks:]) if design_index.size else ca.MX(0, 1)
-    f = _objective(nlp, obj_grid)
-    inputs = [nlp.x, nlp.eps] if nlp.kind == "pareto" else [nlp.x]
+    f = nlp.objective.value(nlp, obj_grid)
+    inputs = [nlp.x, nlp.eps] if nlp.objective.eps_row else [nlp.x]
     evaluate = ca.Function("evaluate", inputs, [f, g_full])
     row_r, row_k, row_scale = _row_maps(nlp, blocks, pt_index, reach_index, misfit_row, len(rows.lb))
     big = np.abs(nlp.l_pts) >= np.max(np.abs(nlp.l_pts)) * (1 - 1e-12)
     parts = Parts(nlp.x, nlp.eps, f, g_full, g_design, nlp.P0, point_rows, np.array([b[0] for b in blocks], float),
                   np.array([b[1] for b in blocks], float), pt_index, misfit_row, reach_index, design_index,
-                  row_r, row_k, row_scale, nlp.g_pts, nlp.l_pts, nlp.phi0, np.arange(nlp.npts) // nlp.nload,
-                  np.flatnonzero(big), nlp)
+                  row_r, row_k, row_scale, nlp.g_pts, nlp.l_pts, nlp.phi0,
+                  (np.arange(nlp.npts) % nlp.per_scenario) // nlp.nload, np.flatnonzero(big), nlp=nlp,
+                  theta_pts=nlp.theta_pts)
     return Problem(spec, nlp.where, base_file, nlp.names, nlp.lower, nlp.upper, nlp.x.shape[0], np.array(rows.lb),
                    np.array(rows.ub), rows.labels, rows.family, evaluate, nlp.epigraph, _start_t(nlp),
                    np.array([nlp.base.parameters[n] for n in nlp.names]), parts, fixed=dict(fixed),
@@ -300,7 +313,7 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
                    motor_speed=float(nlp.w1))
 
 
-def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, kind: str) -> _NLP:
+def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, goal: Objective) -> _NLP:
     """The checked inputs (study_file.problem_inputs), the model compiled with the design variables as
     symbols, the NLP's variables x = (z, t) and ε, the envelope points and the constraint settings."""
     where = str(study_path)
@@ -308,9 +321,12 @@ def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, kind: str)
     p = ca.SX.sym("p", len(names))
     layout = resolve(vspec, str(base_file), overrides=fixed | {n: p[i] for i, n in enumerate(names)})
     model = compile_model(layout, effects=spec.effects, design=p)
-    g_pts, l_pts, phi0, nload = _envelope_points(spec, base, where)
+    thetas, labels = scenarios(model, spec.robust, where)
+    g_pts, l_pts, phi0, nload = (np.tile(v, len(thetas)) if isinstance(v, np.ndarray) else v
+                                 for v in _envelope_points(spec, base, where))
+    theta_pts = np.repeat(thetas.T, g_pts.size // len(thetas), axis=1)
     z = ca.MX.sym("z", len(names))
-    t = ca.MX.sym("t") if kind in ("worst_alpha", "pareto") else ca.MX(0, 1)
+    t = ca.MX.sym("t") if goal.epigraph else ca.MX(0, 1)
     eps = ca.MX.sym("eps")
     x = ca.vertcat(z, t)
     P = ca.DM(lower) + ca.DM(upper - lower) * z
@@ -322,8 +338,8 @@ def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, kind: str)
     pre0 = np.array([float(r.preload) for r in base.rollers])
     n_min = min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
     preload = ca.Function("preload", [p], [ca.vertcat(*[r.preload for r in layout.rollers])])
-    return _NLP(where, spec, kind, vspec, base, layout, model, names, lower, upper, p, z, t, eps, x, P, P0,
-                g_pts, l_pts, phi0, nload, margin, allow, pre0, n_min, preload)
+    return _NLP(where, spec, goal, vspec, base, layout, model, names, lower, upper, p, z, t, eps, x, P, P0,
+                g_pts, l_pts, phi0, nload, margin, allow, pre0, n_min, preload, theta_pts, labels)
 
 
 def _steering_data(nlp: _NLP) -> tuple[ca.Function, np.ndarray]:
@@ -353,15 +369,15 @@ def _envelope_points(spec: StudySpec, base, where: str) -> tuple[np.ndarray, np.
 
 
 def _point_function(nlp: _NLP, outputs: list, objective: bool = False, extra: tuple = ()) -> tuple[ca.Function, list]:
-    """(x, γ, load, φ guess, p0) → the rows of one envelope point (then, with `objective`, the objective's
+    """(x, γ, load, φ guess, p0, θ) → the rows of one envelope point (then, with `objective`, the objective's
     per-point value, and the model outputs named in `extra`), evaluating only the model outputs they need;
     blocks: (lb, ub, family, label of a point, margin scale)."""
     n, rn = len(nlp.names), nlp.model.roller_names
     nc = len(rn)
     xs, gs, ls, ps = ca.MX.sym("x", nlp.x.shape[0]), ca.MX.sym("gamma"), ca.MX.sym("load"), ca.MX.sym("phi0")
-    p0s = ca.MX.sym("p0", nc)
+    p0s, ths = ca.MX.sym("p0", nc), ca.MX.sym("theta", nlp.theta_pts.shape[0])
     Ps = ca.DM(nlp.lower) + ca.DM(nlp.upper - nlp.lower) * xs[:n]
-    out = dict(zip(outputs, nlp.model.point_function(outputs).call([gs, nlp.w1, ls, 0.0, ps, nlp.theta, Ps]))) \
+    out = dict(zip(outputs, nlp.model.point_function(outputs).call([gs, nlp.w1, ls, 0.0, ps, ths, Ps]))) \
         if outputs else {}
     rows_, blocks = [], []
     if nlp.epigraph:
@@ -392,8 +408,8 @@ def _point_function(nlp: _NLP, outputs: list, objective: bool = False, extra: tu
         blocks.append((-np.inf, 1e-6, "reach_gamma", None, 1e-6))
     res = [ca.vertcat(*rows_) if rows_ else ca.MX(0, 1)]
     if objective:
-        res.append(out[nlp.obj_name] * (180 / np.pi if nlp.obj_name == "alpha" else 1))
-    return ca.Function("point_rows", [xs, gs, ls, ps, p0s], res + [out[k] for k in extra]), blocks
+        res.append(out[nlp.objective.per_point(nlp)])
+    return ca.Function("point_rows", [xs, gs, ls, ps, p0s, ths], res + [out[k] for k in extra]), blocks
 
 
 def _envelope_rows(nlp: _NLP, rows: _Rows) -> tuple:
@@ -404,13 +420,16 @@ def _envelope_rows(nlp: _NLP, rows: _Rows) -> tuple:
     need = _row_outputs(nlp)
     point_rows, blocks = _point_function(nlp, need)
     misfit_row = len(blocks) - 1 if cs.reach_gamma else None
-    grid_args = [nlp.x, nlp.g_pts[None, :], nlp.l_pts[None, :], nlp.phi0[None, :], nlp.P0]
-    if nlp.grid_objective:
-        point_all = _point_function(nlp, list(dict.fromkeys(need + [nlp.obj_name])), objective=True)[0]
+    grid_args = [nlp.x, nlp.g_pts[None, :], nlp.l_pts[None, :], nlp.phi0[None, :], nlp.P0, nlp.theta_pts]
+    per_point = nlp.objective.per_point(nlp)
+    if per_point:
+        point_all = _point_function(nlp, list(dict.fromkeys(need + [per_point])), objective=True)[0]
         M, obj_grid = point_all.map(nlp.npts, "serial").call(grid_args)
     else:
         M, obj_grid = point_rows.map(nlp.npts, "serial").call(grid_args)[0], None
-    pt_label = [f"γ={np.degrees(g):+.0f}° τ⊥={l:+.2g}" for g, l in zip(nlp.g_pts, nlp.l_pts)]
+    scen = np.repeat(nlp.scenarios, nlp.per_scenario)
+    pt_label = [f"γ={np.degrees(g):+.0f}° τ⊥={l:+.2g}" + (f" ({s})" if s else "")
+                for g, l, s in zip(nlp.g_pts, nlp.l_pts, scen)]
     first = nlp.first
     pt_index = np.full(len(blocks), -1)
     reach_index = np.zeros(0, int)
@@ -470,23 +489,8 @@ def _design_rows(nlp: _NLP, rows: _Rows) -> None:
         for size, lo, hi, fam, labs in design_spec:
             rows.add(D[at: at + size], lo, hi, fam, labs)
             at += size
-    if nlp.kind == "pareto":
+    if nlp.objective.eps_row:
         rows.add(nlp.t - nlp.eps, -np.inf, 0, "epsilon", ["worst |α| ≤ ε"])
-
-
-def _objective(nlp: _NLP, obj_grid):
-    """The objective: t (worst |α| [deg]); the rms of α over the envelope [deg]; the mean power loss [W]
-    over the duty cycle (weighted) or, without one, over the envelope (also for 'pareto')."""
-    if nlp.kind == "rms_alpha":
-        return ca.sqrt(ca.sumsqr(obj_grid) / nlp.npts)
-    if nlp.kind not in ("power_loss", "pareto"):
-        return nlp.t
-    if not nlp.duty:
-        return ca.sum2(obj_grid) / nlp.npts
-    dg, dl, w = duty_cycle(nlp.spec, nlp.g_pts, nlp.l_pts, nlp.where)
-    dphi, _ = steering_angle_guess(*steering_data(nlp.base), dg)
-    loss = nlp.model.point_function(["power_loss"]).map(len(dg), "serial")(dg, nlp.w1, dl, 0.0, dphi, nlp.theta, nlp.P)
-    return ca.dot(ca.DM(w / w.sum()), ca.vec(loss))
 
 
 def _start_t(nlp: _NLP) -> ca.Function | None:
@@ -494,7 +498,7 @@ def _start_t(nlp: _NLP) -> ca.Function | None:
     if not nlp.epigraph:
         return None
     alpha_grid = nlp.model.point_function(["alpha"]).map(nlp.npts, "serial")(
-        nlp.g_pts, nlp.w1, nlp.l_pts, 0.0, nlp.phi0, nlp.theta, nlp.P)
+        nlp.g_pts, nlp.w1, nlp.l_pts, 0.0, nlp.phi0, nlp.theta_pts, nlp.P)
     return ca.Function("start_t", [nlp.z], [ca.mmax(ca.fabs(alpha_grid)) * (180 / np.pi)])
 
 

@@ -19,6 +19,7 @@ import casadi as ca
 import numpy as np
 from scipy.stats import qmc
 
+from cvtdesign.design.objectives import objective
 from cvtdesign.design.problem import Problem, build_problem, nlpsol
 from cvtdesign.design.report import constraint_report, variant_text, write_variant
 from cvtdesign.design.solution import Solution
@@ -49,11 +50,12 @@ def _ws_solver(problem: Problem, npoints: int, nrows: int) -> ca.Function:
     if key not in problem.solvers:
         pt = problem.parts
         m = pt.pt_lb.size
-        data = ca.MX.sym("points", 3, npoints)
+        data = ca.MX.sym("points", 3 + pt.theta_pts.shape[0], npoints)
         select = ca.MX.sym("select", nrows, m * npoints)
         g = pt.g_design
         if npoints and nrows:
-            rows = pt.point_rows.map(npoints, "serial").call([pt.x, data[0, :], data[1, :], data[2, :], pt.P0])[0]
+            rows = pt.point_rows.map(npoints, "serial").call([pt.x, data[0, :], data[1, :], data[2, :], pt.P0,
+                                                              data[3:, :]])[0]
             g = ca.vertcat(g, ca.mtimes(select, ca.vec(rows)))
         problem.solvers[key] = nlpsol(pt.x, pt.f, g, ca.vertcat(pt.eps, ca.vec(data), ca.vec(select)),
                                        problem.spec.max_iter)
@@ -65,11 +67,17 @@ def rows_at(problem: Problem, x, points) -> np.ndarray:
     pt = problem.parts
     key = ("rows", len(points))
     if key not in problem.solvers:
-        data = ca.MX.sym("points", 3, len(points))
-        rows = pt.point_rows.map(len(points), "serial").call([pt.x, data[0, :], data[1, :], data[2, :], pt.P0])[0]
+        data = ca.MX.sym("points", 3 + pt.theta_pts.shape[0], len(points))
+        rows = pt.point_rows.map(len(points), "serial").call([pt.x, data[0, :], data[1, :], data[2, :], pt.P0,
+                                                              data[3:, :]])[0]
         problem.solvers[key] = ca.Function("rows_at", [pt.x, data], [rows])
-    data = np.vstack([pt.gamma[points], pt.load[points], pt.phi0[points]])
+    data = point_data(pt, points)
     return np.asarray(problem.solvers[key](x, data)).reshape(-1, len(points), order="F")
+
+
+def point_data(pt, points) -> np.ndarray:
+    """The point rows' inputs at these envelope points: γ, load, φ guess and the model's θ, one column each."""
+    return np.vstack([pt.gamma[points], pt.load[points], pt.phi0[points], pt.theta_pts[:, points]])
 
 
 def _near_binding(problem: Problem, g: np.ndarray, t: float, rows=None) -> np.ndarray:
@@ -182,7 +190,7 @@ def _working_set_solve(problem: Problem, work: np.ndarray, points: np.ndarray, x
     pad = nrows - work.size
     lbg = np.concatenate([problem.g_lb[pt.design_index], problem.g_lb[work], np.full(pad, -np.inf)])
     ubg = np.concatenate([problem.g_ub[pt.design_index], problem.g_ub[work], np.full(pad, np.inf)])
-    data = np.vstack([pt.gamma[slots], pt.load[slots], pt.phi0[slots]])
+    data = point_data(pt, slots)
     extra = {} if lam_full is None else \
         {"lam_g0": np.concatenate([lam_full[pt.design_index], lam_full[work], np.zeros(pad)])}
     solver = _ws_solver(problem, npoints, nrows)
@@ -259,19 +267,20 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
     spec, base = load_study(study_path)
     if calibration is not None:
         spec.calibration = str(Path(calibration).resolve())
-    problem = build_problem(study_path, spec, base)
     if n_starts is not None:
-        problem.spec.multistart.starts = n_starts
-    zs = starts(problem)
-    solutions = []
-    for k, z0 in enumerate(zs):
-        solutions.append(solve_from(problem, z0, k))
-        if progress:
-            progress(k + 1, len(zs), solutions[-1])
-    optima = distinct_optima(solutions)
-    result = {"study": problem.spec.name, "starts": len(zs),
+        spec.multistart.starts = n_starts
+    if objective(spec.objective.kind).eps_row:       # the front (kind pareto); its knee is the optimum
+        problem, solutions, front = _front_knee(study_path, spec, base, progress)
+        optima = [(solutions[0], 1)] if solutions[0].success else []
+    else:
+        (problem, solutions), front = _multistart(study_path, spec, base, progress), None
+        optima = distinct_optima(solutions)
+    result = {"study": problem.spec.name, "starts": len(solutions),
               "statuses": [s.status for s in solutions],
               "optima": [{"objective": s.objective, "design": s.design, "found": n} for s, n in optima]}
+    if front is not None:
+        result["front"] = [{k: p[k] for k in ("eps", "worst_alpha_deg", "power_loss_W", "design", "status")}
+                           for p in front]
     result["envelope_checks"] = [s.check.as_dict() if s.check else None for s in solutions]
     if not write:
         result["pending_files"] = {}
@@ -298,7 +307,34 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
                   constraints=report, active_constraints=[r["name"] for r in report if r["active"]],
                   variant_file=str(variant), objective_kind=problem.spec.objective.kind,
                   base_variant=str(problem.base_file), base_design=base_design)
+    if problem.spec.robust is not None:     # the worst case over the region, and the same design at its middle
+        result["robust"] = {"confidence": problem.spec.robust.confidence, "corners": problem.parts.nlp.scenarios,
+                            "worst_alpha_deg": best.objective,
+                            "nominal_worst_alpha_deg": problem.nominal_worst_alpha(best.design)}
     return result
+
+
+def _multistart(study_path, spec: StudySpec, base: Path, progress) -> tuple[Problem, list[Solution]]:
+    """The study's problem solved from each of its starts."""
+    problem = build_problem(study_path, spec, base)
+    zs = starts(problem)
+    solutions = []
+    for k, z0 in enumerate(zs):
+        solutions.append(solve_from(problem, z0, k))
+        if progress:
+            progress(k + 1, len(zs), solutions[-1])
+    return problem, solutions
+
+
+def _front_knee(study_path, spec: StudySpec, base: Path, progress) -> tuple[Problem, list[Solution], list]:
+    """A `pareto` study: the front (pareto_front), its knee's solution first (the optimum reported), then the
+    other points' (the front's ε-constraint problem)."""
+    front = pareto_front(study_path, spec, base)
+    k = knee(front)
+    order = [k] + [i for i in range(len(front)) if i != k]
+    if progress:
+        progress(len(front), len(front), front[k]["solution"])
+    return front[k]["problem"], [front[i]["solution"] for i in order], front
 
 
 def pareto_front(study_path, spec: StudySpec, base_file: Path, fixed: dict | None = None,
@@ -306,9 +342,9 @@ def pareto_front(study_path, spec: StudySpec, base_file: Path, fixed: dict | Non
     """Slip/efficiency trade-off by the ε-constraint method: minimise power loss subject to worst |α| ≤ ε,
     ε from the slip optimum's worst |α| to that of the loss optimum, each point warm-started from the last.
     Returns one dict per point: eps, worst_alpha_deg, power_loss_W, design, status, solution."""
-    slip = build_problem(study_path, spec, base_file, fixed, objective="worst_alpha")
-    loss = build_problem(study_path, spec, base_file, fixed, objective="power_loss")
-    front = build_problem(study_path, spec, base_file, fixed, objective="pareto")
+    slip = build_problem(study_path, spec, base_file, fixed, kind="worst_alpha")
+    loss = build_problem(study_path, spec, base_file, fixed, kind="power_loss")
+    front = build_problem(study_path, spec, base_file, fixed, kind="pareto")
     z0 = starts(slip)[0]
     s_slip, s_loss = solve_from(slip, z0), solve_from(loss, z0)
     lo, hi = s_slip.objective, float(slip.start_t(s_loss.z))

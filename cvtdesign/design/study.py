@@ -63,6 +63,7 @@ from filelock import FileLock, Timeout
 from cvtdesign.design import cluster
 from cvtdesign.design.problem import IPOPT_OPTIONS, build_problem
 from cvtdesign.design.report import variant_text
+from cvtdesign.design.objectives import objective
 from cvtdesign.design.solve import pareto_front, solve_from, starts
 from cvtdesign.design.study_file import (
     StudySpec,
@@ -139,7 +140,9 @@ def make_cases(study_file, spec=None, base: Path | None = None) -> list[dict]:
         if not vals:
             raise InputError(f"{study_file}: batch.sweep.{k}: no values; expected at least one (or leave it out)")
     files = variant_files(study_file, spec, base)
-    total = len(files) * math.prod(len(v) for v in spec.batch.sweep.values()) * (spec.multistart.starts + spec.batch.pareto)
+    front_only = objective(spec.objective.kind).eps_row     # the objective is the front: a chain per case, no starts
+    per_case = (0 if front_only else spec.multistart.starts) + (spec.batch.pareto or front_only)
+    total = len(files) * math.prod(len(v) for v in spec.batch.sweep.values()) * per_case
     if total > MAX_CASES:
         raise InputError(f"{study_file}: batch: {len(files)} variant files × the sweep × {spec.multistart.starts} starts "
                          f"make {total} cases; expected at most {MAX_CASES}")
@@ -150,9 +153,9 @@ def make_cases(study_file, spec=None, base: Path | None = None) -> list[dict]:
         for fixed in combos:     # in names a variant file reads back: letters, digits, '_', '.', '+', '-'
             tag = "_".join(f"{k}{v:.6g}" for k, v in fixed.items())
             stem = vf.stem + (f"_{tag}" if tag else "")
-            for k in range(max(spec.multistart.starts, 1)):
+            for k in range(0 if front_only else max(spec.multistart.starts, 1)):
                 cases.append({"id": f"{stem}_start{k}", "kind": "start", "variant": str(vf), "fixed": fixed, "start": k})
-            if spec.batch.pareto:
+            if spec.batch.pareto or front_only:
                 cases.append({"id": f"{stem}_pareto", "kind": "pareto", "variant": str(vf), "fixed": fixed, "start": 0})
     return cases
 
@@ -238,13 +241,14 @@ def run_case(content: StudyContent, case: dict, out_dir: str) -> dict:
         path, files[path] = variant_text(problem, sol, vdir, name, study=True)
         return str(path)
 
+    goal = objective(spec.objective.kind)
     if case["kind"] == "start":
         problem = cached_problem(content, variant, case["fixed"])
         sol = solve_from(problem, starts(problem)[case["start"]], case["start"])
         ok = sol.success
         rows.append(common | {"point": 0, "status": sol.status, "success": ok, "objective": _held(ok, sol.objective),
                               "worst_alpha_deg": _held(ok, sol.check.max_abs_alpha_deg if sol.check else np.nan),
-                              "power_loss_W": _held(ok, sol.objective if spec.objective.kind == "power_loss" else np.nan),
+                              "power_loss_W": _held(ok, sol.objective if goal.case_column == "power_loss_W" else np.nan),
                               "iterations": sol.iterations,
                               "variant_file": design_file(problem, sol, f"{spec.name}_{case['id']}")}
                     | {f"design.{k}": v for k, v in sol.design.items()})

@@ -5,8 +5,9 @@ constraints (StudySpec). `load_study` reads it; `problem_inputs` checks, for one
 point, everything the NLP is built from (parameters, bounds, geometry, and by `check_settings` the effects,
 envelope, constraint values, duty cycle and solver options), without compiling anything.
 
-Objectives: `worst_alpha` (max |α| over the envelope), `rms_alpha`, `power_loss` (weighted mean power loss
-over a duty cycle of (γ, τ⊥) points [W]).
+Objectives (design.objectives): `worst_alpha` (max |α| over the envelope), `rms_alpha`, `power_loss`
+(weighted mean power loss over a duty cycle of (γ, τ⊥) points [W]), `pareto` (the slip/loss front; its
+knee is the optimum).
 Constraints: Hertz peak pressure ≤ the material's allowable, traction |F| ≤ (1 − margin)·μN (no gross
 slip), normal force N ≥ N_min at every contact (the rollers stay in contact), roller–roller clearance, an
 assembly envelope radius, and the steering linkage still reaching every γ of the envelope.
@@ -34,6 +35,7 @@ from pydantic import BeforeValidator, Field, StrictBool
 
 from cvtdesign.core.checks import check_layout
 from cvtdesign.core.contact.laws import check_effects
+from cvtdesign.design.objectives import OBJECTIVES
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.fitted import read_fitted
 from cvtdesign.io.schema import MAX_COUNT, EnvelopeSpec, Name, Num, Strict, VariantSpec, no_bool
@@ -64,8 +66,10 @@ class DutyPoint(Strict):
     weight: Weight = 1.0   # finite, >= 0
 
 
-class Objective(Strict):
-    kind: Literal["worst_alpha", "rms_alpha", "power_loss"] = "worst_alpha"
+class ObjectiveSpec(Strict):
+    """What the study minimises: `kind` one of design.objectives.OBJECTIVES, and for the power-loss kinds an
+    optional duty cycle of (γ, τ⊥) points with weights (without one, the mean over the envelope)."""
+    kind: Literal[tuple(OBJECTIVES)] = "worst_alpha"
     duty_cycle: list[DutyPoint] | None = None
 
 
@@ -102,19 +106,27 @@ class Pareto(Strict):
     points: Int = 8
 
 
+class RobustSpec(Strict):
+    """Optimise the worst case over a confidence region (design.robust): `over` what is uncertain (the
+    calibration of the contact law), `confidence` the region's probability, in (0, 1)."""
+    over: Literal["calibration"] = "calibration"
+    confidence: Weight = 0.95
+
+
 class StudySpec(Strict):
     name: Name          # part of the results folder's and the optimised variant's file names
     description: str = ""
     base: str
     effects: list[str] | None = None
     design: dict[str, DesignVar]
-    objective: Objective = Objective()
+    objective: ObjectiveSpec = ObjectiveSpec()
     constraints: Constraints = Constraints()
     multistart: Multistart = Multistart()
     envelope: EnvelopeSpec | None = None              # default: the variant's envelope
     batch: Batch = Batch()
     pareto: Pareto = Pareto()
     max_iter: Int = 200
+    robust: RobustSpec | None = None   # the worst case over the calibration's confidence region
     calibration: str | None = None     # a diagnosis report (cvtdesign diagnose --json) whose fitted effect
                                        # parameters the base variants carry (path relative to the study)
 
@@ -321,6 +333,13 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
     min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
     duty_cycle(spec, gammas, loads, where)
     check_counts(where, spec)
+    if spec.robust is not None:
+        if not 0 < spec.robust.confidence < 1:
+            raise InputError(f"{where}: robust.confidence: expected a probability between 0 and 1 (e.g. 0.95), "
+                             f"got {spec.robust.confidence:g}")
+        if spec.objective.kind != "worst_alpha":
+            raise InputError(f"{where}: robust: the worst case over the region is built for objective kind "
+                             f"worst_alpha; expected that kind with robust (got {spec.objective.kind})")
 
 
 def duty_cycle(spec: StudySpec, gammas: np.ndarray, loads: np.ndarray, where: str) -> tuple:

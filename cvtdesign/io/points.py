@@ -22,6 +22,8 @@ Columns (fixed: outside tools rely on them; more may follow at the end):
 | mu | - | friction coefficient |
 | C11, C22, C23 | - | creep coefficients as the law used them (calibration included): small-creepage force slopes G·a·b·C11 along t, G·a·b·C22 along a, G·(ab)^1.5·C23 per unit spin |
 | loss_W | W | power lost at the contact (creep, spin and rolling resistance) |
+| T_fork_Nm | N·m | torque the steering actuator applies about the roller's fork axis while the contact rolls (0 on no fork) |
+| T_fork_standstill_Nm | N·m | torque to turn the fork with the sphere at rest, its patch sliding (0 on no fork) |
 
 The frame is Kalker's patch frame, so that the rows can be checked against any rolling-contact code: n is the
 sphere's outward normal at the contact, x the rolling direction (the way the contact travels over both
@@ -45,7 +47,7 @@ NUMBERS = {"N_N": ("N", 1.0), "xi": ("xi", 1.0), "eta": ("eta", 1.0), "phi_1_m":
            "F_long_N": ("F_t", 1.0), "F_lat_N": ("F_a", 1.0), "M_spin_Nm": ("M_spin", 1.0),
            "utilisation": ("utilisation", 1.0), "a_mm": ("a", 1e3), "b_mm": ("b", 1e3), "p0_MPa": ("p_max", 1e-6),
            "G_MPa": ("G", 1e-6), "mu": ("mu", 1.0), "C11": ("C11", 1.0), "C22": ("C22", 1.0), "C23": ("C23", 1.0),
-           "loss_W": ("loss", 1.0)}
+           "loss_W": ("loss", 1.0), "T_fork_Nm": ("T_fork", 1.0), "T_fork_standstill_Nm": ("T_fork_standstill", 1.0)}
 COLUMNS = ["variant", "gamma_cmd_deg", "tau_perp_Nm", "status", "roller", "role", *NUMBERS]
 FORMATS = (".csv", ".parquet")
 

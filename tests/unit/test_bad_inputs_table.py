@@ -840,6 +840,54 @@ case("resteer: variant with a bad envelope", ("bad.yaml", "envelope.load"),
      with_variant("resteer", (ENV_L + ("step",), "0 N*m")), "resteer", "variant YAML")
 case("resteer: no --variant", ("resteer", "--variant"), cli("resteer", "--load", "1 N*m"), "resteer", "command line")
 
+TT = ("resteer", "{v}", "--table", "{out}/t.csv")          # the controller table (issue 27)
+for id, expect, args in [
+    ("--table-ratios START ≥ STOP", ("--table-ratios", "START < STOP"), ("--table-ratios", "2.5:0.4:5")),
+    ("--table-ratios COUNT 1", ("--table-ratios", "2 ≤ COUNT"), ("--table-ratios", "0.4:2.5:1")),
+    ("--table-ratios COUNT not whole", ("--table-ratios", "COUNT", "'x'"), ("--table-ratios", "0.4:2.5:x")),
+    ("--table-ratios two colons only", ("--table-ratios", "START:STOP:COUNT"), ("--table-ratios", "0.4:2.5")),
+    ("--table-ratios not numbers", ("--table-ratios", "expected numbers"), ("--table-ratios", "a,b")),
+    ("--table-ratios not increasing", ("--table-ratios", "increasing"), ("--table-ratios", "1,1")),
+    ("--table-ratios one value", ("--table-ratios", "2 to 1001"), ("--table-ratios", "1")),
+    ("--table-ratios inf", ("--table-ratios", "finite"), ("--table-ratios", "1,inf")),
+    ("--table-ratios nan stop", ("--table-ratios", "finite"), ("--table-ratios", "0.4:nan:5")),
+    ("--table-ratios beyond the envelope", ("--table-ratios: ω2/ω1 = 100 needs γ = 89.4 deg",), ("--table-ratios", "1,100")),
+    ("--table-loads outside the envelope", ("--table-loads: τ⊥ = -2 N·m is outside",),
+     ("--table-loads", "-2 N*m:1 N*m:4")),
+    ("--table-loads in m", "--table-loads", ("--table-loads", "0,1 m")),
+    ("--table-loads not increasing", ("--table-loads", "increasing"), ("--table-loads", "1,0")),
+    ("a grid past what one evaluation holds", ("--table-ratios × --table-loads", "scan points"),
+     ("--table-ratios", "0.4:2.5:1001", "--table-loads", "-1:1:1001")),
+    ("--load with --table", ("--load", "--table-loads"), ("--load", "1 N*m")),
+    ("--json with --table", ("--json", "with --table"), ("--json", "{out}/r.json")),
+    ("--table to a directory", ("--table", "is a directory"), ("--table", "{adir}")),
+    ("--table is the variant", ("--table", "this command's input"), ("--table", "{v}")),
+]:
+    case(f"resteer: {id}", expect, cli(*TT, *args), "resteer", "command line")
+case("resteer: --table-ratios without --table", ("--table-ratios", "expected --table"),
+     cli("resteer", "{v}", "--table-ratios", "0.4:2.5:5"), "resteer", "command line")
+case("resteer: a variant twice", ("existing.yaml is a variant file and --variant names another",),
+     cli("resteer", "{v}", "--variant", "{v}", "--table", "{out}/t.csv"), "resteer", "command line")
+
+# ------------------------------------------------------------------------------------------------- capacity
+
+for id, expect, args in [
+    ("--safety 0", ("--safety", "at least 1"), ("--safety", "0")),
+    ("--safety below 1", ("--safety", "at least 1", "got 0.5"), ("--safety", "0.5")),
+    ("--safety negative", ("--safety", "at least 1"), ("--safety", "-1.5")),
+    ("--safety nan", ("--safety", "finite"), ("--safety", "nan")),
+    ("--safety inf", ("--safety", "finite"), ("--safety", "inf")),
+    ("--safety not a number", "argument --safety: invalid float value", ("--safety", "1.5x")),
+    ("--json to a directory", ("--json", "is a directory"), ("--json", "{adir}")),
+    ("--plots is a file", ("--plots", "is not a folder"), ("--plots", "{plain}")),
+    ("--json is the variant", ("--json", "this command's input"), ("--json", "{v}")),
+]:
+    case(f"capacity: {id}", expect, cli("capacity", "{v}", "--json", "{out}/c.json", *args), "capacity", "command line")
+case("capacity: missing file", ("nope.yaml", "cannot read file"), cli("capacity", "{in}/nope.yaml"), "capacity",
+     "variant YAML")
+case("capacity: variant with non-finite preload", ("bad.yaml", "rollers.D1.preload"),
+     lambda env: ["capacity", str(bad_variant(env, [(D1 + ("preload",), "inf N")]))], "capacity", "variant YAML")
+
 # ------------------------------------------------------------------------------------------------ selfcheck
 
 for id, expect, args in [
@@ -1006,7 +1054,7 @@ def test_an_alias_error_names_the_file_once(tmp_path, capsys):
 def test_table_covers_every_command_and_file_type():
     commands = {c for c, _ in COMMAND_OF.values()}
     kinds = {k for _, k in COMMAND_OF.values()}
-    assert {"compare", "optimise", "study", "export", "rig", "diagnose", "resteer", "selfcheck"} <= commands
+    assert {"compare", "capacity", "optimise", "study", "export", "rig", "diagnose", "resteer", "selfcheck"} <= commands
     assert {"variant YAML", "study YAML", "protocol YAML", "measured CSV", "command line"} <= kinds
     assert len(CASES) >= 150
 

@@ -121,7 +121,7 @@ def test_pareto_front_of_the_box_study(tmp_path):
     assert np.all(worst <= eps + 1e-6 * np.maximum(1, eps))
     assert np.all(np.diff(loss) <= 1e-6 * loss[:-1])
     assert loss[0] > loss[-1] * 1.001                        # a real trade-off, not one point four times
-    slip = build_problem(path, spec, base, objective="worst_alpha")
+    slip = build_problem(path, spec, base, kind="worst_alpha")
     assert worst[0] == pytest.approx(eps[0], rel=1e-5)       # the first point is the slip optimum
     assert slip.names == pts[0]["problem"].names
     assert knee(pts) in (1, 2)

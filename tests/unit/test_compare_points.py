@@ -14,7 +14,7 @@ from cvtdesign.io.points import COLUMNS
 
 EXPECTED = ["variant", "gamma_cmd_deg", "tau_perp_Nm", "status", "roller", "role", "N_N", "xi", "eta", "phi_1_m",
             "F_long_N", "F_lat_N", "M_spin_Nm", "utilisation", "a_mm", "b_mm", "p0_MPa", "G_MPa", "mu", "C11",
-            "C22", "C23", "loss_W"]
+            "C22", "C23", "loss_W", "T_fork_Nm", "T_fork_standstill_Nm"]
 
 
 @pytest.fixture(scope="module")

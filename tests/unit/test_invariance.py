@@ -59,7 +59,8 @@ SHIPPED = ("existing", "box", "unequal")
 KALKER = ("existing+kalker", "box+kalker")
 SMALL = dict(gamma_deg=(-60, 60, 30), load_nm=(-1, 1, 1))
 FIGURES = ("max_abs_alpha_deg", "rms_alpha_deg", "max_abs_alpha_steering_deg", "max_abs_alpha_drive_deg",
-           "ratio_error_pct_at_max_load", "min_efficiency", "max_traction_utilisation", "max_hertz_pressure_MPa")
+           "ratio_error_pct_at_max_load", "min_efficiency", "max_traction_utilisation", "max_hertz_pressure_MPa",
+           "max_steering_torque_Nm", "max_standstill_steering_torque_Nm")
 ANGLES = ("alpha", "alpha_steering", "alpha_drive")
 ANGLE_TOL = 1e-9    # [rad] pointwise α, α_steering, α_drive (found: < 1e-15)
 # pointwise N, utilisation, p_max, speeds, torques, relative to the largest value of the envelope: the

@@ -1,0 +1,189 @@
+"""`cvtdesign capacity`: at each γ of a variant's envelope, the largest lateral load τ⊥ of each sign before the
+first contact slips grossly, loses contact or exceeds its allowable pressure, and which contact that is
+(core.capacity)."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+from rich.console import Console
+
+from cvtdesign.cli.printing import json_text, number, progress_bar, show
+from cvtdesign.core import basis
+from cvtdesign.core.capacity import LIMITS, capacity, smallest_capacity
+from cvtdesign.core.metrics import allowable_pressures
+from cvtdesign.core.model import compile_model
+from cvtdesign.errors import InputError
+from cvtdesign.io import plots
+from cvtdesign.io.output import make_folder, named_after, write_file
+from cvtdesign.io.report import Note, Table
+from cvtdesign.io.variant import load_capacity, load_variant
+
+LIMIT_WORDS = {"gross_slip": "gross slip", "lost_contact": "lost contact", "pressure": "pressure"}
+
+
+def check_safety(value: float) -> float:
+    """The safety factor S on friction (gross slip once F/(μN) reaches 1/S): finite and at least 1 (below 1
+    it would let a contact pass its friction)."""
+    if not (math.isfinite(value) and value >= 1):
+        raise InputError(f"--safety: expected a finite safety factor of at least 1 (gross slip is counted once "
+                         f"F/(μN) reaches 1/S), got {value:g}")
+    return float(value)
+
+
+def side_record(model, cap: dict, side: str, i: int) -> dict:
+    """The JSON fields of one γ and one side ('max': τ⊥ > 0, 'min': τ⊥ < 0) of a core.capacity result; a limit
+    that is no limit of the CVT (the model did not converge, …) leaves the capacity and the limit null and
+    says why in unknown_<side>, with held_<side>_Nm the largest load at which the model held."""
+    names, limit = model.roller_names, cap[f"limit_{side}"][i]
+    k = int(cap[f"contact_{side}"][i])
+    return {f"tau_perp_{side}_Nm": cap[f"tau_perp_{side}"][i],
+            f"limit_{side}": limit if limit in LIMITS else None,
+            f"contact_{side}": names[k] if k >= 0 else None,
+            f"contacts_{side}": [n for n, s in zip(names, cap[f"sharing_{side}"][:, i]) if s],
+            f"tau_1_{side}_Nm": cap[f"tau_1_{side}"][i], f"tau_2_{side}_Nm": cap[f"tau_2_{side}"][i],
+            f"unknown_{side}": None if limit in LIMITS else limit,
+            f"held_{side}_Nm": cap[f"held_{side}"][i],
+            f"held_gamma_axis_{side}_deg": np.degrees(cap[f"held_axis_{side}"][i])}
+
+
+def variant_record(name: str, model, cap: dict) -> dict:
+    """One variant's JSON record: its capacity at every γ of its envelope (the `capacity --json` interface),
+    the envelope, the safety factor, the contacts whose pressure is not checked and the search's bound."""
+    L = model.layout
+    rows = []
+    for i, g in enumerate(cap["gamma"]):
+        row = {"gamma_deg": round(float(np.degrees(g)), 9)}
+        for side in ("max", "min"):
+            row |= side_record(model, cap, side, i)
+        rows.append(row)
+    unchecked = [n for n, p in zip(model.roller_names, allowable_pressures(L)) if not np.isfinite(p)]
+    return {"name": name, "file": L.file, "safety": cap["safety"], "capacity": rows,
+            "envelope": {"gamma_deg": [float(np.degrees(L.gamma_grid.min())), float(np.degrees(L.gamma_grid.max()))],
+                         "tau_perp_Nm": [float(L.load_grid.min()), float(L.load_grid.max())]},
+            "pressure_not_checked": unchecked, "search_bound_Nm": cap["bound"],
+            "smallest": smallest_record(model, cap),
+            "unknown": sum(r[f"unknown_{s}"] is not None for r in rows for s in ("max", "min"))}
+
+
+def smallest_record(model, cap: dict) -> dict:
+    """core.capacity.smallest_capacity as JSON: tau_perp_Nm (null where not known), gamma_deg, side, limit,
+    contact."""
+    least = smallest_capacity(cap)
+    known, placed = np.isfinite(least["tau_perp"]), np.isfinite(least["gamma"])
+    return {"tau_perp_Nm": float(least["tau_perp"]) if known else None,
+            "gamma_deg": round(float(np.degrees(least["gamma"])), 9) if placed else None,
+            "side": least["side"], "limit": least["limit"],
+            "contact": model.roller_names[least["contact"]] if least["contact"] >= 0 else None}
+
+
+def torque_text(value) -> str:
+    """A torque [N·m] to the table's 3 decimals ('—' where there is none; round-off zeros print as 0.000)."""
+    return "—" if value is None or not np.isfinite(value) else f"{round(float(value), 3) + 0.0:.3f}"
+
+
+def _cell(row: dict, side: str) -> list[str]:
+    """The table's cells of one side: capacity, limit, contact(s), τ1, τ2."""
+    tau, unknown = row[f"tau_perp_{side}_Nm"], row[f"unknown_{side}"]
+    if unknown is not None:
+        return ["—", unknown.replace("_", " ") + " ³", "", "", ""]
+    limit = LIMIT_WORDS[row[f"limit_{side}"]] + ("" if tau is not None and np.isfinite(tau) else " without load")
+    return [torque_text(tau), limit, ", ".join(row[f"contacts_{side}"]) or row[f"contact_{side}"],
+            torque_text(row[f"tau_1_{side}_Nm"]), torque_text(row[f"tau_2_{side}_Nm"])]
+
+
+def capacity_blocks(record: dict) -> list:
+    """A variant's printed table (a row per γ, each side's capacity, limit, contact and shaft torques) and its
+    notes: the smallest capacity against the envelope, the safety factor, the searches that ended on no
+    limit of the CVT, the contacts whose pressure is not checked."""
+    s = record["safety"]
+    t = Table(f"{record['name']}: load capacity τ⊥ at each γ" + (f", gross slip at F/(μN) = 1/{s:g}" if s != 1 else ""),
+              ["γ [°]", "τ⊥ max [N·m]", "limit", "contact", "τ1 [N·m]", "τ2 [N·m]",
+               "τ⊥ min [N·m]", "limit", "contact", "τ1 [N·m]", "τ2 [N·m]"])
+    for row in record["capacity"]:
+        t.add(number(row["gamma_deg"], 4), *_cell(row, "max"), *_cell(row, "min"),
+              style="bad" if row["unknown_max"] or row["unknown_min"] else "")
+    blocks = [t, Note(summary_text(record))]
+    if s != 1:
+        blocks.append(Note(f"safety factor {s:g} on friction: a contact counts as slipping grossly once its "
+                           f"utilisation F/(μN) reaches 1/{s:g} = {1 / s:.3g}; lost contact and the allowable "
+                           "pressure are as without it"))
+    if record["unknown"]:
+        blocks.append(Note(f"³ {record['name']}: {record['unknown']} of {2 * len(record['capacity'])} searches ended "
+                           f"where the model has no steady solution, so no capacity is given there: "
+                           + "; ".join(unknown_texts(record)), "bad"))
+    if record["pressure_not_checked"]:
+        blocks.append(Note(f"{record['name']}: allowable pressure not checked at "
+                           f"{', '.join(record['pressure_not_checked'])} (no allowable_pressure in either material)",
+                           "warn"))
+    return blocks
+
+
+AXIS_POLE_DEG = 85.0     # [°] an axis angle γ_axis past which a search that stopped is said to near the ratio's pole
+
+
+def unknown_texts(record: dict) -> list[str]:
+    """Where the search ended on no limit of the CVT, and why: 'γ 80°, τ⊥ > 0: not converged beyond 4.473 N·m,
+    where the load has turned the sphere's axis to 89.99° (ω2/ω1 grows without bound towards 90°)'."""
+    out = []
+    for row in record["capacity"]:
+        for side in ("max", "min"):
+            if row[f"unknown_{side}"] is None:
+                continue
+            held, axis = row[f"held_{side}_Nm"], row[f"held_gamma_axis_{side}_deg"]
+            text = f"γ {number(row['gamma_deg'], 4)}°, τ⊥ {'>' if side == 'max' else '<'} 0: " \
+                   + row[f"unknown_{side}"].replace("_", " ")
+            if held is not None and np.isfinite(held):
+                text += f" beyond {number(abs(held), 4)} N·m"
+                if abs(axis) > AXIS_POLE_DEG:
+                    text += (f", where the load has turned the sphere's axis to {axis:.3f}° (ω2/ω1 grows without "
+                             "bound towards ±90°)")
+            out.append(text)
+    return out
+
+
+def summary_text(record: dict) -> str:
+    """'box: smallest capacity 4.267 N·m (γ 0°, τ⊥ > 0: gross slip at B, B_), 4.27× the envelope's largest load
+    1 N·m', or where the model stopped first, that the smallest capacity is not known and where."""
+    least, env = record["smallest"], max(abs(v) for v in record["envelope"]["tau_perp_Nm"])
+    if least["gamma_deg"] is None:
+        return f"{record['name']}: no capacity is known at any γ"
+    row = next(r for r in record["capacity"] if r["gamma_deg"] == least["gamma_deg"])
+    side = least["side"]
+    where = f"γ {number(least['gamma_deg'], 4)}°, τ⊥ {'>' if side == 'max' else '<'} 0"
+    if least["tau_perp_Nm"] is None:
+        return (f"{record['name']}: smallest capacity not known: at {where} the model stops at "
+                f"{number(abs(row[f'held_{side}_Nm']), 4)} N·m before any limit (³), below every capacity found")
+    tau = least["tau_perp_Nm"]
+    return (f"{record['name']}: smallest capacity {number(tau, 4)} N·m ({where}: {LIMIT_WORDS[least['limit']]} "
+            f"at {', '.join(row[f'contacts_{side}'])}), {tau / env:.3g}× the envelope's largest load {number(env, 4)} N·m")
+
+
+def run(args):
+    safety = check_safety(args.safety)
+    files = [Path(f) for f in args.variants]
+    layouts = [load_variant(f) for f in files]
+    names = basis.distinct_names(layouts)
+    console = Console(width=140)
+    records = []
+    with progress_bar(console, "capacity", lambda item: item, transient=True) as progress:
+        for i, (L, name) in enumerate(zip(layouts, names)):
+            model = compile_model(dataclasses.replace(L, name=name))
+            cap = capacity(model, L.gamma_grid, load_capacity(L), safety,
+                           progress=lambda d, t, item, i=i, n=name: progress(i * t + d, len(layouts) * t,
+                                                                             f"{n}: {item or 'done'}"))
+            records.append(variant_record(name, model, cap))
+    written = []       # the files first, then the terminal (a reader closing stdout early loses no file)
+    if args.plots:
+        figure = make_folder(args.plots, kind="--plots") / named_after(files, "_capacity.png")
+        plots.capacity_figure(records, figure)
+        written.append(f"plot: {figure}")
+    if args.json:
+        write_file(args.json, json_text({"variants": records}), kind="--json")
+        written.append(f"capacities written to {args.json}")
+    show(console, [b for r in records for b in capacity_blocks(r)])
+    for line in written:
+        console.print(line)
+    return 0

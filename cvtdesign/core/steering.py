@@ -1,0 +1,66 @@
+"""Steering effort: the torque that turns each fork and the steering motor's torque through the linkage.
+
+Brokowski et al. ("Toward improved CVTs: theoretical and experimental results", 6.2.2) note that smaller
+contact patches reduce steering effort; for a cobot this torque sizes the steering actuator. Two cases:
+
+* **Rolling** (the model's outputs `T_fork` and `steering_torque`, core.model.fork_terms): the torque that
+  holds fork i while its contact rolls, T_i = f_i·M_c, M_c the contact's moment on the sphere about the
+  centre (the lateral force's lever R n × F, the spin moment about n, the rolling resistance). Through the
+  linkage, where fork i turns by k_i times the steering angle φ (k_i its fork sign), virtual work gives the
+  motor's torque T = Σ k_i T_i.
+* **At standstill** (this module): turning a fork with the sphere at rest slides its whole patch. Per unit
+  fork rate the patch pivots at f·n and slides across the roller at R (f × n)·a (the roller, free on its
+  axle, takes up the part along its rolling direction), so Coulomb friction at the Hertz pressure resists
+  with μN·L, L = (1/N) ∫ p |v| dA (sliding_lever): μNℓ for a fork through its contact (pure pivoting, ℓ
+  core.contact.hertz.pivot_lever), μN|s| for a pure slide. Every fork resists whichever way it turns, so
+  the motor needs Σ |k_i| μ N_i L_i. It is taken at each operating point's normal forces (a loaded machine
+  held still and resteered).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def sliding_lever(a, b, pivot, slide, nodes: int = 32):
+    """(1/N) ∫ p |v| dA [m] for a Hertz patch sliding rigidly with the velocity field v(x, y) = (−ω y, s + ω x),
+    ω = `pivot` [-] about the normal and s = `slide` [m] across it, per unit rate: the power a fully sliding
+    patch dissipates over μN, so μN·sliding_lever is the torque that drives the motion. Pure pivoting gives
+    ℓ|ω| (core.contact.hertz.pivot_lever), pure sliding |s|.
+
+    Quadrature with x = a sin u cos t, y = b sin u sin t, so p dA / N = (3/2π) cos²u sin u du dt: Gauss–Legendre
+    in u (`nodes` points) and the trapezoid rule in t (4·`nodes`, exact for the periodic integrand's
+    harmonics). It converges spectrally unless the slide's instantaneous centre lies inside the patch, where
+    |v| has a kink (K. L. Johnson, Contact Mechanics, 1985, sec. 4.2 for the pressure).
+
+    Parameters
+    ----------
+    a, b : contact semi-axes [m]; pivot [-], slide [m]: arrays broadcast together
+
+    Returns
+    -------
+    array of the broadcast shape [m]
+    """
+    a, b, w, s = np.broadcast_arrays(*(np.asarray(v, float) for v in (a, b, pivot, slide)))
+    u, wu = np.polynomial.legendre.leggauss(nodes)
+    u, wu = np.pi / 4 * (u + 1), np.pi / 4 * wu
+    t = np.linspace(0.0, 2 * np.pi, 4 * nodes, endpoint=False)
+    rho, ct, st = np.sin(u)[:, None], np.cos(t)[None, :], np.sin(t)[None, :]
+    weight = (wu * np.cos(u) ** 2 * np.sin(u))[:, None] * 3 / (4 * nodes)      # (3/2π)·(2π/(4 nodes))
+    out = np.full(a.shape, np.nan)
+    for k in zip(*np.nonzero(np.isfinite(a) & np.isfinite(b))) if a.ndim else [()]:
+        x, y = a[k] * rho * ct, b[k] * rho * st
+        out[k] = np.sum(weight * np.hypot(w[k] * y, s[k] + w[k] * x))
+    return out
+
+
+def standstill_torques(res: dict, fork_signs) -> tuple[np.ndarray, np.ndarray]:
+    """The torque [N m] to turn each fork at standstill (contacts × points, 0 for a roller on no fork) and the
+    steering motor's, Σ |k_i| T_i (points), from an envelope result (core.metrics.envelope): the normal
+    forces N, patches a, b, friction μ and the forks' `fork_pivot` and `fork_slide` of each point."""
+    k = np.abs(np.asarray(fork_signs, float)).reshape(-1, *([1] * (np.ndim(res["N"]) - 1)))
+    forked = np.broadcast_to(k > 0, np.shape(res["N"]))
+    lever = np.zeros(np.shape(res["N"]))
+    lever[forked] = sliding_lever(res["a"][forked], res["b"][forked], res["fork_pivot"][forked],
+                                  res["fork_slide"][forked])
+    per_fork = res["mu"] * np.maximum(res["N"], 0.0) * lever
+    return per_fork, np.sum(k * per_fork, axis=0)

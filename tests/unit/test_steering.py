@@ -1,0 +1,88 @@
+"""Steering effort (core.steering, core.model.fork_terms): the torque to turn each fork while the contacts roll
+and at standstill, and the steering motor's through the linkage; in compare's table, notes and JSON and in
+`--points`."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy.special import ellipe
+
+from conftest import shipped_model, variant_data, write_yaml
+from cvtdesign.core.metrics import envelope, metrics
+from cvtdesign.core.steering import sliding_lever
+
+
+@pytest.mark.parametrize("a, b", [(1e-3, 1e-3), (1.6e-3, 1e-3), (1e-3, 2.5e-3)])
+def test_pivoting_patch_resists_with_the_pivot_lever(a, b):
+    """Pure pivoting: (1/N)∫p|v|dA = ℓ = (3/8)·A·E(1 − B²/A²), A ≥ B the semi-axes (3πa/16 for a circle), here
+    with SciPy's complete elliptic integral, not the package's; pure sliding gives the slide itself."""
+    A, B = max(a, b), min(a, b)
+    assert sliding_lever(a, b, 1.0, 0.0) == pytest.approx(0.375 * A * ellipe(1 - (B / A) ** 2), rel=1e-12)
+    assert sliding_lever(a, b, -2.0, 0.0) == pytest.approx(2 * 0.375 * A * ellipe(1 - (B / A) ** 2), rel=1e-12)
+    assert sliding_lever(a, b, 0.0, 0.03) == pytest.approx(0.03, rel=1e-12)
+
+
+def test_sliding_lever_converges_where_the_slide_centre_is_inside_the_patch():
+    """A slide whose instantaneous centre lies inside the patch (|s|/ω < a): |v| has a kink there, and the
+    quadrature still converges (32 against 256 nodes: 2e-5), bounded by ℓω + |s| and above both apart."""
+    a, b, w, s = 1.6e-3, 1e-3, 1.0, 0.5e-3
+    coarse, fine = sliding_lever(a, b, w, s), sliding_lever(a, b, w, s, nodes=256)
+    assert coarse == pytest.approx(fine, rel=2e-5)
+    assert max(s, sliding_lever(a, b, w, 0.0)) < fine < s + sliding_lever(a, b, w, 0.0)
+
+
+def test_standstill_at_a_pivoting_fork_is_mu_n_l():
+    """Kim's forks turn about their contacts' normals, so at standstill each patch pivots: the fork's torque at
+    one contact is μNℓ by hand (N, a, b of the point, ℓ from SciPy's E), to 1 %; the motor's is the sum over
+    both forks (|k| = 1)."""
+    model = shipped_model("existing")
+    res = envelope(model)
+    names = [r.name for r in model.layout.rollers]
+    i, k = names.index("S1"), 37
+    N, a, b, mu = (np.asarray(res[q]).reshape(len(names), -1)[i, k] for q in ("N", "a", "b", "mu"))
+    A, B = max(a, b), min(a, b)
+    hand = mu * N * 0.375 * A * ellipe(1 - (B / A) ** 2)
+    assert np.asarray(res["T_fork_standstill"]).reshape(len(names), -1)[i, k] == pytest.approx(hand, rel=0.01)
+    forks = [j for j, r in enumerate(model.layout.rollers) if r.fork_axis is not None]
+    per = np.asarray(res["T_fork_standstill"]).reshape(len(names), -1)[:, k]
+    assert np.ravel(res["steering_torque_standstill"])[k] == pytest.approx(per[forks].sum(), rel=1e-12)
+    assert np.all(per[[j for j in range(len(names)) if j not in forks]] == 0)
+
+
+def test_rolling_torque_of_a_fork_through_its_contact_is_its_spin_moment():
+    """With f = n the lateral force has no lever about the fork (n·(n × F) = 0) and the rolling resistance acts
+    about the axle (n·a = 0): the fork's torque is the contact's spin moment, which Kim's law does not have
+    (0 to round-off) and the kalker law does; the motor's is Σ k_i T_i."""
+    for name, spins in (("existing", False), ("existing_kalker", True)):
+        model = shipped_model(name)
+        res = envelope(model)
+        rollers, n = model.layout.rollers, len(model.layout.rollers)
+        T, M = (np.asarray(res[q]).reshape(n, -1) for q in ("T_fork", "M_spin"))
+        ok = np.ravel(res["ok"])
+        forks = [j for j, r in enumerate(rollers) if r.fork_axis is not None]
+        np.testing.assert_allclose(T[forks][:, ok], M[forks][:, ok], rtol=0, atol=1e-12)
+        motor = sum(rollers[j].fork_sign * T[j] for j in forks)
+        np.testing.assert_allclose(np.ravel(res["steering_torque"])[ok], motor[ok], rtol=0, atol=1e-12)
+        assert (np.max(np.abs(motor[ok])) > 1e-3) == spins
+
+
+def test_compare_reports_steering_torque_and_where(tmp_path, cli):
+    """compare's JSON: max_steering_torque_Nm and max_steering_torque_at (the interface outside tools read), the
+    standstill figure and its place; the table's rows and the note saying where each extreme is taken."""
+    d = variant_data("box_kalker")
+    d["envelope"]["gamma"]["step"] = "40 deg"
+    d["envelope"]["load"]["step"] = "0.5 N*m"
+    code, out, _ = cli("compare", write_yaml(tmp_path / "b.yaml", d), "--out", tmp_path / "p",
+                       "--json", tmp_path / "f.json")
+    assert code == 0
+    row = next(r for r in json.loads((tmp_path / "f.json").read_text())["variants"] if r["name"] == "box_kalker")
+    assert row["max_steering_torque_Nm"] > 0.1 and row["max_standstill_steering_torque_Nm"] > 1.0
+    at = row["max_steering_torque_at"]
+    assert at["contact"] in {"N1", "N2", "S1", "S2"} and set(at) == {"gamma_deg", "tau_perp_Nm", "contact"}
+    assert row["max_standstill_steering_torque_at"]["contact"] in {"N1", "N2", "S1", "S2"}
+    assert "max steering torque [N·m]" in out and "steering at standstill [N·m]" in out
+    flat = " ".join(out.split())
+    assert f"box_kalker: where: max |α| at γ {row['max_abs_alpha_deg_at']['gamma_deg']:g}°" in flat
+    assert f"max steering torque at {at['contact']}, γ {at['gamma_deg']:g}°" in flat
