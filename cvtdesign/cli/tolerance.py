@@ -26,7 +26,7 @@ from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_file
 from cvtdesign.io.report import Note, Table
 
-LABELS = {key: label for key, label, _ in COLUMNS}
+LABELS = {key: label.rstrip(" ¹²³") for key, label, _ in COLUMNS}     # compare's footnotes are compare's
 FORMATS = {key: fmt for key, _, fmt in COLUMNS}
 RANKED = 10          # dimensions printed in the ranking (all of them in --json)
 

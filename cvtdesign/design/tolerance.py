@@ -48,10 +48,9 @@ import numpy as np
 import pandas as pd
 
 from cvtdesign.core.layout import Layout
-from cvtdesign.core.metrics import efficiency, envelope, metrics
+from cvtdesign.core.metrics import envelope, metrics
 from cvtdesign.core.model import STATUS, CompiledModel, compile_model
 from cvtdesign.core.tolerances import DIRECTIONS, as_built, draw
-from cvtdesign.core.uncertainty import sensitivities
 from cvtdesign.design import cluster
 from cvtdesign.design.study import (
     Interrupted,
@@ -75,7 +74,7 @@ MAX_SAMPLES = 100_000
 COLUMNS = ("case_id", "sample", "status")    # every chunk file has these (then the figures and x.<dimension>)
 FIGURES = ("max_abs_alpha_deg", "rms_alpha_deg", "max_abs_alpha_steering_deg", "max_abs_alpha_drive_deg",
            "ratio_error_pct_at_max_load", "min_efficiency", "max_loss_no_output_W", "max_traction_utilisation",
-           "max_hertz_pressure_MPa")     # compare's figures (core.metrics)
+           "max_hertz_pressure_MPa", "max_steering_torque_Nm", "max_standstill_steering_torque_Nm")   # compare's (core.metrics)
 
 
 @dataclass(frozen=True)
@@ -97,7 +96,7 @@ def tolerance_content(variant, tolerances) -> ToleranceContent:
     spec, dims = load_tolerances(tolerances, layout)
     h = hashlib.sha256(Path(variant).read_bytes())
     h.update(Path(tolerances).read_bytes())
-    h.update(f"chunk {CHUNK}".encode())
+    h.update(f"chunk {CHUNK}, figures {', '.join(FIGURES)}".encode())    # what a store's files hold
     return ToleranceContent(str(tolerances), spec.name, h.hexdigest()[:16], layout, dims, spec.seed)
 
 

@@ -9,13 +9,14 @@ from statistics import NormalDist
 import numpy as np
 import pandas as pd
 
-from cvtdesign.core.metrics import efficiency
+from cvtdesign.core.metrics import with_derived
 from cvtdesign.core.model import CompiledModel
 from cvtdesign.core.tolerances import KINDS, draw
 from cvtdesign.core.uncertainty import OUTPUTS, sensitivities
 from cvtdesign.design.tolerance import FIGURES, LINEAR_DRAWS, LINEAR_STREAM, figures
 
 EFFECT_NODES = 33       # equal-probability points of a dimension's distribution for its effect
+LINEARISED = OUTPUTS + ("a", "b", "mu", "fork_pivot", "fork_slide")   # and what the standstill torques need
 
 
 def first_order(model: CompiledModel, nominal: dict, dims, xs: np.ndarray, seed: int) -> dict:
@@ -23,7 +24,7 @@ def first_order(model: CompiledModel, nominal: dict, dims, xs: np.ndarray, seed:
     dimensions), "values": its figures at them (draws, FIGURES), "at_samples": its figures at the deviations
     `xs`, "ok": the points it is taken over (flat indices), "slopes": every output's derivatives there}."""
     ok = np.flatnonzero(np.ravel(nominal["ok"]))
-    slopes = sensitivities(model, nominal, ok, list(range(len(dims))), OUTPUTS, wrt="design")
+    slopes = sensitivities(model, nominal, ok, list(range(len(dims))), LINEARISED, wrt="design")
     draws = draw(dims, np.random.default_rng([seed, LINEAR_STREAM]), LINEAR_DRAWS)
     return {"draws": draws, "values": linearised_figures(model, nominal, ok, slopes, draws),
             "at_samples": linearised_figures(model, nominal, ok, slopes, xs), "ok": ok, "slopes": slopes}
@@ -40,8 +41,7 @@ def linearised_figures(model: CompiledModel, nominal: dict, ok: np.ndarray, slop
             flat = v.reshape(v.shape[0], -1) if d.ndim == 3 else v.reshape(1, -1)     # views of v
             flat[:, ok] += (d @ x).T if d.ndim == 3 else (d @ x)[None, :]
             res[name] = v
-        res["efficiency"] = efficiency(res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"])
-        out[i] = list(figures(model, res).values())
+        out[i] = list(figures(model, with_derived(res, model.layout)).values())
     return out
 
 
