@@ -18,6 +18,7 @@ contact patches reduce steering effort; for a cobot this torque sizes the steeri
 """
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 
 
@@ -41,16 +42,31 @@ def sliding_lever(a, b, pivot, slide, nodes: int = 32):
     array of the broadcast shape [m]
     """
     a, b, w, s = np.broadcast_arrays(*(np.asarray(v, float) for v in (a, b, pivot, slide)))
+    xh, yh, weight = _nodes(nodes)
+    out = np.full(a.shape, np.nan)
+    for k in zip(*np.nonzero(np.isfinite(a) & np.isfinite(b))) if a.ndim else [()]:
+        x, y = a[k] * xh, b[k] * yh
+        out[k] = np.sum(weight * np.hypot(w[k] * y, s[k] + w[k] * x))
+    return out
+
+
+def sliding_lever_expr(a, b, pivot, slide, nodes: int = 12):
+    """sliding_lever as a CasADi expression (one contact), for an optimisation's rows: the same quadrature on
+    fewer nodes (12: 1e-15 relative for pure pivoting, 1e-6 where the slide's centre lies outside the patch, as on the box's forks, 3e-4 where it lies inside), |v| smoothed by 1e-12 m
+    so that its derivative exists everywhere."""
+    xh, yh, weight = _nodes(nodes)
+    x, y = a * ca.DM(xh.ravel()), b * ca.DM(yh.ravel())
+    return ca.dot(ca.DM(weight.ravel()), ca.sqrt((pivot * y) ** 2 + (slide + pivot * x) ** 2 + 1e-24))
+
+
+def _nodes(nodes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The quadrature's points on the unit disc (x̂ = sin u cos t, ŷ = sin u sin t) and weights (p dA / N)."""
     u, wu = np.polynomial.legendre.leggauss(nodes)
     u, wu = np.pi / 4 * (u + 1), np.pi / 4 * wu
     t = np.linspace(0.0, 2 * np.pi, 4 * nodes, endpoint=False)
-    rho, ct, st = np.sin(u)[:, None], np.cos(t)[None, :], np.sin(t)[None, :]
-    weight = (wu * np.cos(u) ** 2 * np.sin(u))[:, None] * 3 / (4 * nodes)      # (3/2π)·(2π/(4 nodes))
-    out = np.full(a.shape, np.nan)
-    for k in zip(*np.nonzero(np.isfinite(a) & np.isfinite(b))) if a.ndim else [()]:
-        x, y = a[k] * rho * ct, b[k] * rho * st
-        out[k] = np.sum(weight * np.hypot(w[k] * y, s[k] + w[k] * x))
-    return out
+    rho = np.sin(u)[:, None]
+    weight = (wu * np.cos(u) ** 2 * np.sin(u))[:, None] * 3 / (4 * nodes) * np.ones_like(t)   # (3/2π)(2π/4n)
+    return rho * np.cos(t), rho * np.sin(t), weight
 
 
 def standstill_torques(res: dict, fork_signs) -> tuple[np.ndarray, np.ndarray]:

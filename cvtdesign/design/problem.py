@@ -39,6 +39,7 @@ import numpy as np
 from cvtdesign.core.geometry import roller_pose, steering_angle_guess, steering_data
 from cvtdesign.core.kinematics import ShaftFrame, shaft_frame, vec
 from cvtdesign.core.model import compile_model, failed_contact, status_codes
+from cvtdesign.core.steering import sliding_lever_expr
 from cvtdesign.design.objectives import Objective, objective
 from cvtdesign.design.robust import scenarios
 from cvtdesign.design.solution import EnvelopeCheck, check_envelope
@@ -227,6 +228,7 @@ class _NLP:
     preload: ca.Function      # P(design) per roller [N]
     theta_pts: np.ndarray     # the model's θ at each point (len(θ) × points)
     scenarios: list           # a label per scenario ([''] without `robust`)
+    steer_max: float | None = None   # the steering motor's largest torque [N m] (None: no steering rows)
 
     @property
     def epigraph(self) -> bool:
@@ -334,12 +336,14 @@ def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, goal: Obje
     cs = spec.constraints
     margin = None if cs.traction_margin is None else \
         float(parameter_value(cs.traction_margin, f"{where}: constraints.traction_margin", {}))
+    steer_max = None if cs.max_steering_torque is None else \
+        float(parameter_value(cs.max_steering_torque, f"{where}: constraints.max_steering_torque", {}))
     allow = [r.material.p_allow if cs.hertz_pressure else None for r in layout.rollers]
     pre0 = np.array([float(r.preload) for r in base.rollers])
     n_min = min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
     preload = ca.Function("preload", [p], [ca.vertcat(*[r.preload for r in layout.rollers])])
     return _NLP(where, spec, goal, vspec, base, layout, model, names, lower, upper, p, z, t, eps, x, P, P0,
-                g_pts, l_pts, phi0, nload, margin, allow, pre0, n_min, preload, theta_pts, labels)
+                g_pts, l_pts, phi0, nload, margin, allow, pre0, n_min, preload, theta_pts, labels, steer_max)
 
 
 def _steering_data(nlp: _NLP) -> tuple[ca.Function, np.ndarray]:
@@ -403,6 +407,10 @@ def _point_function(nlp: _NLP, outputs: list, objective: bool = False, extra: tu
     for i in range(nc):       # N ≥ N_min, over P₀ (reported in newtons: g_report)
         rows_.append(out["N"][i] / nlp.pre0[i])
         blocks.append((nlp.n_min[i] / nlp.pre0[i], np.inf, "normal_force", lambda s, i=i: f"N [N] of {rn[i]} at {s}", 1.0))
+    if nlp.steer_max is not None:
+        rows_ += _steering_rows(nlp, out)
+        blocks += [(-1.0, 1.0, "steering_torque", lambda s: f"rolling steering torque/T_max at {s}", 1.0),
+                   (-np.inf, 1.0, "steering_torque", lambda s: f"standstill steering torque/T_max at {s}", 1.0)]
     if nlp.spec.constraints.reach_gamma:
         rows_.append(out["steer_misfit"])
         blocks.append((-np.inf, 1e-6, "reach_gamma", None, 1e-6))
@@ -410,6 +418,17 @@ def _point_function(nlp: _NLP, outputs: list, objective: bool = False, extra: tu
     if objective:
         res.append(out[nlp.objective.per_point(nlp)])
     return ca.Function("point_rows", [xs, gs, ls, ps, p0s, ths], res + [out[k] for k in extra]), blocks
+
+
+def _steering_rows(nlp: _NLP, out: dict) -> list:
+    """The steering motor's torque over the study's limit while rolling and at standstill (core.steering:
+    Σ k_i T_i and Σ |k_i| μ_i N_i L_i, L the sliding patch's lever)."""
+    still = 0
+    for i, r in enumerate(nlp.layout.rollers):
+        if r.fork_axis is not None:
+            lever = sliding_lever_expr(out["a"][i], out["b"][i], out["fork_pivot"][i], out["fork_slide"][i])
+            still += abs(r.fork_sign) * out["mu"][i] * out["N"][i] * lever
+    return [out["steering_torque"] / nlp.steer_max, still / nlp.steer_max]
 
 
 def _envelope_rows(nlp: _NLP, rows: _Rows) -> tuple:
@@ -444,8 +463,10 @@ def _envelope_rows(nlp: _NLP, rows: _Rows) -> tuple:
 
 def _row_outputs(nlp: _NLP) -> list:
     """The model outputs the point rows need."""
-    return (["alpha"] if nlp.epigraph else []) + ["N"] + (["F_t", "F_a", "mu"] if nlp.margin is not None else []) + \
-        (["steer_misfit"] if nlp.spec.constraints.reach_gamma else [])
+    steer = ["steering_torque", "a", "b", "mu", "fork_pivot", "fork_slide"] if nlp.steer_max is not None else []
+    return list(dict.fromkeys((["alpha"] if nlp.epigraph else []) + ["N"] + (
+        ["F_t", "F_a", "mu"] if nlp.margin is not None else []) + steer +
+        (["steer_misfit"] if nlp.spec.constraints.reach_gamma else [])))
 
 
 def _clearance_rows(nlp: _NLP, c: float) -> tuple[list, list]:
