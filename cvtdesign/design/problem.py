@@ -327,7 +327,7 @@ def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, kind: str)
 
 
 def _steering_data(nlp: _NLP) -> tuple[ca.Function, np.ndarray]:
-    """(design → the steering data of the layout at that design, fork signs): geometry.steering_data as
+    """(design → the steering data of the layout at that design, fork gear ratios): geometry.steering_data as
     a function of the design, its outputs t0 (rolling directions at φ = 0), the fork axes (one row per
     steered roller) and the ShaftFrame's u1, u2, k, c, s."""
     steered = [r for r in nlp.layout.rollers if r.fork_axis is not None]
@@ -336,7 +336,7 @@ def _steering_data(nlp: _NLP) -> tuple[ca.Function, np.ndarray]:
     frame = shaft_frame(nlp.layout)
     outs = [ca.vertcat(ca.SX(0, 3), *t0), ca.vertcat(ca.SX(0, 3), *axes), ca.SX(vec(frame.u1)),
             ca.SX(vec(frame.u2))] + [ca.SX(v) for v in (frame.k, frame.c, frame.s)]
-    return ca.Function("steering_data", [nlp.p], outs), np.array([r.fork_sign for r in steered], float)
+    return ca.Function("steering_data", [nlp.p], outs), np.array([r.fork_ratio for r in steered], float)
 
 
 def _envelope_points(spec: StudySpec, base, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
@@ -438,7 +438,7 @@ def _clearance_rows(nlp: _NLP, c: float) -> tuple[list, list]:
         # two fixed rollers, or two turned by the same angle about the same fork axis, keep their
         # distance at every φ: one row (the same row at each φ would be a duplicate constraint)
         rigid = (ra.fork_axis is None and rb.fork_axis is None) or (
-            ra.fork_axis is not None and rb.fork_axis is not None and ra.fork_sign == rb.fork_sign
+            ra.fork_axis is not None and rb.fork_axis is not None and ra.fork_ratio == rb.fork_ratio
             and np.allclose(ca.DM(ra.fork_axis).full(), ca.DM(rb.fork_axis).full()))
         gaps, labs = [], []
         for ph in phis[:1] if rigid else phis:
