@@ -15,8 +15,9 @@ roller's own axis at the rate
 The rule: the linkage reaches a commanded γ at some φ where every steering roller's own axis is u(γ), and
 it must do so for every γ of the envelope. A roller that breaks it is found by grouping the rollers whose
 own axes agree over the envelope (`linkage_groups`); the largest group sets the linkage's law, and a fix is
-searched for every other roller: a fork ratio, a fork axis, an axle direction or a combination, each
-accepted only when the rollers then reach every γ (`refusal`).
+searched for every other roller: a fork ratio, a fork axis, an axle direction or a combination, else a move
+to an image of a roller of the group (`images`), each accepted only when the rollers then reach every γ
+(`refusal`).
 """
 from __future__ import annotations
 
@@ -43,6 +44,7 @@ class Steered:
     ratios: np.ndarray
     fork_of: list
     frame: ShaftFrame
+    occupied: np.ndarray       # contact normals of every roller of the layout at φ = 0 (rows)
 
     @property
     def pole(self) -> np.ndarray:
@@ -53,10 +55,12 @@ class Steered:
 def steered(layout) -> Steered:
     """The Steered rollers of a numeric layout."""
     rs = [r for r in layout.rollers if r.fork_axis is not None]
+    occupied = np.array([pose(r, 0.0)[0] for r in layout.rollers])
     n, a = (np.array([pose(r, 0.0)[j] for r in rs]) for j in (0, 1))
     return Steered([r.name for r in rs], n, a, np.cross(n, a),
                    np.array([np.asarray(r.fork_axis, float).ravel() for r in rs]),
-                   np.array([float(r.fork_ratio) for r in rs]), [r.fork for r in rs], shaft_frame(layout))
+                   np.array([float(r.fork_ratio) for r in rs]), [r.fork for r in rs], shaft_frame(layout),
+                   occupied)
 
 
 def reach(st: Steered, idx, gammas, t0=None, axes=None, ratios=None) -> tuple[np.ndarray, np.ndarray]:
@@ -68,34 +72,20 @@ def reach(st: Steered, idx, gammas, t0=None, axes=None, ratios=None) -> tuple[np
     return steering_angle_guess(t0[idx], (axes[idx], ratios[idx]), st.frame, gammas)
 
 
-def linkage_groups(st: Steered, gammas) -> tuple[list, list]:
-    """(groups, lost): the steered rollers (indices) grouped so that the rollers of a group roll about one
-    axis at every γ of `gammas` [rad] (their own axes agree), largest group first (ties: file order); `lost`
-    the rollers that cannot reach every γ even on their own."""
-    groups, lost = [], []
+def linkage_groups(st: Steered, gammas) -> list:
+    """The steered rollers (indices) grouped so that the rollers of a group roll about one axis at every γ
+    of `gammas` [rad] (their own axes agree), largest group first (ties: file order). A roller that cannot
+    reach every γ even on its own is in no group."""
+    groups = []
     for i in range(len(st.names)):
         if np.max(reach(st, [i], gammas)[1]) > LINKAGE_TOL:
-            lost.append(i)
             continue
         home = next((g for g in groups if np.max(reach(st, g + [i], gammas)[1]) <= LINKAGE_TOL), None)
         if home is None:
             groups.append([i])
         else:
             home.append(i)
-    return sorted(groups, key=lambda g: (-len(g), g[0])), lost
-
-
-def _turned(t, f, psi) -> np.ndarray:
-    """t (3,) turned about the unit axis f by each angle psi (K,) [rad] (Rodrigues), shape (K, 3)."""
-    c, s = np.cos(psi)[:, None], np.sin(psi)[:, None]
-    return t * c + np.cross(f, t) * s + f * (f @ t) * (1 - c)
-
-
-def _miss(st: Steered, i: int, phis, us) -> np.ndarray:
-    """Angle [rad] between each commanded axis us (K, 3) and roller i's rolling plane at the steering angles
-    phis (K,): arcsin |t_i(φ)·u|."""
-    t = _turned(st.t0[i], st.axes[i], st.ratios[i] * phis)
-    return np.arcsin(np.clip(np.abs(np.sum(t * us, axis=1)), 0, 1))
+    return sorted(groups, key=lambda g: (-len(g), g[0]))
 
 
 # a fix frees some of: the roller's axle (an angle θ in its tangent plane), its fork's axis, its fork's ratio;
@@ -111,6 +101,13 @@ def _misfits(T, F, R, phis, us) -> np.ndarray:
     psi = R[:, None] * phis[None, :]
     c, s = np.cos(psi), np.sin(psi)
     return (T @ us.T) * c + (np.cross(F, T) @ us.T) * s + np.sum(F * T, axis=1)[:, None] * (F @ us.T) * (1 - c)
+
+
+def _miss(st: Steered, i: int, phis, us) -> np.ndarray:
+    """Angle [rad] between each commanded axis us (K, 3) and roller i's rolling plane at the steering angles
+    phis (K,): arcsin |t_i(ρ_iφ)·u|."""
+    row = slice(i, i + 1)
+    return np.arcsin(np.clip(np.abs(_misfits(st.t0[row], st.axes[row], st.ratios[row], phis, us)[0]), 0, 1))
 
 
 def _sphere(n: int) -> np.ndarray:
@@ -191,11 +188,24 @@ def _snapped(cand: tuple) -> tuple:
     return t, (named[0] if named else f), (round(rho, 6) if abs(round(rho, 6) - rho) < 1e-6 else rho)
 
 
-def find_fix(st: Steered, ref: list, i: int, gammas) -> tuple | None:
-    """(free parameters, (t, f, ρ)): the simplest change of roller i's axle, its fork's axis and ratio
-    (FREE_SETS) with which it rolls about the reference rollers' axis at every γ [rad]; None if none is
-    found. The candidates of `_screen` are ranked by t_i(ρφ)·u(γ) at the reference's φ, the best refined
-    by least squares, and a fit accepted only when the linkage then reaches every γ (`_fits`)."""
+@dataclass(frozen=True)
+class Fix:
+    """A change of one steering roller that puts it on the linkage's axis: what changes (some of 'contact',
+    'axle', 'axis', 'ratio'; 'contact' moves the roller and sets its axle), its rolling direction t at φ = 0,
+    its fork's axis and ratio, and for a move its new contact normal and axle."""
+    free: tuple
+    t: np.ndarray
+    axis: np.ndarray
+    ratio: float
+    normal: np.ndarray | None = None
+    axle: np.ndarray | None = None
+
+
+def _fitted(st: Steered, ref: list, i: int, gammas) -> Fix | None:
+    """The simplest change of roller i's axle, its fork's axis and ratio (FREE_SETS) with which it rolls
+    about the reference rollers' axis at every γ [rad]; None if none is found. The candidates of `_screen`
+    are ranked by t_i(ρφ)·u(γ) at the reference's φ, the best refined by least squares, and a fit accepted
+    only when the linkage then reaches every γ (`_fits`)."""
     phis = reach(st, ref, gammas)[0]
     us = st.frame.axis(np.asarray(gammas, float))
     law = _law(st, ref)
@@ -211,8 +221,43 @@ def find_fix(st: Steered, ref: list, i: int, gammas) -> tuple | None:
             cand = (T[0], F[0], float(R[0]))
             for c in (_snapped(cand), cand):
                 if _fits(st, ref, i, c, gammas):
-                    return free, c
+                    return Fix(free, *c)
     return None
+
+
+def images(st: Steered, j: int) -> list:
+    """(contact normal, axle, fork axis, ratio) of the places where a roller follows roller j's law
+    exactly: j's images in the symmetries of the rule. With M the mirror in the axis plane (M u = u for
+    every commanded axis u) and P = −M the half turn about the pole (P u = −u, the same line), t·u = 0 is
+    kept by the antipode (−n, a; same fork), by M (Mn, Ma; fork Mf turning the other way, ratio −ρ, as M
+    reverses every rotation) and by P (Pn, Pa; fork Pf, ratio ρ). Kim's S2 is S1's mirror image."""
+    p = st.pole
+    M = np.eye(3) - 2 * np.outer(p, p)
+    n, a, f, rho = st.normals[j], st.axles[j], st.axes[j], st.ratios[j]
+    return [(-n, a, f, rho), (M @ n, M @ a, M @ f, -rho), (-M @ n, -M @ a, -M @ f, rho)]
+
+
+def _moved(st: Steered, ref: list, i: int, gammas, taken: list) -> Fix | None:
+    """Roller i moved to the free image of a reference roller (`images`) nearest to its contact, with the
+    image's axle and fork, when the linkage then reaches every γ [rad]; `taken`: contact normals already
+    in use (a moved roller's new one is added)."""
+    options = []
+    for j in ref:
+        for n, a, f, rho in images(st, j):
+            if not any(np.allclose(n, m, atol=1e-6) for m in taken):
+                options.append((-float(n @ st.normals[i]), n, a, f, rho))
+    for _, n, a, f, rho in sorted(options, key=lambda o: o[0]):
+        cand = _snapped((np.cross(n, a), f, rho))
+        if _fits(st, ref, i, cand, gammas):
+            taken.append(n)
+            return Fix(("contact",), *cand, normal=n, axle=a)
+    return None
+
+
+def find_fix(st: Steered, ref: list, i: int, gammas, taken: list) -> Fix | None:
+    """The simplest change that puts roller i on the reference rollers' axis at every γ [rad]: its fork's
+    ratio, axis, its axle (`_fitted`), else a move to an image of a reference roller (`_moved`)."""
+    return _fitted(st, ref, i, gammas) or _moved(st, ref, i, gammas, taken)
 
 
 def direction_text(v) -> str:
@@ -232,18 +277,22 @@ def _number(x: float) -> str:
     return f"{simple:g}" if abs(simple - x) < 1e-9 else f"{x:.10g}"
 
 
-def fix_text(st: Steered, i: int, fix) -> str:
-    """'S2 fits with steering.forks[1].ratio: -1' (the fields that change, as a variant file writes them)."""
+def fix_text(st: Steered, i: int, fix: Fix | None) -> str:
+    """'steering.forks[1].ratio: -1': the fields that change, as a variant file writes them."""
     if fix is None:
-        return f"no axle, fork axis or ratio puts {st.names[i]} on that axis"
-    free, (t, f, rho) = fix
-    fork = "its fork's" if st.fork_of[i] is None else f"steering.forks[{st.fork_of[i]}]."
-    parts = [f"rollers.{st.names[i]}.axle: {direction_text(np.cross(t, st.normals[i]))}"] if "axle" in free else []
-    changed = [k for k in ("axis", "ratio") if k in free]
-    values = {"axis": direction_text(f), "ratio": _number(rho)}
+        return f"no contact, axle, fork axis or ratio of {st.names[i]} alone puts it on that axis"
+    where = f"rollers.{st.names[i]}."
+    parts = [f"{where}contact: {direction_text(fix.normal)}, axle: {direction_text(fix.axle)}"] \
+        if "contact" in fix.free else []
+    if "axle" in fix.free:
+        parts.append(f"{where}axle: {direction_text(np.cross(fix.t, st.normals[i]))}")
+    values = {"axis": direction_text(fix.axis), "ratio": _number(fix.ratio)}
+    changed = [k for k in ("axis", "ratio") if k in fix.free or ("contact" in fix.free and (
+        not np.allclose(fix.axis, st.axes[i], atol=1e-9) if k == "axis" else fix.ratio != st.ratios[i]))]
     if changed:
+        fork = "its fork's " if st.fork_of[i] is None else f"steering.forks[{st.fork_of[i]}]."
         parts.append(fork + ", ".join(f"{k}: {values[k]}" for k in changed))
-    return f"{st.names[i]} fits with " + " and ".join(parts)
+    return " and ".join(parts)
 
 
 def _offences(st: Steered, ref: list, gammas) -> list:
@@ -258,27 +307,46 @@ def _offences(st: Steered, ref: list, gammas) -> list:
     return out
 
 
+def _and(names: list) -> str:
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+
+
+def _fix_clauses(st: Steered, ref: list, offenders: list, gammas, taken: list) -> tuple[list, bool]:
+    """('fix S1 and S2 with steering.forks[1].ratio: 1', ...), one clause per distinct change (fork mates
+    fixed by one change of their fork share a clause); and whether every offender has a fix."""
+    clauses, complete = {}, True
+    for i in offenders:
+        fix = find_fix(st, ref, i, gammas, taken)
+        complete &= fix is not None
+        clauses.setdefault(fix_text(st, i, fix), []).append(st.names[i])
+    return [text if text.startswith("no ") else f"fix {_and(names)} with {text}"
+            for text, names in clauses.items()], complete
+
+
 def refusal(layout, gammas) -> str:
     """The one-line refusal of a linkage that does not reach every γ of `gammas` [rad] (the layout checks
     call it when the misfit exceeds LINKAGE_TOL): the rollers that break the rule, by how much and where,
     and for each the simplest change that would make it fit, or the rule's remedy (forks about the pole)."""
     st = steered(layout)
-    groups, lost = linkage_groups(st, gammas)
-    pole = direction_text(st.pole)
-    rule = f"forks about the pole {pole} with one ratio turn every roller's axis alike (the rule: docs/linkages.md)"
+    groups = linkage_groups(st, gammas)
+    rule = (f"or put every fork about the pole {direction_text(st.pole)} with one ratio, each axle through the "
+            "commanded axis at φ = 0 (the rule: docs/linkages.md)")
     if not groups:
         return (f"{layout.file}: steering.forks: no steering roller can roll about the commanded axis at every γ of "
-                f"the envelope, whatever the steering angle ({', '.join(st.names)}); {rule}")
+                f"the envelope, whatever the steering angle ({', '.join(st.names)}); {rule.removeprefix('or ')}")
     ref = groups[0]
     offences = _offences(st, ref, gammas)
-    head = (f"{layout.file}: steering.forks: {', '.join(st.names[i] for i, _, _ in offences)} cannot roll about the "
-            f"axis that {', '.join(st.names[i] for i in ref)} steer{'s' if len(ref) == 1 else ''} the sphere to (")
+    names = [st.names[i] for i, _, _ in offences]
+    head = (f"{layout.file}: steering.forks: {_and([n + chr(39) + 's' for n in names])} "
+            f"axle{'s do' if len(names) > 1 else ' does'} not pass through the commanded axis that "
+            f"{_and([st.names[i] for i in ref])} steer{'s' if len(ref) == 1 else ''} the sphere to (")
     head += ", ".join(f"{st.names[i]} misses it by up to {np.degrees(m):.3g}° at γ = {np.degrees(g):.0f}°"
                       for i, m, g in offences) + ")"
     if max(m for _, m, _ in offences) < ROUNDED:
         return (head + "; directions look rounded: write them as frame names, '= expressions' or in full "
                 "precision (docs/linkages.md)")
-    fixes = [find_fix(st, ref, i, gammas) for i, _, _ in offences]
-    texts = [fix_text(st, i, fix) for (i, _, _), fix in zip(offences, fixes)]
-    return head + "; " + "; ".join(texts) + ("" if all(fixes) else f"; {rule}") + (
-        "" if not all(fixes) else " (the rule: docs/linkages.md)")
+    taken = list(st.occupied)
+    clauses, complete = _fix_clauses(st, ref, [i for i, _, _ in offences], gammas, taken)
+    moved = len(taken) > len(st.occupied)
+    tail = " (the rule: docs/linkages.md)" if complete and not moved else "; " + rule
+    return head + "; " + "; ".join(clauses) + tail

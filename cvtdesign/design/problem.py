@@ -145,10 +145,10 @@ class Problem:
         p = np.array([design[n] for n in self.names], float)
         if "steering" not in self.solvers:
             self.solvers["steering"] = _steering_data(pt.nlp)
-        data, signs = self.solvers["steering"]
+        data, ratios = self.solvers["steering"]
         t0, axes, u1, u2, k, c, s = (np.asarray(v, float) for v in data(p))
         frame = ShaftFrame(u1.ravel(), u2.ravel(), k.item(), c.item(), s.item())
-        phi0, _ = steering_angle_guess(t0.reshape(-1, 3), (axes.reshape(-1, 3), signs), frame, pt.gamma)
+        phi0, _ = steering_angle_guess(t0.reshape(-1, 3), (axes.reshape(-1, 3), ratios), frame, pt.gamma)
         res = at_nlp_seeds
         if res is None or not np.array_equal(phi0, pt.phi0):
             if "envelope" not in self.solvers:
