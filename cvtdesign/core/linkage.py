@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from cvtdesign.core.geometry import FRAME, LINKAGE_TOL, pose, steering_angle_guess
+from cvtdesign.core.geometry import FRAME, LINKAGE_TOL, linkage_terms, misfit_terms, pose, steering_angle_guess
 from cvtdesign.core.kinematics import ShaftFrame, shaft_frame
 
 ROUNDED = 1e-3     # [rad] a roller that misses the linkage's axis by less than this has a rounded direction
@@ -95,19 +95,18 @@ N_AXES = 800        # fork axes screened (a Fibonacci sphere, ~7° apart) beside
 REFINED = 3         # best screened candidates of each set refined by least squares
 
 
-def _misfits(T, F, R, phis, us) -> np.ndarray:
-    """t(ρφ_k)·u_k for candidates (rows of T, F, R: rolling direction at φ = 0, fork axis, ratio), shape
-    (C, K): Rodrigues, t(ψ)·u = (t·u) cos ψ + ((f × t)·u) sin ψ + (f·t)(f·u)(1 − cos ψ)."""
-    psi = R[:, None] * phis[None, :]
-    c, s = np.cos(psi), np.sin(psi)
-    return (T @ us.T) * c + (np.cross(F, T) @ us.T) * s + np.sum(F * T, axis=1)[:, None] * (F @ us.T) * (1 - c)
+def _misfits(st: Steered, T, F, R, phis, gammas) -> np.ndarray:
+    """t(ρφ_k)·u(γ_k) for candidates (rows of T, F, R: rolling direction at φ = 0, fork axis, ratio) at the
+    paired steering angles phis and commanded γ [rad] (K,), shape (C, K): geometry.misfit_terms."""
+    terms = linkage_terms(T, (F, R), st.frame, gammas)
+    return misfit_terms(terms, R, np.asarray(phis, float)[:, None])[:, 0, :].T
 
 
-def _miss(st: Steered, i: int, phis, us) -> np.ndarray:
-    """Angle [rad] between each commanded axis us (K, 3) and roller i's rolling plane at the steering angles
-    phis (K,): arcsin |t_i(ρ_iφ)·u|."""
+def _miss(st: Steered, i: int, phis, gammas) -> np.ndarray:
+    """Angle [rad] between each commanded axis u(γ) and roller i's rolling plane at the paired steering
+    angles phis (K,): arcsin |t_i(ρ_iφ)·u|."""
     row = slice(i, i + 1)
-    return np.arcsin(np.clip(np.abs(_misfits(st.t0[row], st.axes[row], st.ratios[row], phis, us)[0]), 0, 1))
+    return np.arcsin(np.clip(np.abs(_misfits(st, st.t0[row], st.axes[row], st.ratios[row], phis, gammas)[0]), 0, 1))
 
 
 def _sphere(n: int) -> np.ndarray:
@@ -207,14 +206,13 @@ def _fitted(st: Steered, ref: list, i: int, gammas) -> Fix | None:
     are ranked by t_i(ρφ)·u(γ) at the reference's φ, the best refined by least squares, and a fit accepted
     only when the linkage then reaches every γ (`_fits`)."""
     phis = reach(st, ref, gammas)[0]
-    us = st.frame.axis(np.asarray(gammas, float))
     law = _law(st, ref)
     for free in FREE_SETS:
         X = _screen(st, i, ref, law, free)
-        worst = np.max(np.abs(_misfits(*_candidates(st, i, free, X), phis, us)), axis=1)
+        worst = np.max(np.abs(_misfits(st, *_candidates(st, i, free, X), phis, gammas)), axis=1)
 
         def residual(x, free=free):
-            return _misfits(*_candidates(st, i, free, x), phis, us)[0]
+            return _misfits(st, *_candidates(st, i, free, x), phis, gammas)[0]
         for x0 in X[np.argsort(worst, kind="stable")[:REFINED]]:
             x = least_squares(residual, x0, method="trf", xtol=1e-14, ftol=1e-14, gtol=1e-14).x
             T, F, R = _candidates(st, i, free, x)
@@ -299,10 +297,9 @@ def _offences(st: Steered, ref: list, gammas) -> list:
     """(roller, largest miss [rad], γ of it [rad]) of every roller outside the reference group, at the
     reference rollers' steering angles."""
     phis = reach(st, ref, gammas)[0]
-    us = st.frame.axis(np.asarray(gammas, float))
     out = []
     for i in (i for i in range(len(st.names)) if i not in ref):
-        miss = _miss(st, i, phis, us)
+        miss = _miss(st, i, phis, gammas)
         out.append((i, float(np.max(miss)), float(gammas[int(np.argmax(miss))])))
     return out
 
