@@ -2,15 +2,11 @@
 optionally with N steering rollers (`--steering N`, on the box template)."""
 from __future__ import annotations
 
-from cvtdesign.errors import InputError
 from cvtdesign.io.template import write_new_variant
 
 
 def run(args):
     template = args.template or ("box" if args.steering is not None else "existing")
-    if args.steering is not None and template != "box":
-        raise InputError(f"--steering: builds on the box template (drive and follower rollers whose preloads balance "
-                         f"on their own), not '{template}'; expected --template box or no --template")
     path = write_new_variant(args.name, template, args.out, args.steering)
     made = f"the '{template}' template" + (f" with {args.steering} steering rollers" if args.steering is not None else "")
     print(f"wrote {path} (from {made}); check it with: cvtdesign compare {path}")

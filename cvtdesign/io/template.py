@@ -149,7 +149,8 @@ def with_steering(data: dict, count: int) -> dict:
     for prefix, k, is_north in (("N", north, True), ("S", south, False)):
         group = _steering_group(prefix, k, is_north)
         for rn, place in group.items():
-            rollers[rn] = {"role": "steering", **place, "axle": "d1", **{f: steer[f] for f in ("radius", "crown_radius", "material")}}
+            rollers[rn] = {"role": "steering", **place, "axle": "d1",
+                           **{f: steer[f] for f in ("radius", "crown_radius", "material")}}
             if k == 1 and north != south:
                 rollers[rn]["preload"] = f"= 2*preload*cos({PAIR_POLAR})"
         forks.append({"rollers": list(group), "axis": "z", "ratio": 1})
@@ -167,6 +168,9 @@ def commented_variant(template: str, name: str, file: str | None = None, steerin
     path = shipped_variant(template)
     data = {**load_yaml(path), "name": name}
     if steering is not None:
+        if template != "box":
+            raise InputError(f"--steering: builds on the box template (drive and follower rollers whose preloads "
+                             f"balance on their own), not '{template}'; expected --template box or no --template")
         data = with_steering(data, steering)
     writer = _Writer(parameter_notes(Path(path).read_text(encoding="utf-8")))
     writer.mapping(VariantSpec, data, 0)
