@@ -6,7 +6,7 @@ contact patches reduce steering effort; for a cobot this torque sizes the steeri
 * **Rolling** (the model's outputs `T_fork` and `steering_torque`, core.model.fork_terms): the torque that
   holds fork i while its contact rolls, T_i = f_i·M_c, M_c the contact's moment on the sphere about the
   centre (the lateral force's lever R n × F, the spin moment about n, the rolling resistance). Through the
-  linkage, where fork i turns by k_i times the steering angle φ (k_i its fork sign), virtual work gives the
+  linkage, where fork i turns by k_i times the steering angle φ (k_i its gear ratio, fork_ratio), virtual work gives the
   motor's torque T = Σ k_i T_i.
 * **At standstill** (this module): turning a fork with the sphere at rest slides its whole patch. Per unit
   fork rate the patch pivots at f·n and slides across the roller at R (f × n)·a (the roller, free on its
@@ -69,11 +69,11 @@ def _nodes(nodes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return rho * np.cos(t), rho * np.sin(t), weight
 
 
-def standstill_torques(res: dict, fork_signs) -> tuple[np.ndarray, np.ndarray]:
+def standstill_torques(res: dict, fork_ratios) -> tuple[np.ndarray, np.ndarray]:
     """The torque [N m] to turn each fork at standstill (contacts × points, 0 for a roller on no fork) and the
     steering motor's, Σ |k_i| T_i (points), from an envelope result (core.metrics.envelope): the normal
     forces N, patches a, b, friction μ and the forks' `fork_pivot` and `fork_slide` of each point."""
-    k = np.abs(np.asarray(fork_signs, float)).reshape(-1, *([1] * (np.ndim(res["N"]) - 1)))
+    k = np.abs(np.asarray(fork_ratios, float)).reshape(-1, *([1] * (np.ndim(res["N"]) - 1)))
     forked = np.broadcast_to(k > 0, np.shape(res["N"]))
     lever = np.zeros(np.shape(res["N"]))
     lever[forked] = sliding_lever(res["a"][forked], res["b"][forked], res["fork_pivot"][forked],

@@ -156,10 +156,10 @@ class Problem:
         p = np.array([design[n] for n in self.names], float)
         if "steering" not in self.solvers:
             self.solvers["steering"] = _steering_data(pt.nlp)
-        data, signs = self.solvers["steering"]
+        data, ratios = self.solvers["steering"]
         t0, axes, u1, u2, k, c, s = (np.asarray(v, float) for v in data(p))
         frame = ShaftFrame(u1.ravel(), u2.ravel(), k.item(), c.item(), s.item())
-        phi0, _ = steering_angle_guess(t0.reshape(-1, 3), (axes.reshape(-1, 3), signs), frame, pt.gamma)
+        phi0, _ = steering_angle_guess(t0.reshape(-1, 3), (axes.reshape(-1, 3), ratios), frame, pt.gamma)
         res = at_nlp_seeds if theta is None else None
         if res is None or not np.array_equal(phi0, pt.phi0):
             if "envelope" not in self.solvers:
@@ -347,7 +347,7 @@ def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, goal: Obje
 
 
 def _steering_data(nlp: _NLP) -> tuple[ca.Function, np.ndarray]:
-    """(design → the steering data of the layout at that design, fork signs): geometry.steering_data as
+    """(design → the steering data of the layout at that design, fork gear ratios): geometry.steering_data as
     a function of the design, its outputs t0 (rolling directions at φ = 0), the fork axes (one row per
     steered roller) and the ShaftFrame's u1, u2, k, c, s."""
     steered = [r for r in nlp.layout.rollers if r.fork_axis is not None]
@@ -356,7 +356,7 @@ def _steering_data(nlp: _NLP) -> tuple[ca.Function, np.ndarray]:
     frame = shaft_frame(nlp.layout)
     outs = [ca.vertcat(ca.SX(0, 3), *t0), ca.vertcat(ca.SX(0, 3), *axes), ca.SX(vec(frame.u1)),
             ca.SX(vec(frame.u2))] + [ca.SX(v) for v in (frame.k, frame.c, frame.s)]
-    return ca.Function("steering_data", [nlp.p], outs), np.array([r.fork_sign for r in steered], float)
+    return ca.Function("steering_data", [nlp.p], outs), np.array([r.fork_ratio for r in steered], float)
 
 
 def _envelope_points(spec: StudySpec, base, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
@@ -427,7 +427,7 @@ def _steering_rows(nlp: _NLP, out: dict) -> list:
     for i, r in enumerate(nlp.layout.rollers):
         if r.fork_axis is not None:
             lever = sliding_lever_expr(out["a"][i], out["b"][i], out["fork_pivot"][i], out["fork_slide"][i])
-            still += abs(r.fork_sign) * out["mu"][i] * out["N"][i] * lever
+            still += abs(r.fork_ratio) * out["mu"][i] * out["N"][i] * lever
     return [out["steering_torque"] / nlp.steer_max, still / nlp.steer_max]
 
 
@@ -478,7 +478,7 @@ def _clearance_rows(nlp: _NLP, c: float) -> tuple[list, list]:
         # two fixed rollers, or two turned by the same angle about the same fork axis, keep their
         # distance at every φ: one row (the same row at each φ would be a duplicate constraint)
         rigid = (ra.fork_axis is None and rb.fork_axis is None) or (
-            ra.fork_axis is not None and rb.fork_axis is not None and ra.fork_sign == rb.fork_sign
+            ra.fork_axis is not None and rb.fork_axis is not None and ra.fork_ratio == rb.fork_ratio
             and np.allclose(ca.DM(ra.fork_axis).full(), ca.DM(rb.fork_axis).full()))
         gaps, labs = [], []
         for ph in phis[:1] if rigid else phis:

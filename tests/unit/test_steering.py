@@ -64,7 +64,7 @@ def test_rolling_torque_of_a_fork_through_its_contact_is_its_spin_moment():
         ok = np.ravel(res["ok"])
         forks = [j for j, r in enumerate(rollers) if r.fork_axis is not None]
         np.testing.assert_allclose(T[forks][:, ok], M[forks][:, ok], rtol=0, atol=1e-12)
-        motor = sum(rollers[j].fork_sign * T[j] for j in forks)
+        motor = sum(rollers[j].fork_ratio * T[j] for j in forks)
         np.testing.assert_allclose(np.ravel(res["steering_torque"])[ok], motor[ok], rtol=0, atol=1e-12)
         assert (np.max(np.abs(motor[ok])) > 1e-3) == spins
 
