@@ -43,6 +43,8 @@ FAMILIES = [
     ("epsilon", "of a Pareto point: worst |α| ≤ ε"),
     ("hertz_pressure", "the Hertz peak pressure over the material's allowable pressure, ≤ 1 at every contact and point"),
     ("traction", "(|F| − (1 − margin)μN)/(μP) ≤ 0: every contact keeps the study's traction margin"),
+    ("steering_torque", "the steering motor's torque while rolling and at standstill over the study's "
+                        "max_steering_torque (1: at the limit)"),
     ("normal_force", "every contact's normal force N at least the study's minimum (5 % of the preload unless set), in N"),
     ("clearance", "the gap between every two rollers at least the study's clearance, in mm"),
     ("envelope_radius", "every roller within the study's envelope radius from the sphere's centre, in mm"),

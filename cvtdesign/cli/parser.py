@@ -65,8 +65,11 @@ def build_parser():
 
 def _add_new(p):
     p.add_argument("name", help="the variant's name (letters, digits, '_', '.', '+', '-'); the file is NAME.yaml")
-    p.add_argument("--template", choices=("existing", "box", "unequal"), default="existing",
-                   help="layout to start from (default: existing, Kim's two-steering-roller CVT)")
+    p.add_argument("--template", choices=("existing", "box", "unequal"),
+                   help="layout to start from (default: existing, Kim's two-steering-roller CVT; box with --steering)")
+    p.add_argument("--steering", type=int, metavar="N",
+                   help="N steering rollers (2, 3 or 4) at the poles on forks about the pole axis, with the box "
+                   "template's drive and follower rollers (docs/linkages.md)")
     p.add_argument("--out", help="file to write (default: NAME.yaml in the current folder; never overwritten)")
 
 

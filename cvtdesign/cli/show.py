@@ -36,7 +36,7 @@ def roller_table(layout) -> Table:
         table.add_column(escape(col), justify=justify)
     for r in layout.rollers:
         n, a = pose(r, 0.0)
-        fork = "—" if r.fork_axis is None else f"about {direction_text(r.fork_axis)}, sign {r.fork_sign:+d}"
+        fork = "—" if r.fork_axis is None else f"about {direction_text(r.fork_axis)}, ratio {r.fork_ratio:+.4g}"
         table.add_row(r.name, r.role, "—" if r.shaft is None else str(r.shaft), direction_text(n), direction_text(a),
                       f"{1000 * float(r.radius):.4g}", f"{float(r.preload):.4g}", fork)
     return table

@@ -7,6 +7,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from cvtdesign.core import linkage
 from cvtdesign.core.geometry import FRAME, LINKAGE_TOL, ROLLING_TOL, pose, rigid_constraints, steering_angle_guess, steering_data
 from cvtdesign.errors import InputError
 from cvtdesign.core.layout import Layout
@@ -22,10 +23,7 @@ def check_kinematics(layout: Layout):
     phis, misfit = steering_angle_guess(*steering_data(layout), gammas)
     for g, phi, m in zip(gammas, phis, misfit):
         if m > LINKAGE_TOL:
-            raise InputError(f"{layout.file}: steering.forks: the steering rollers cannot all roll about the "
-                             f"commanded axis at γ = {np.degrees(g):.0f}° (misfit {m:.2g}, tolerance {LINKAGE_TOL:g}); "
-                             "the linkage does not reach the envelope.gamma range (or directions are rounded: write them "
-                             "as frame names, '= expressions' or in full precision)")
+            raise InputError(linkage.refusal(layout, gammas))
         A = rigid_constraints(layout, phi)
         sv = np.linalg.svd(A, compute_uv=False)
         null = int(np.sum(sv < ROLLING_TOL * sv[0])) + max(0, A.shape[1] - A.shape[0])
@@ -41,7 +39,7 @@ def check_kinematics(layout: Layout):
 def roller_poses(layout: Layout, phis) -> tuple[np.ndarray, np.ndarray]:
     """Contact normals and axles of every roller at each steering angle φ [rad], shapes (len(phis), rollers,
     3): geometry.roller_pose for many angles at once (Rodrigues' rotation of each steered roller about its
-    fork axis by its sign · φ; fixed rollers ignore φ)."""
+    fork axis by its ratio · φ; fixed rollers ignore φ)."""
     phis = np.atleast_1d(np.asarray(phis, float))
     normals, axles = [], []
     for r in layout.rollers:
@@ -51,7 +49,7 @@ def roller_poses(layout: Layout, phis) -> tuple[np.ndarray, np.ndarray]:
             axles.append(np.broadcast_to(a0, (len(phis), 3)))
             continue
         k = np.asarray(r.fork_axis, float).ravel()
-        c, s = np.cos(r.fork_sign * phis)[:, None], np.sin(r.fork_sign * phis)[:, None]
+        c, s = np.cos(r.fork_ratio * phis)[:, None], np.sin(r.fork_ratio * phis)[:, None]
         for v, out in ((n0, normals), (a0, axles)):
             out.append(v * c + np.cross(k, v) * s + k * (k @ v) * (1 - c))
     return np.stack(normals, axis=1), np.stack(axles, axis=1)

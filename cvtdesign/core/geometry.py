@@ -8,9 +8,10 @@ directions: γ, α and the ideal law come from each layout's own shaft axes (kin
 A roller is described at its contact with the sphere by the outward unit normal n (contact point R·n) and
 the unit axle a (its positive spin direction, a ⊥ n). Its rolling direction is t = n × a: a roller spinning
 at +ω about a moves its surface at the contact with velocity r·ω·t. A steered roller's pose (n and a) turns
-about its fork axis k, which passes through the sphere centre, by sign·φ (φ = steering angle), so the
-roller stays in contact whatever φ is. Kim's forks turn about the contact normal itself (n unchanged); the
-box CVT's forks carry a tandem pair about the sphere's pole axis (n and a both turn).
+about its fork axis k, which passes through the sphere centre, by ρ·φ (φ = steering angle, ρ = the fork's
+gear ratio), so the roller stays in contact whatever φ is. Kim's forks turn about the contact normal itself
+(n unchanged); the box CVT's forks carry a tandem pair about the sphere's pole axis (n and a both turn).
+Which forks and ratios can steer together: core/linkage.py and docs/linkages.md.
 
 Functions here take and return plain 3-vectors of floats or CasADi expressions (lists/ca.SX); numeric
 helpers at the bottom work on numpy arrays.
@@ -75,44 +76,57 @@ def kim_gamma_from_phi(phi):
 
 def linkage_terms(t0s, forks, frame, gammas) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(A, B, C), each (len(gammas), n): the lateral-constraint misfit of steered roller i at γ and φ is
-    t_i(φ)·u(γ) = A cos φ − B sin φ + C (1 − cos φ) (Rodrigues: t_i(φ)·u = t0 · R(−s_i φ) u, rotations
-    preserve dot products).
+    t_i(φ)·u(γ) = A cos ρ_iφ − B sin ρ_iφ + C (1 − cos ρ_iφ) (Rodrigues: t_i(φ)·u = t0 · R(−ρ_i φ) u,
+    rotations preserve dot products).
 
-    t0s: rolling directions at φ = 0 (n, 3); forks: (axis (n, 3), sign s_i (n,)); frame: the layout's
+    t0s: rolling directions at φ = 0 (n, 3); forks: (axis (n, 3), gear ratio ρ_i (n,)); frame: the layout's
     kinematics.ShaftFrame, whose u(γ) is the commanded axis. A linkage reaches γ where every steered roller
     rolls without lateral slip about u."""
-    axes, signs = forks
+    axes, _ = forks
     u = frame.axis(np.asarray(gammas, float))                                # (G, 3)
     kxu = np.cross(axes[None, :, :], u[:, None, :])                          # (G, n, 3)
-    return u @ t0s.T, np.einsum("gnk,nk->gn", kxu, t0s) * signs, (u @ axes.T) * np.einsum("nk,nk->n", t0s, axes)
+    return u @ t0s.T, np.einsum("gnk,nk->gn", kxu, t0s), (u @ axes.T) * np.einsum("nk,nk->n", t0s, axes)
 
 
-def _misfit_cost(terms, phis) -> np.ndarray:
-    """Σ_i (t_i(φ)·u)², shape (G, P), for steering angles phis [rad]: (P,) shared by every γ or (G, P)."""
+def misfit_terms(terms, ratios, phis) -> np.ndarray:
+    """t_i(φ)·u(γ) of every steered roller, shape (G, P, n), for steering angles phis [rad]: (P,) shared by
+    every γ or (G, P); `terms` from `linkage_terms`, `ratios` the gear ratios ρ_i (n,)."""
     A, B, C = (t[:, None, :] for t in terms)
-    c, s = np.cos(phis)[..., None], np.sin(phis)[..., None]
-    return np.sum((A * c - B * s + C * (1 - c)) ** 2, axis=-1)
+    psi = np.asarray(phis)[..., None] * np.asarray(ratios, float)
+    c, s = np.cos(psi), np.sin(psi)
+    return A * c - B * s + C * (1 - c)
+
+
+def scan_range(ratios) -> float:
+    """Half-width Φ [rad] of the steering angles scanned, (−Φ, Φ]: the slowest fork turns ±90°, which takes
+    each of its rollers' rolling directions through every line; for gear ratios ±1 this is (−90°, 90°]."""
+    return np.pi / 2 / float(np.min(np.abs(ratios)))
 
 
 def steering_angle_guess(t0s, forks, frame, gammas, n_scan: int = 721) -> tuple[np.ndarray, np.ndarray]:
-    """Steering angle φ ∈ (−90°, 90°] [rad] that best realises each commanded γ [rad], by a scan of the
-    misfit (`linkage_terms`).
+    """Steering angle φ ∈ (−Φ, Φ] [rad] (`scan_range`) that best realises each commanded γ [rad], by a scan
+    of the misfit (`linkage_terms`); the scan has n_scan points per 180° of the fastest fork's turn.
 
     Returns (φ, worst residual). The compiled model refines φ with Newton; the scan only seeds it and
     tells whether the linkage can reach γ at all."""
+    ratios = np.asarray(forks[1], float)
     gammas, inverse = np.unique(np.atleast_1d(gammas), return_inverse=True)
     terms = linkage_terms(t0s, forks, frame, gammas)
-    phis = np.linspace(-np.pi / 2, np.pi / 2, n_scan)[1:]
-    cost = _misfit_cost(terms, phis)
-    best = phis[np.argmin(cost, axis=1)]
+    half = scan_range(ratios)
+    n_scan = int(min(n_scan * np.ceil(np.max(np.abs(ratios)) / np.min(np.abs(ratios)) - 1e-9), 20 * n_scan))
+    phis = np.linspace(-half, half, n_scan)[1:]
+
+    def cost(phi):
+        return np.sum(misfit_terms(terms, ratios, phi) ** 2, axis=-1)
+
+    best = phis[np.argmin(cost(phis), axis=1)]
     width = phis[1] - phis[0]
     for _ in range(6):  # zoom in around each best angle: 6 passes of 41 points refine it by 20^6
         local = best[:, None] + np.linspace(-width, width, 41)[None, :]
-        cost = _misfit_cost(terms, local)
-        best = local[np.arange(len(gammas)), np.argmin(cost, axis=1)]
+        best = local[np.arange(len(gammas)), np.argmin(cost(local), axis=1)]
         width /= 20
-    wrapped = (best + np.pi / 2) % np.pi - np.pi / 2
-    return wrapped[inverse], np.sqrt(np.min(cost, axis=1))[inverse]
+    wrapped = (best + half) % (2 * half) - half
+    return wrapped[inverse], np.sqrt(cost(best[:, None])[:, 0])[inverse]
 
 
 def _np(v):
@@ -125,7 +139,7 @@ def roller_pose(r, phi):
     if r.fork_axis is None:
         return n, a
     k = vec(r.fork_axis)
-    return rotate(n, k, r.fork_sign * phi), rotate(a, k, r.fork_sign * phi)
+    return rotate(n, k, r.fork_ratio * phi), rotate(a, k, r.fork_ratio * phi)
 
 
 def pose(r, phi):
@@ -134,11 +148,11 @@ def pose(r, phi):
 
 
 def steering_data(layout):
-    """Rolling directions at φ = 0, (fork axes, signs) of the steered rollers and the layout's ShaftFrame:
-    the arguments of `steering_angle_guess` before the γ."""
+    """Rolling directions at φ = 0, (fork axes, gear ratios) of the steered rollers and the layout's
+    ShaftFrame: the arguments of `steering_angle_guess` before the γ."""
     steered = [r for r in layout.rollers if r.fork_axis is not None]
     t0 = np.array([np.cross(*pose(r, 0.0)) for r in steered]).reshape(-1, 3)
-    forks = (np.array([_np(r.fork_axis) for r in steered]).reshape(-1, 3), np.array([r.fork_sign for r in steered], float))
+    forks = (np.array([_np(r.fork_axis) for r in steered]).reshape(-1, 3), np.array([r.fork_ratio for r in steered], float))
     return t0, forks, shaft_frame(layout)
 
 

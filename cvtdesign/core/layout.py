@@ -48,7 +48,8 @@ class Roller:
     preload: object                # normal force with the sphere centred [N]
     stiffness: object              # mount + contact normal stiffness [N/m]
     fork_axis: object = None       # steering fork axis through the sphere centre (unit), None if fixed
-    fork_sign: int = 0
+    fork_ratio: float = 0.0        # the fork turns by fork_ratio·φ about fork_axis (its gear ratio); 0 if fixed
+    fork: int | None = None        # index of its fork in the variant's steering.forks, None if fixed
     creep: CreepSource = CreepSource("theory", "theory only")   # where its creep compliance comes from
 
 

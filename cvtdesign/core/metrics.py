@@ -60,7 +60,7 @@ def with_derived(res: dict, layout) -> dict:
     forks' torques at standstill (core.steering)."""
     res["efficiency"] = efficiency(res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"])
     res["T_fork_standstill"], res["steering_torque_standstill"] = standstill_torques(
-        res, [r.fork_sign for r in layout.rollers])
+        res, [r.fork_ratio for r in layout.rollers])
     return res
 
 
@@ -128,7 +128,7 @@ def extremes(model: CompiledModel, res: dict) -> dict[str, Extreme]:
         ratio_err = 100 * (ideal - res["omega_2"] / res["omega_1"]) / ideal
     eff_range = (np.abs(G) >= np.radians(5) - 1e-12) & (np.abs(T) >= 0.25 * np.max(np.abs(L.load_grid)))
     delivers = delivers_power(res)
-    forks = np.reshape([r.fork_sign for r in L.rollers], (-1, *([1] * G.ndim))) * res["T_fork"]
+    forks = np.reshape([r.fork_ratio for r in L.rollers], (-1, *([1] * G.ndim))) * res["T_fork"]
     return {
         "max_abs_alpha_deg": _extreme(np.abs(deg(res["alpha"]))),
         "max_abs_alpha_steering_deg": _extreme(np.abs(deg(res["alpha_steering"]))),

@@ -462,7 +462,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None,
         "eta": ca.vertcat(*per["eta"]), "spin": ca.vertcat(*per["spin"]), "mu": ca.vertcat(*per["mu"]),
         **{k: ca.vertcat(*per[k]) for k in ("M_spin", "loss", "a", "b", "G", "C11", "C22", "C23", "roll_sign",
                                             "T_fork", "fork_pivot", "fork_slide")},
-        "steering_torque": sum(r.fork_sign * t for r, t in zip(layout.rollers, per["T_fork"])),
+        "steering_torque": sum(r.fork_ratio * t for r, t in zip(layout.rollers, per["T_fork"])),
     }
     steer_res, misfit = _steering_residual(layout, frame, design)
     def close(name, names):       # the selected outputs as a function of (x, params)

@@ -6,7 +6,7 @@ contact patches reduce steering effort; for a cobot this torque sizes the steeri
 * **Rolling** (the model's outputs `T_fork` and `steering_torque`, core.model.fork_terms): the torque that
   holds fork i while its contact rolls, T_i = f_i·M_c, M_c the contact's moment on the sphere about the
   centre (the lateral force's lever R n × F, the spin moment about n, the rolling resistance). Through the
-  linkage, where fork i turns by k_i times the steering angle φ (k_i its fork sign), virtual work gives the
+  linkage, where fork i turns by k_i times the steering angle φ (k_i its gear ratio, fork_ratio), virtual work gives the
   motor's torque T = Σ k_i T_i.
 * **At standstill** (this module): turning a fork with the sphere at rest slides its whole patch. Per unit
   fork rate the patch pivots at f·n and slides across the roller at R (f × n)·a (the roller, free on its
@@ -18,6 +18,7 @@ contact patches reduce steering effort; for a cobot this torque sizes the steeri
 """
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 
 
@@ -41,23 +42,38 @@ def sliding_lever(a, b, pivot, slide, nodes: int = 32):
     array of the broadcast shape [m]
     """
     a, b, w, s = np.broadcast_arrays(*(np.asarray(v, float) for v in (a, b, pivot, slide)))
-    u, wu = np.polynomial.legendre.leggauss(nodes)
-    u, wu = np.pi / 4 * (u + 1), np.pi / 4 * wu
-    t = np.linspace(0.0, 2 * np.pi, 4 * nodes, endpoint=False)
-    rho, ct, st = np.sin(u)[:, None], np.cos(t)[None, :], np.sin(t)[None, :]
-    weight = (wu * np.cos(u) ** 2 * np.sin(u))[:, None] * 3 / (4 * nodes)      # (3/2π)·(2π/(4 nodes))
+    xh, yh, weight = _nodes(nodes)
     out = np.full(a.shape, np.nan)
     for k in zip(*np.nonzero(np.isfinite(a) & np.isfinite(b))) if a.ndim else [()]:
-        x, y = a[k] * rho * ct, b[k] * rho * st
+        x, y = a[k] * xh, b[k] * yh
         out[k] = np.sum(weight * np.hypot(w[k] * y, s[k] + w[k] * x))
     return out
 
 
-def standstill_torques(res: dict, fork_signs) -> tuple[np.ndarray, np.ndarray]:
+def sliding_lever_expr(a, b, pivot, slide, nodes: int = 12):
+    """sliding_lever as a CasADi expression (one contact), for an optimisation's rows: the same quadrature on
+    fewer nodes (12: 1e-15 relative for pure pivoting, 1e-6 where the slide's centre lies outside the patch, as on the box's forks, 3e-4 where it lies inside), |v| smoothed by 1e-12 m
+    so that its derivative exists everywhere."""
+    xh, yh, weight = _nodes(nodes)
+    x, y = a * ca.DM(xh.ravel()), b * ca.DM(yh.ravel())
+    return ca.dot(ca.DM(weight.ravel()), ca.sqrt((pivot * y) ** 2 + (slide + pivot * x) ** 2 + 1e-24))
+
+
+def _nodes(nodes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The quadrature's points on the unit disc (x̂ = sin u cos t, ŷ = sin u sin t) and weights (p dA / N)."""
+    u, wu = np.polynomial.legendre.leggauss(nodes)
+    u, wu = np.pi / 4 * (u + 1), np.pi / 4 * wu
+    t = np.linspace(0.0, 2 * np.pi, 4 * nodes, endpoint=False)
+    rho = np.sin(u)[:, None]
+    weight = (wu * np.cos(u) ** 2 * np.sin(u))[:, None] * 3 / (4 * nodes) * np.ones_like(t)   # (3/2π)(2π/4n)
+    return rho * np.cos(t), rho * np.sin(t), weight
+
+
+def standstill_torques(res: dict, fork_ratios) -> tuple[np.ndarray, np.ndarray]:
     """The torque [N m] to turn each fork at standstill (contacts × points, 0 for a roller on no fork) and the
     steering motor's, Σ |k_i| T_i (points), from an envelope result (core.metrics.envelope): the normal
     forces N, patches a, b, friction μ and the forks' `fork_pivot` and `fork_slide` of each point."""
-    k = np.abs(np.asarray(fork_signs, float)).reshape(-1, *([1] * (np.ndim(res["N"]) - 1)))
+    k = np.abs(np.asarray(fork_ratios, float)).reshape(-1, *([1] * (np.ndim(res["N"]) - 1)))
     forked = np.broadcast_to(k > 0, np.shape(res["N"]))
     lever = np.zeros(np.shape(res["N"]))
     lever[forked] = sliding_lever(res["a"][forked], res["b"][forked], res["fork_pivot"][forked],

@@ -10,8 +10,8 @@ t = n × a its rolling direction, R the sphere's radius; every direction stays u
    its pose (n and a) turned about the sphere centre by x/R;
  * radius [m]: the rolling radius r + x (the crown radius stays as drawn);
  * preload [-]: the preload P·(1 + x);
- * fork [rad]: every roller of the fork turned about the fork's axis by sign·x, as if the fork stood at
-   φ + x (a fork angle offset).
+ * fork [rad]: every roller of the fork turned about the fork's axis by x: the fork's own angle off by x
+   (a fork angle offset, whatever its gear ratio in the linkage).
 Rotations about a roller's own normal, axle or rolling direction commute with the others to first order, and
 exactly with one another about the same axis, so the order in which dimensions apply does not matter to
 first order.
@@ -93,4 +93,4 @@ def _deviate(r: Roller, d: Dimension, x, R) -> Roller:
     if d.kind == "preload":
         return replace(r, preload=r.preload * (1 + x))
     k = vec(r.fork_axis)
-    return replace(r, normal=rotate(n, k, r.fork_sign * x), axle=rotate(a, k, r.fork_sign * x))
+    return replace(r, normal=rotate(n, k, x), axle=rotate(a, k, x))

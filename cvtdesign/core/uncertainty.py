@@ -138,7 +138,7 @@ def standstill_gradient(model: CompiledModel, res: dict, k: int, dN: np.ndarray)
     lever = [steering.sliding_lever(pick["a"] * s, pick["b"] * s, pick["fork_pivot"], pick["fork_slide"])
              for s in (1.0, (1 + 1e-6) ** (1 / 3))]
     dlever_dN = (lever[1] - lever[0]) / (1e-6 * pick["N"])
-    k_abs = np.abs([r.fork_sign for r in model.layout.rollers])
+    k_abs = np.abs([r.fork_ratio for r in model.layout.rollers])
     return (k_abs * pick["mu"] * (lever[0] + pick["N"] * dlever_dN)) @ dN
 
 

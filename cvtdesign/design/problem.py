@@ -39,6 +39,7 @@ import numpy as np
 from cvtdesign.core.geometry import roller_pose, steering_angle_guess, steering_data
 from cvtdesign.core.kinematics import ShaftFrame, shaft_frame, vec
 from cvtdesign.core.model import compile_model, failed_contact, status_codes
+from cvtdesign.core.steering import sliding_lever_expr
 from cvtdesign.design.objectives import Objective, objective
 from cvtdesign.design.robust import scenarios
 from cvtdesign.design.solution import EnvelopeCheck, check_envelope
@@ -155,10 +156,10 @@ class Problem:
         p = np.array([design[n] for n in self.names], float)
         if "steering" not in self.solvers:
             self.solvers["steering"] = _steering_data(pt.nlp)
-        data, signs = self.solvers["steering"]
+        data, ratios = self.solvers["steering"]
         t0, axes, u1, u2, k, c, s = (np.asarray(v, float) for v in data(p))
         frame = ShaftFrame(u1.ravel(), u2.ravel(), k.item(), c.item(), s.item())
-        phi0, _ = steering_angle_guess(t0.reshape(-1, 3), (axes.reshape(-1, 3), signs), frame, pt.gamma)
+        phi0, _ = steering_angle_guess(t0.reshape(-1, 3), (axes.reshape(-1, 3), ratios), frame, pt.gamma)
         res = at_nlp_seeds if theta is None else None
         if res is None or not np.array_equal(phi0, pt.phi0):
             if "envelope" not in self.solvers:
@@ -227,6 +228,7 @@ class _NLP:
     preload: ca.Function      # P(design) per roller [N]
     theta_pts: np.ndarray     # the model's θ at each point (len(θ) × points)
     scenarios: list           # a label per scenario ([''] without `robust`)
+    steer_max: float | None = None   # the steering motor's largest torque [N m] (None: no steering rows)
 
     @property
     def epigraph(self) -> bool:
@@ -334,16 +336,18 @@ def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, goal: Obje
     cs = spec.constraints
     margin = None if cs.traction_margin is None else \
         float(parameter_value(cs.traction_margin, f"{where}: constraints.traction_margin", {}))
+    steer_max = None if cs.max_steering_torque is None else \
+        float(parameter_value(cs.max_steering_torque, f"{where}: constraints.max_steering_torque", {}))
     allow = [r.material.p_allow if cs.hertz_pressure else None for r in layout.rollers]
     pre0 = np.array([float(r.preload) for r in base.rollers])
     n_min = min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
     preload = ca.Function("preload", [p], [ca.vertcat(*[r.preload for r in layout.rollers])])
     return _NLP(where, spec, goal, vspec, base, layout, model, names, lower, upper, p, z, t, eps, x, P, P0,
-                g_pts, l_pts, phi0, nload, margin, allow, pre0, n_min, preload, theta_pts, labels)
+                g_pts, l_pts, phi0, nload, margin, allow, pre0, n_min, preload, theta_pts, labels, steer_max)
 
 
 def _steering_data(nlp: _NLP) -> tuple[ca.Function, np.ndarray]:
-    """(design → the steering data of the layout at that design, fork signs): geometry.steering_data as
+    """(design → the steering data of the layout at that design, fork gear ratios): geometry.steering_data as
     a function of the design, its outputs t0 (rolling directions at φ = 0), the fork axes (one row per
     steered roller) and the ShaftFrame's u1, u2, k, c, s."""
     steered = [r for r in nlp.layout.rollers if r.fork_axis is not None]
@@ -352,7 +356,7 @@ def _steering_data(nlp: _NLP) -> tuple[ca.Function, np.ndarray]:
     frame = shaft_frame(nlp.layout)
     outs = [ca.vertcat(ca.SX(0, 3), *t0), ca.vertcat(ca.SX(0, 3), *axes), ca.SX(vec(frame.u1)),
             ca.SX(vec(frame.u2))] + [ca.SX(v) for v in (frame.k, frame.c, frame.s)]
-    return ca.Function("steering_data", [nlp.p], outs), np.array([r.fork_sign for r in steered], float)
+    return ca.Function("steering_data", [nlp.p], outs), np.array([r.fork_ratio for r in steered], float)
 
 
 def _envelope_points(spec: StudySpec, base, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
@@ -403,6 +407,10 @@ def _point_function(nlp: _NLP, outputs: list, objective: bool = False, extra: tu
     for i in range(nc):       # N ≥ N_min, over P₀ (reported in newtons: g_report)
         rows_.append(out["N"][i] / nlp.pre0[i])
         blocks.append((nlp.n_min[i] / nlp.pre0[i], np.inf, "normal_force", lambda s, i=i: f"N [N] of {rn[i]} at {s}", 1.0))
+    if nlp.steer_max is not None:
+        rows_ += _steering_rows(nlp, out)
+        blocks += [(-1.0, 1.0, "steering_torque", lambda s: f"rolling steering torque/T_max at {s}", 1.0),
+                   (-np.inf, 1.0, "steering_torque", lambda s: f"standstill steering torque/T_max at {s}", 1.0)]
     if nlp.spec.constraints.reach_gamma:
         rows_.append(out["steer_misfit"])
         blocks.append((-np.inf, 1e-6, "reach_gamma", None, 1e-6))
@@ -410,6 +418,17 @@ def _point_function(nlp: _NLP, outputs: list, objective: bool = False, extra: tu
     if objective:
         res.append(out[nlp.objective.per_point(nlp)])
     return ca.Function("point_rows", [xs, gs, ls, ps, p0s, ths], res + [out[k] for k in extra]), blocks
+
+
+def _steering_rows(nlp: _NLP, out: dict) -> list:
+    """The steering motor's torque over the study's limit while rolling and at standstill (core.steering:
+    Σ k_i T_i and Σ |k_i| μ_i N_i L_i, L the sliding patch's lever)."""
+    still = 0
+    for i, r in enumerate(nlp.layout.rollers):
+        if r.fork_axis is not None:
+            lever = sliding_lever_expr(out["a"][i], out["b"][i], out["fork_pivot"][i], out["fork_slide"][i])
+            still += abs(r.fork_ratio) * out["mu"][i] * out["N"][i] * lever
+    return [out["steering_torque"] / nlp.steer_max, still / nlp.steer_max]
 
 
 def _envelope_rows(nlp: _NLP, rows: _Rows) -> tuple:
@@ -444,8 +463,10 @@ def _envelope_rows(nlp: _NLP, rows: _Rows) -> tuple:
 
 def _row_outputs(nlp: _NLP) -> list:
     """The model outputs the point rows need."""
-    return (["alpha"] if nlp.epigraph else []) + ["N"] + (["F_t", "F_a", "mu"] if nlp.margin is not None else []) + \
-        (["steer_misfit"] if nlp.spec.constraints.reach_gamma else [])
+    steer = ["steering_torque", "a", "b", "mu", "fork_pivot", "fork_slide"] if nlp.steer_max is not None else []
+    return list(dict.fromkeys((["alpha"] if nlp.epigraph else []) + ["N"] + (
+        ["F_t", "F_a", "mu"] if nlp.margin is not None else []) + steer +
+        (["steer_misfit"] if nlp.spec.constraints.reach_gamma else [])))
 
 
 def _clearance_rows(nlp: _NLP, c: float) -> tuple[list, list]:
@@ -457,7 +478,7 @@ def _clearance_rows(nlp: _NLP, c: float) -> tuple[list, list]:
         # two fixed rollers, or two turned by the same angle about the same fork axis, keep their
         # distance at every φ: one row (the same row at each φ would be a duplicate constraint)
         rigid = (ra.fork_axis is None and rb.fork_axis is None) or (
-            ra.fork_axis is not None and rb.fork_axis is not None and ra.fork_sign == rb.fork_sign
+            ra.fork_axis is not None and rb.fork_axis is not None and ra.fork_ratio == rb.fork_ratio
             and np.allclose(ca.DM(ra.fork_axis).full(), ca.DM(rb.fork_axis).full()))
         gaps, labs = [], []
         for ph in phis[:1] if rigid else phis:

@@ -146,18 +146,25 @@ class RollerDefaults(Strict):
 
 
 class ForkSpec(Strict):
-    """A steering fork: turns its rollers' contact normals and axles about `axis` by sign·φ."""
+    """A steering fork: turns its rollers' contact normals and axles about `axis` by ratio·φ, φ being the
+    linkage's one steering angle. Which forks and ratios steer together: docs/linkages.md."""
     rollers: list[str] = spec_field("names of the steering rollers this fork carries (at least one; each "
                                     "steering roller on exactly one fork)")
     axis: Union[str, list[Num], Spherical] = spec_field(
         f"the fork's turning axis through the sphere centre, as {DIRECTION}")
-    sign: Annotated[Literal[1, -1], BeforeValidator(no_bool)] = spec_field(
-        "1: the fork turns by +φ about `axis` (right-handed), -1: by −φ (forks geared in opposite senses)", 1)
+    ratio: Num | None = spec_field(
+        "the fork's gear ratio in the linkage: it turns by ratio·φ about `axis` (right-handed); negative: the "
+        "other way; 0.01 ≤ |ratio| ≤ 100, a plain number or '= expression' (omitted: `sign`, else 1). The "
+        "rollers of all forks must turn the sphere's axis alike (docs/linkages.md): in practice one |ratio| "
+        "for the whole linkage", None, kind="dimensionless")
+    sign: Annotated[Literal[1, -1] | None, BeforeValidator(no_bool)] = spec_field(
+        "the same as `ratio: 1` or `ratio: -1` (-1: forks geared in opposite senses, as Kim's CVT); give "
+        "`ratio` or `sign`, not both", None)
 
 
 class SteeringSpec(Strict):
-    """The steering linkage: forks that all turn with one steering angle φ."""
-    forks: list[ForkSpec] = spec_field("the forks; each fork's fields: rollers, axis, sign")
+    """The steering linkage: forks that all turn with one steering angle φ (each by its ratio·φ)."""
+    forks: list[ForkSpec] = spec_field("the forks; each fork's fields: rollers, axis, ratio (or sign)")
 
 
 class CalibrationSpec(Strict):

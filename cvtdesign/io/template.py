@@ -120,17 +120,63 @@ def _nested(annotation, value):
     return nested_model(annotation)
 
 
-def commented_variant(template: str, name: str, file: str | None = None) -> str:
-    """The text of a new variant `name`: the shipped variant `template` with a comment on its fields;
-    `file` is where it will be written (for the header's `compare` line; default NAME.yaml)."""
+STEERING_COUNTS = (2, 3, 4)     # `new --steering N`: one or two steering rollers at each pole
+PAIR_POLAR = "asin(d / (2*R))"  # polar angle of a steering pair's contacts, a chord d apart (the box's)
+
+
+def _steering_group(prefix: str, count: int, north: bool) -> dict:
+    """The contacts of `count` (1 or 2) steering rollers at one pole, named prefix1, prefix2: one at the
+    pole, or the box's pair a chord d apart across it in the plane ⟂ d1. Every contact lies in that plane,
+    so the axle d1 passes through the commanded axis u(0) = d1 (docs/linkages.md)."""
+    if count == 1:
+        return {f"{prefix}1": {"contact": "z" if north else "-z"}}
+    polar = f"= {PAIR_POLAR}" if north else f"= pi - {PAIR_POLAR}"
+    return {f"{prefix}{k + 1}": {"contact": {"polar": polar, "azimuth": az}} for k, az in enumerate(("135 deg", "-45 deg"))}
+
+
+def with_steering(data: dict, count: int) -> dict:
+    """The box template's data with `count` steering rollers (STEERING_COUNTS) in place of its four: a group
+    at each pole (N: ⌈count/2⌉, S: ⌊count/2⌋), each group on one fork about the pole axis z with ratio 1,
+    so that every roller's axis turns with φ alike (γ = φ; docs/linkages.md). A lone roller opposite a
+    pair carries the pair's preload along z (2·preload·cos θ), so that the preloads balance."""
+    if count not in STEERING_COUNTS:
+        raise InputError(f"--steering: {count} steering rollers; expected one of {', '.join(map(str, STEERING_COUNTS))} "
+                         "(a pair or one roller at each pole; other linkages: docs/linkages.md)")
+    north, south = (count + 1) // 2, count // 2
+    steer = next(r for r in data["rollers"].values() if r["role"] == "steering")
+    rollers = {k: r for k, r in data["rollers"].items() if r["role"] != "steering"}
+    forks = []
+    for prefix, k, is_north in (("N", north, True), ("S", south, False)):
+        group = _steering_group(prefix, k, is_north)
+        for rn, place in group.items():
+            rollers[rn] = {"role": "steering", **place, "axle": "d1",
+                           **{f: steer[f] for f in ("radius", "crown_radius", "material")}}
+            if k == 1 and north != south:
+                rollers[rn]["preload"] = f"= 2*preload*cos({PAIR_POLAR})"
+        forks.append({"rollers": list(group), "axis": "z", "ratio": 1})
+    parameters = {k: v for k, v in data["parameters"].items() if k != "d" or north == 2}
+    return {**data, "description": f"{count} steering rollers at the poles on forks about the pole axis, with the box "
+            "CVT's drive and follower rollers", "parameters": parameters, "rollers": rollers, "steering": {"forks": forks}}
+
+
+def commented_variant(template: str, name: str, file: str | None = None, steering: int | None = None) -> str:
+    """The text of a new variant `name`: the shipped variant `template` with a comment on its fields, or
+    with `steering` steering rollers (`with_steering`, from the box template); `file` is where it will be
+    written (for the header's `compare` line; default NAME.yaml)."""
     if template not in SHIPPED:
         raise InputError(f"--template: unknown template '{template}'; expected one of {', '.join(SHIPPED)}")
     path = shipped_variant(template)
     data = {**load_yaml(path), "name": name}
+    if steering is not None:
+        if template != "box":
+            raise InputError(f"--steering: builds on the box template (drive and follower rollers whose preloads "
+                             f"balance on their own), not '{template}'; expected --template box or no --template")
+        data = with_steering(data, steering)
     writer = _Writer(parameter_notes(Path(path).read_text(encoding="utf-8")))
     writer.mapping(VariantSpec, data, 0)
     shown = file if file and file.isprintable() else f"{name}.yaml"     # a comment line holds no line break
-    head = [f"# {name}: a spherical CVT, started from cvtdesign's '{template}' variant by `cvtdesign new`.",
+    origin = f"'{template}' variant" + (f" with {steering} steering rollers" if steering is not None else "")
+    head = [f"# {name}: a spherical CVT, started from cvtdesign's {origin} by `cvtdesign new`.",
             "# Plain numbers are SI (m, N, Pa, N/m, 1/N, rad, N*m, rad/s); a quantity carries its unit (\"40 mm\");",
             "# \"= expr\" is computed from `parameters`. Every field, its unit, default and plausible range:",
             "# docs/variant-reference.md; frames, signs, γ and α: docs/conventions.md.",
@@ -138,14 +184,15 @@ def commented_variant(template: str, name: str, file: str | None = None) -> str:
     return "\n".join(head + writer.lines) + "\n"
 
 
-def write_new_variant(name: str, template: str, out=None) -> Path:
-    """Write the commented variant `name` (from the shipped `template`) to `out` (default NAME.yaml here);
-    an existing file is refused (one InputError line, nothing written). Returns the path written."""
+def write_new_variant(name: str, template: str, out=None, steering: int | None = None) -> Path:
+    """Write the commented variant `name` (from the shipped `template`, with `steering` steering rollers if
+    given) to `out` (default NAME.yaml here); an existing file is refused (one InputError line, nothing
+    written). Returns the path written."""
     check_name(name, "NAME")
     target = Path(out) if out else Path(f"{name}.yaml")
     kind = "--out" if out else "NAME.yaml"
     if target.exists() or target.is_symlink():
         raise InputError(f"{target}: already exists; expected a new file name (another NAME or --out FILE; "
                          "cvtdesign new never overwrites a file)")
-    text = commented_variant(template, name, str(target))
+    text = commented_variant(template, name, str(target), steering)
     return write_file(target, text, kind=kind)

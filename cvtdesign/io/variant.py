@@ -347,12 +347,28 @@ def _material(mats: dict, name: str, where: str) -> Material:
     return mats[name]
 
 
+def _fork_ratio(f, w: str, names: dict) -> float:
+    """A fork's gear ratio: its `ratio` (a number, 0.01 ≤ |ratio| ≤ 100), else its `sign`, else 1."""
+    if f.ratio is not None and f.sign is not None:
+        raise InputError(f"{w}: gives both ratio and sign; expected one of them (sign: -1 is ratio: -1)")
+    if f.ratio is None:
+        return float(1 if f.sign is None else f.sign)
+    ratio = to_si(f.ratio, "dimensionless", f"{w}.ratio", names)
+    if not isinstance(ratio, float):
+        raise InputError(f"{w}.ratio: depends on a design variable; expected a fixed number (a linkage's gear "
+                         "ratio changes no figure, only how far the forks turn)")
+    if not 1e-2 <= abs(ratio) <= 1e2:
+        raise InputError(f"{w}.ratio: {ratio:g} is not a plausible fork gear ratio (expected 0.01 <= |ratio| <= 100)")
+    return ratio
+
+
 def _forks(spec: VariantSpec, where: str, names: dict) -> dict:
-    """Steering roller name -> (fork axis, sign)."""
+    """Steering roller name -> (fork axis, gear ratio, index of the fork in steering.forks)."""
     forks = {}
     for i, f in enumerate(spec.steering.forks):
         w = f"{where}: steering.forks[{i}]"
         axis = vector(f.axis, f"{w}.axis", names)
+        ratio = _fork_ratio(f, w, names)
         if not f.rollers:
             raise InputError(f"{w}.rollers: empty; every fork holds at least one roller (a steering roller's name)")
         for rn in f.rollers:
@@ -362,7 +378,7 @@ def _forks(spec: VariantSpec, where: str, names: dict) -> dict:
                 raise InputError(f"{w}.rollers: '{rn}' is a {spec.rollers[rn].role} roller; only steering rollers turn with φ")
             if rn in forks:
                 raise InputError(f"{w}.rollers: '{rn}' is already on another fork")
-            forks[rn] = (axis, f.sign)
+            forks[rn] = (axis, ratio, i)
     return forks
 
 
@@ -401,14 +417,14 @@ def _roller(spec: VariantSpec, rn: str, where: str, names: dict, mats: dict, for
     if isinstance(ratio, float) and not 1e-3 <= abs(ratio) <= 1e3:
         raise InputError(f"{w}.ratio: {ratio:g} is not a plausible coupling ratio (expected 1e-3 <= |ratio| <= 1e3)")
     material, at = _own_or_default(spec, rn, "material", where)
-    axis, sign = forks.get(rn, (None, 0))
+    axis, fork_ratio, fork = forks.get(rn, (None, 0.0, None))
     return Roller(
         name=rn, role=r.role, shaft=r.shaft, ratio=ratio if r.role == "follower" else 1.0,
         normal=normal, axle=axle, radius=radius,
         crown_radius=field("crown_radius", "crown_radius", "a positive radius") if has_crown else radius,
         width=field("width", "width"), material=_material(mats, material, at),
         preload=field("preload", "preload"), stiffness=field("mount_stiffness", "mount_stiffness"),
-        fork_axis=axis, fork_sign=sign)
+        fork_axis=axis, fork_ratio=fork_ratio, fork=fork)
 
 
 def _check_perpendicular(normal, axle, where: str):

@@ -434,6 +434,15 @@ vcase("a roller on two forks", "steering.forks[1].rollers: 'S1' is already on an
       (("steering", "forks", 1, "rollers"), ["S1"]))
 vcase("a steering roller on no fork", "rollers.S2: steering roller is on no fork",
       (("steering", "forks"), [{"rollers": ["S1"], "axis": "c1", "sign": 1}]))
+vcase("fork with ratio and sign", "steering.forks[0]: gives both ratio and sign", (FORK0 + ("ratio",), 1))
+vcase("fork ratio 0", "steering.forks[0].ratio: 0 is not a plausible fork gear ratio", (FORK0 + ("sign",), DEL),
+      (FORK0 + ("ratio",), 0))
+vcase("fork ratio 1000", "steering.forks[0].ratio: 1000 is not a plausible", (FORK0 + ("sign",), DEL),
+      (FORK0 + ("ratio",), 1000))
+vcase("fork ratio with a unit", "steering.forks[0].ratio", (FORK0 + ("sign",), DEL), (FORK0 + ("ratio",), "2 mm"))
+vcase("fork ratio that does not fit the other fork", ("steering.forks: S2's axle does not pass through the "
+      "commanded axis that S1 steers", "fix S2 with steering.forks[1].ratio: -2"), (FORK0 + ("sign",), DEL),
+      (FORK0 + ("ratio",), 2))
 vcase("a steering roller with a shaft", "rollers.S1.shaft", (S1 + ("shaft",), 1))
 vcase("a drive roller without a shaft", "rollers.D1.shaft", (D1 + ("shaft",), DEL))
 vcase("no drive roller on shaft 2", "shaft 2", (("rollers", "D2", "shaft"), 1))

@@ -169,7 +169,7 @@ def test_explicit_round_trip(name, tmp_path):
         assert all(isinstance(x, float) for x in spec["contact"] + spec["axle"])
     L0, L1 = lt.layout_of(data), lt.layout_of(e)
     for r0, r1 in zip(L0.rollers, L1.rollers):
-        assert r0.name == r1.name and r0.fork_sign == r1.fork_sign
+        assert r0.name == r1.name and r0.fork_ratio == r1.fork_ratio
         for phi in (0.0, 0.3, -1.1):
             for v0, v1 in zip(pose(r0, phi), pose(r1, phi)):
                 np.testing.assert_allclose(v1, v0, rtol=0, atol=1e-15)
@@ -202,7 +202,7 @@ def test_rotate(name, q, phi):
     vs1 = [v for r in L1.rollers for v in pose(r, 0.0)]
     np.testing.assert_allclose(gram(vs1), gram(vs0), atol=1e-12)
     for r0, r1 in zip(L0.rollers, L1.rollers):
-        assert (r0.name, r0.role, r0.shaft, r0.fork_sign) == (r1.name, r1.role, r1.shaft, r1.fork_sign)
+        assert (r0.name, r0.role, r0.shaft, r0.fork_ratio) == (r1.name, r1.role, r1.shaft, r1.fork_ratio)
         for v0, v1 in zip(pose(r0, phi), pose(r1, phi)):
             np.testing.assert_allclose(v1, Q @ v0, atol=1e-12)
         if r0.fork_axis is not None:
@@ -224,7 +224,7 @@ def test_mirror(name, q, v, phi):
     vs1 = [v for r in L1.rollers for v in pose(r, 0.0)]
     np.testing.assert_allclose(gram(vs1), gram(vs0), atol=1e-12)
     for r0, r1 in zip(L0.rollers, L1.rollers):
-        assert r1.fork_sign == -r0.fork_sign
+        assert r1.fork_ratio == -r0.fork_ratio
         for v0, v1 in zip(pose(r0, phi), pose(r1, phi)):
             np.testing.assert_allclose(v1, P @ v0, atol=1e-12)
     # the same vectors with the original signs: a steered axle turns the other way (Kim's forks turn about

@@ -107,3 +107,39 @@ def test_written_with_mode_0644_under_umask_022(tmp_path, monkeypatch):
     finally:
         os.umask(old)
     assert oct(os.stat(tmp_path / "m.yaml").st_mode & 0o777) == oct(0o644)
+
+
+@pytest.mark.parametrize("count", [2, 3, 4])
+def test_steering_n_writes_a_layout_that_shows_and_compares(count, tmp_path, monkeypatch, capsys):
+    """`new --steering N`: the box's drive rollers with N steering rollers at the poles on forks about z
+    (docs/linkages.md); the layout passes every check, `show` draws it, `compare` solves every point, a
+    comment from the schema sits above each field it uses; with four it is the box CVT itself."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["new", "mine", "--steering", str(count)]) == 0
+    assert f"from the 'box' template with {count} steering rollers" in capsys.readouterr().out
+    data = load_yaml(tmp_path / "mine.yaml")
+    steering = [n for n, r in data["rollers"].items() if r["role"] == "steering"]
+    assert len(steering) == count and sorted(n for f in data["steering"]["forks"] for n in f["rollers"]) == sorted(steering)
+    blocks = comment_blocks((tmp_path / "mine.yaml").read_text(encoding="utf-8"))
+    for model, name in used_fields(VariantSpec, data, set()):
+        assert (model.model_fields[name].description, name) in blocks, f"{model.__name__}.{name}: no comment above it"
+    assert main(["show", "mine.yaml", "--out", "shown"]) == 0
+    assert (tmp_path / "shown/mine_layout.png").exists()
+    assert main(["compare", "mine.yaml", "--out", "plots", "--json", "f.json"]) == 0
+    mine = next(v for v in json.loads((tmp_path / "f.json").read_text())["variants"] if v["name"] == "mine")
+    assert mine["ok"] == mine["points"] == 17 * 21
+    assert 1 < mine["max_abs_alpha_deg"] < 10        # slips less than Kim's existing CVT (10.761°)
+    if count == 4:
+        assert mine["max_abs_alpha_deg"] == pytest.approx(4.166, abs=5e-4)      # the box CVT's figure
+
+
+def test_steering_n_refused_outside_what_it_builds(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["new", "five", "--steering", "5"]) == 2
+    assert main(["new", "three", "--steering", "3", "--template", "existing"]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        "cvtdesign: error: --steering: 5 steering rollers; expected one of 2, 3, 4 (a pair or one roller at each "
+        "pole; other linkages: docs/linkages.md)",
+        "cvtdesign: error: --steering: builds on the box template (drive and follower rollers whose preloads "
+        "balance on their own), not 'existing'; expected --template box or no --template"]
+    assert not list(tmp_path.iterdir())

@@ -66,7 +66,7 @@ def test_laws_and_table_values(cli, tmp_path):
     assert code == 0
     rows = {line.split("│")[1].strip(): line for line in out.splitlines() if line.startswith("│")}
     assert "d2 (-0.7071, 0.7071, 0)" in rows["D1"] and "-d1 (-0.7071, -0.7071, 0)" in rows["D1"]
-    assert "about c2 (0, -0.7071, -0.7071), sign -1" in rows["S2"] and " 38 " in rows["S2"] and " 100 " in rows["S2"]
+    assert "about c2 (0, -0.7071, -0.7071), ratio -1" in rows["S2"] and " 38 " in rows["S2"] and " 100 " in rows["S2"]
 
 
 @pytest.mark.parametrize("name, gamma", [("existing", 30.0), ("existing", -55.0), ("box", 40.0)])

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 from scipy.special import ellipe
 
-from conftest import shipped_model, variant_data, write_yaml
+from conftest import shipped_model, variant_data, variant_path, write_yaml
 from cvtdesign.core.metrics import envelope, metrics
+from cvtdesign.core.model import compile_model
 from cvtdesign.core.steering import sliding_lever
 
 
@@ -63,7 +64,7 @@ def test_rolling_torque_of_a_fork_through_its_contact_is_its_spin_moment():
         ok = np.ravel(res["ok"])
         forks = [j for j, r in enumerate(rollers) if r.fork_axis is not None]
         np.testing.assert_allclose(T[forks][:, ok], M[forks][:, ok], rtol=0, atol=1e-12)
-        motor = sum(rollers[j].fork_sign * T[j] for j in forks)
+        motor = sum(rollers[j].fork_ratio * T[j] for j in forks)
         np.testing.assert_allclose(np.ravel(res["steering_torque"])[ok], motor[ok], rtol=0, atol=1e-12)
         assert (np.max(np.abs(motor[ok])) > 1e-3) == spins
 
@@ -86,3 +87,56 @@ def test_compare_reports_steering_torque_and_where(tmp_path, cli):
     flat = " ".join(out.split())
     assert f"box_kalker: where: max |α| at γ {row['max_abs_alpha_deg_at']['gamma_deg']:g}°" in flat
     assert f"max steering torque at {at['contact']}, γ {at['gamma_deg']:g}°" in flat
+
+
+def _study(tmp_path, limit):
+    data = {"name": "t", "base": str(variant_path("box")), "multistart": {"starts": 1},
+            "design": {"d": {"lower": "30 mm", "upper": "110 mm"}, "preload": {"lower": "40 N", "upper": "100 N"}},
+            "envelope": {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
+                         "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}},
+            "constraints": {"max_steering_torque": limit}}
+    return write_yaml(tmp_path / "study.yaml", data)
+
+
+def test_optimise_rows_are_compares_steering_torques(tmp_path):
+    """The optimiser's steering rows (CasADi, 12-node quadrature) at a design are compare's torques of the same
+    design over the limit (rolling to 1e-9, standstill to 1e-6), and their derivative in the preload is the
+    central difference's."""
+    from cvtdesign.design.problem import build_problem
+    from cvtdesign.io.variant import load_variant
+    pr = build_problem(_study(tmp_path, "4 N*m"))
+    x = np.array([0.5, 0.5, 0.0])           # d 70 mm, preload 70 N (and the epigraph t)
+    g = np.asarray(pr.evaluate(x)[1]).ravel()
+    fam = np.array(pr.g_family)
+    rolling = [i for i, lab in enumerate(pr.g_labels) if lab.startswith("rolling steering")]
+    still = [i for i, lab in enumerate(pr.g_labels) if lab.startswith("standstill steering")]
+    assert set(fam[rolling + still]) == {"steering_torque"} and len(rolling) == len(still) == 9
+    d = variant_data("box")
+    d["parameters"]["d"], d["parameters"]["preload"] = "70 mm", "70 N"
+    d["envelope"] = {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
+                     "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}
+    model = compile_model(load_variant(write_yaml(tmp_path / "v.yaml", d)))
+    res = envelope(model)
+    np.testing.assert_allclose(g[rolling], np.ravel(res["steering_torque"]) / 4.0, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(g[still], np.ravel(res["steering_torque_standstill"]) / 4.0, rtol=1e-6)
+    jac = np.asarray(pr.evaluate.factory("J", ["i0"], ["jac:o0:i0", "jac:o1:i0"])(x)[1])
+    h = 1e-6
+    fd = (np.asarray(pr.evaluate(x + [0, h, 0])[1]).ravel() - np.asarray(pr.evaluate(x - [0, h, 0])[1]).ravel()) / (2 * h)
+    np.testing.assert_allclose(jac[still, 1], fd[still], rtol=1e-5)
+
+
+def test_a_steering_motor_limit_is_met_by_the_preload(tmp_path):
+    """The box with the preload free: without a limit the optimum keeps the largest preload; with 5 N·m it lowers
+    the preload until the standstill row binds (to IPOPT's 1e-8), and slips more (d stays at the clearance's
+    48.8 mm, where each fork needs μN·R sin θ = 0.0195 N·m per newton of preload: 5 N·m is 64 N)."""
+    from cvtdesign.design.problem import build_problem
+    from cvtdesign.design.solve import solve_from, starts
+    free_pr, held_pr = build_problem(_study(tmp_path, None)), build_problem(_study(tmp_path, "5 N*m"))
+    free, held = solve_from(free_pr, starts(free_pr)[0]), solve_from(held_pr, starts(held_pr)[0])
+    assert free.success and held.success
+    assert free.design["preload"] == pytest.approx(100.0, rel=1e-6)
+    assert held.objective > free.objective
+    sin_theta = held.design["d"] / (2 * 0.0635)
+    assert held.design["preload"] == pytest.approx(5.0 / (4 * 0.8 * 0.0635 * sin_theta), rel=0.01)
+    still = [i for i, lab in enumerate(held_pr.g_labels) if lab.startswith("standstill steering")]
+    assert np.max(held.g[still]) == pytest.approx(1.0, abs=1e-6)
