@@ -52,15 +52,10 @@ def envelope(model: CompiledModel, theta=None, design=None) -> dict:
     model's own and none); arrays have shape (n_gamma, n_load)."""
     L = model.layout
     G, T = np.meshgrid(L.gamma_grid, L.load_grid, indexing="ij")
-    return with_derived(model.evaluate(G, T, theta=theta, design=design), L)
-
-
-def with_derived(res: dict, layout) -> dict:
-    """`res` (the model's outputs at points) with what follows from them added: the efficiency and the
-    forks' torques at standstill (core.steering)."""
+    res = model.evaluate(G, T, theta=theta, design=design)
     res["efficiency"] = efficiency(res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"])
     res["T_fork_standstill"], res["steering_torque_standstill"] = standstill_torques(
-        res, [r.fork_ratio for r in layout.rollers])
+        res, [r.fork_ratio for r in L.rollers])
     return res
 
 
