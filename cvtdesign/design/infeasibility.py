@@ -21,6 +21,7 @@ from cvtdesign.design.report import ROW_UNITS
 
 MAX_CORNER_VARIABLES = 4
 SKIP = ("worst_alpha", "epsilon")       # the epigraph rows: met by any large enough t
+DESIGN_ONLY = ("clearance", "envelope_radius")   # rows of the design alone: pushed to the bounds' best
 SHOW = {"m": (1e3, "mm"), "N": (1.0, "N"), "deg": (1.0, "°"), "": (1.0, "")}
 
 
@@ -73,19 +74,36 @@ def _unmet(problem: Problem, starts: np.ndarray) -> list[dict]:
         c = int(np.argmin(V[:, j]))
         row = _unmet_row(problem, j, zs[c], G[c, j], family)
         others = [problem.g_labels[i] for i in idx[least > 0] if i != j]
-        if others and problem.parts.row_k[j] < 0:
+        if others and family in DESIGN_ONLY:
             row["text"] += f" (also {', '.join(others[:3])}{', …' if len(others) > 3 else ''})"
         elif others:
             row["text"] += f" (and {len(others)} more rows of {family})"
         out.append(row)
-    return sorted(out, key=lambda r: -r["miss"])
+    return sorted(out, key=lambda r: -r["miss"]) or _conflict(problem, V, fam, len(zs))
+
+
+def _conflict(problem: Problem, V: np.ndarray, fam: np.ndarray, n: int) -> list[dict]:
+    """Where no one family rules out every design: the families the evaluated designs miss, each with how many
+    of them miss it (a conflict between families: e.g. capacity wants larger rollers than the envelope
+    radius allows). [] when some design evaluated meets every row (IPOPT's failure is then its own)."""
+    missed = {f: int(np.sum(np.any(V[:, fam == f] > 0, axis=1))) for f in dict.fromkeys(problem.g_family)
+              if f not in SKIP}
+    missed = {f: k for f, k in sorted(missed.items(), key=lambda x: -x[1]) if k}
+    if not missed or not np.all(np.any(V[:, np.isin(fam, list(missed))] > 0, axis=1)):
+        return []
+    spread = "every corner of the bounds" if len(problem.names) <= MAX_CORNER_VARIABLES else "the study's starts"
+    parts = ", ".join(f"{f} ({k} of {n})" for f, k in missed.items())
+    return [{"family": " and ".join(missed), "where": "", "value": None, "bound": None, "unit": "",
+             "every_design": False, "miss": 0.0,
+             "text": f"no one constraint rules out every design, but each design evaluated (the base design and "
+                     f"{spread}) misses one of: {parts}: they conflict"}]
 
 
 def _unmet_row(problem: Problem, j: int, z: np.ndarray, g: float, family: str) -> dict:
     """The report of row j, violated at every candidate (the closest: z, where it is g)."""
     upper = g > problem.g_ub[j]
     bound = problem.g_ub[j] if upper else problem.g_lb[j]
-    design_row = problem.parts.row_k[j] < 0
+    design_row = family in DESIGN_ONLY
     if design_row:
         g = _closest(problem, j, z, upper)
     scale = 1.0 if problem.g_report is None else float(problem.g_report[j])
