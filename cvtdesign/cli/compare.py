@@ -10,7 +10,7 @@ from rich.console import Console
 from cvtdesign.cli import compare_report
 from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
 from cvtdesign.core import basis
-from cvtdesign.core.metrics import at_key, envelope, ideal_model, metrics
+from cvtdesign.core.metrics import ZERO_TORQUE, at_key, envelope, ideal_model, metrics
 from cvtdesign.core.model import compile_model
 from cvtdesign.core.uncertainty import intervals, point_bands
 from cvtdesign.io import plots
@@ -171,7 +171,7 @@ def where_text(r: dict) -> str:
     parts = []
     for key, label in WHERE.items():
         at = r.get(at_key(key))
-        if at:
+        if at and not (key.endswith("torque_Nm") and abs(r.get(key) or 0.0) < ZERO_TORQUE):   # no place for a 0
             contact = f"{at['contact']}, " if at.get("contact") else ""
             parts.append(f"{label} at {contact}γ {at['gamma_deg']:g}°, τ⊥ {at['tau_perp_Nm']:+g} N·m")
     return "; ".join(parts)

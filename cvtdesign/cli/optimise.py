@@ -43,8 +43,8 @@ def run(args):
     if files and args.out:
         make_folder(args.out, kind="--out")
     if args.json:
-        keys = ("status", "objective", "design", "active_constraints", "variant_file")
-        files[Path(args.json)] = json_text({k: res[k] for k in keys} | {"details": res})
+        keys = ("status", "objective", "design", "active_constraints", "variant_file", "unmet_constraints")
+        files[Path(args.json)] = json_text({k: res[k] for k in keys if k in res} | {"details": res})
         kinds[Path(args.json)] = "--json"
     if args.report:
         objective = objective_text(res["objective_kind"], res["objective"]) if res["success"] else ""
@@ -97,7 +97,8 @@ def result_blocks(res: dict, kinds: dict) -> list:
     if not res["success"]:
         chk = res.get("envelope_check")
         why = f"; worst point {chk['worst']}" if chk and chk.get("worst") else ""
-        return blocks + [Note(f"no successful solve: {res['status']}{why}; no variant file written", "bad")]
+        return blocks + [Note(f"no successful solve: {res['status']}{why}; no variant file written", "bad")] + \
+            [Note(f"cannot be met: {u['text']}", "bad") for u in res.get("unmet_constraints", [])]
     t = Table(f"optimum: {objective_text(kind, res['objective'])}", ["variable", "optimum", "base", "lower", "upper"])
     for n, v in res["design"].items():
         k, lo, hi = kinds[n]

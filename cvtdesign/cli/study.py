@@ -69,18 +69,23 @@ def run(args):
 
 
 def failure_note(df) -> Note | None:
-    """How many of the store's cases failed (no successful row) and why (their commonest status), or None."""
+    """How many of the store's cases failed (no successful row), grouped by why: the constraint no design within
+    the bounds meets (design.infeasibility), else the status; or None."""
     ok = df.groupby("case_id", sort=False)["success"].any()
-    statuses = df[df["case_id"].isin(ok.index[~ok])].drop_duplicates("case_id")["status"].value_counts()
-    if not len(statuses):
+    failed = df[df["case_id"].isin(ok.index[~ok])].drop_duplicates("case_id")
+    if not len(failed):
         return None
-    n, total = int(statuses.sum()), len(ok)
-    why = f"with {statuses.index[0]}" + ("" if len(statuses) == 1 else
-                                         f" ({statuses.iloc[0]} of them; the others' statuses are in the table)")
+    reasons = failed["reason"].fillna("").astype(str) if "reason" in failed else failed["status"].astype(str)
+    reasons = reasons.where(reasons != "", failed["status"].astype(str))
+    key = reasons.str.replace(r" (only )?reaches .*", "", regex=True)     # the family and the part
+    why = key.value_counts()
+    n, total = int(why.sum()), len(ok)
+    first = {k: r[len(k):].strip() for k, r in zip(key, reasons)}
+    groups = "; ".join(f"{k} ×{v}" + (f" (e.g. {first[k]})" if first[k] else "") for k, v in why.items())
     if n == total:
-        return Note(f"no case succeeded: all {total} cases failed {why}; no optimum, Pareto front or knee to "
+        return Note(f"no case succeeded: all {total} cases failed: {groups}; no optimum, Pareto front or knee to "
                     "report", "bad")
-    return Note(f"{n} of {total} cases failed {why}", "bad")
+    return Note(f"{n} of {total} cases failed: {groups}", "bad")
 
 
 def study_kinds(study_path) -> tuple:

@@ -40,6 +40,9 @@ from cvtdesign.core.model import CompiledModel, compile_model, status_counts
 from cvtdesign.core.steering import standstill_torques
 
 
+ZERO_TORQUE = 1e-9     # [N m] a steering torque below this is round-off: no fork carries it
+
+
 def ideal_model(layout) -> CompiledModel:
     """The ideal CVT of a layout: the same rollers and linkage with rigid rolling contacts (Kim's law with no
     effects: no creep, no losses), whatever the layout's contact law. Kalker's law creeps with no effect
@@ -103,7 +106,7 @@ def _largest_share(e: Extreme, shares) -> Extreme:
     if e.point is None:
         return e
     at = np.abs(np.reshape(shares, (len(shares), -1))[:, e.point])
-    return dataclasses.replace(e, contact=int(np.argmax(at)) if np.max(at) > 0 else None)
+    return dataclasses.replace(e, contact=int(np.argmax(at)) if np.max(at) > ZERO_TORQUE else None)
 
 
 def at_key(figure: str) -> str:

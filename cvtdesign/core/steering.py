@@ -52,8 +52,9 @@ def sliding_lever(a, b, pivot, slide, nodes: int = 32):
 
 def sliding_lever_expr(a, b, pivot, slide, nodes: int = 12):
     """sliding_lever as a CasADi expression (one contact), for an optimisation's rows: the same quadrature on
-    fewer nodes (12: 1e-15 relative for pure pivoting, 1e-6 where the slide's centre lies outside the patch, as on the box's forks, 3e-4 where it lies inside), |v| smoothed by 1e-12 m
-    so that its derivative exists everywhere."""
+    fewer nodes (12: 1e-15 relative for pure pivoting, 1e-6 where the slide's centre lies outside the patch, as
+    on the box's forks, 3e-4 where it lies inside), |v| smoothed by 1e-12 m so that its derivative exists
+    everywhere."""
     xh, yh, weight = _nodes(nodes)
     x, y = a * ca.DM(xh.ravel()), b * ca.DM(yh.ravel())
     return ca.dot(ca.DM(weight.ravel()), ca.sqrt((pivot * y) ** 2 + (slide + pivot * x) ** 2 + 1e-24))

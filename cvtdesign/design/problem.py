@@ -372,10 +372,12 @@ def _envelope_points(spec: StudySpec, base, where: str) -> tuple[np.ndarray, np.
     return g_pts, l_pts, phi0, G.shape[1]
 
 
-def _point_function(nlp: _NLP, outputs: list, objective: bool = False, extra: tuple = ()) -> tuple[ca.Function, list]:
+def _point_function(nlp: _NLP, outputs: list, objective: bool = False, extra: tuple = (),
+                    contacts_only: bool = False) -> tuple[ca.Function, list]:
     """(x, γ, load, φ guess, p0, θ) → the rows of one envelope point (then, with `objective`, the objective's
     per-point value, and the model outputs named in `extra`), evaluating only the model outputs they need;
-    blocks: (lb, ub, family, label of a point, margin scale)."""
+    blocks: (lb, ub, family, label of a point, margin scale). `contacts_only`: the contacts' rows alone (Hertz,
+    traction, normal force), as the capacity rows hold them."""
     n, rn = len(nlp.names), nlp.model.roller_names
     nc = len(rn)
     xs, gs, ls, ps = ca.MX.sym("x", nlp.x.shape[0]), ca.MX.sym("gamma"), ca.MX.sym("load"), ca.MX.sym("phi0")
@@ -384,7 +386,7 @@ def _point_function(nlp: _NLP, outputs: list, objective: bool = False, extra: tu
     out = dict(zip(outputs, nlp.model.point_function(outputs).call([gs, nlp.w1, ls, 0.0, ps, ths, Ps]))) \
         if outputs else {}
     rows_, blocks = [], []
-    if nlp.epigraph:
+    if nlp.epigraph and not contacts_only:
         a_deg = out["alpha"] * (180 / np.pi)
         rows_ += [a_deg - xs[n], -a_deg - xs[n]]
         blocks += [(-np.inf, 0.0, "worst_alpha", lambda s: f"α ≤ t at {s}", None),
@@ -407,11 +409,11 @@ def _point_function(nlp: _NLP, outputs: list, objective: bool = False, extra: tu
     for i in range(nc):       # N ≥ N_min, over P₀ (reported in newtons: g_report)
         rows_.append(out["N"][i] / nlp.pre0[i])
         blocks.append((nlp.n_min[i] / nlp.pre0[i], np.inf, "normal_force", lambda s, i=i: f"N [N] of {rn[i]} at {s}", 1.0))
-    if nlp.steer_max is not None:
+    if nlp.steer_max is not None and not contacts_only:
         rows_ += _steering_rows(nlp, out)
         blocks += [(-1.0, 1.0, "steering_torque", lambda s: f"rolling steering torque/T_max at {s}", 1.0),
                    (-np.inf, 1.0, "steering_torque", lambda s: f"standstill steering torque/T_max at {s}", 1.0)]
-    if nlp.spec.constraints.reach_gamma:
+    if nlp.spec.constraints.reach_gamma and not contacts_only:
         rows_.append(out["steer_misfit"])
         blocks.append((-np.inf, 1e-6, "reach_gamma", None, 1e-6))
     res = [ca.vertcat(*rows_) if rows_ else ca.MX(0, 1)]
@@ -510,8 +512,28 @@ def _design_rows(nlp: _NLP, rows: _Rows) -> None:
         for size, lo, hi, fam, labs in design_spec:
             rows.add(D[at: at + size], lo, hi, fam, labs)
             at += size
+    if cs.min_capacity is not None:
+        _capacity_rows(nlp, rows, float(parameter_value(cs.min_capacity, f"{where}: constraints.min_capacity", {})))
     if nlp.objective.eps_row:
         rows.add(nlp.t - nlp.eps, -np.inf, 0, "epsilon", ["worst |α| ≤ ε"])
+
+
+def _capacity_rows(nlp: _NLP, rows: _Rows, c: float) -> None:
+    """Load capacity ≥ c [N m]: the contacts' rows (Hertz, traction margin, normal force) at τ⊥ = ±c at every γ
+    of the envelope, at the nominal calibration, added to `rows` as rows that every solve holds (beside the
+    design rows; few points, so not worth a working set). Where the contacts' margins shrink monotonically
+    with the load, as on the shipped layouts (docs/capacity.md), this is the capacity's own limit; the
+    optimum is then checked on the whole envelope as usual, and `cvtdesign capacity` gives the full search."""
+    first = nlp.first
+    gam = np.repeat(nlp.g_pts[first], 2)
+    load = np.tile([-c, c], first.size)
+    fn, blocks = _point_function(nlp, list(dict.fromkeys(["N"] + (["F_t", "F_a", "mu"] if nlp.margin is not None
+                                                                 else []))), contacts_only=True)
+    M = fn.map(gam.size, "serial").call([nlp.x, gam[None, :], load[None, :], np.repeat(nlp.phi0[first], 2)[None, :],
+                                         nlp.P0, np.repeat(nlp.theta_pts[:, first], 2, axis=1)])[0]
+    where = [f"γ={np.degrees(g):+.0f}° τ⊥={t:+.3g}" for g, t in zip(gam, load)]
+    for r, (lo, hi, _, lab, _) in enumerate(blocks):
+        rows.add(M[r, :].T, lo, hi, "capacity", [f"capacity: {lab(s)}" for s in where])
 
 
 def _start_t(nlp: _NLP) -> ca.Function | None:

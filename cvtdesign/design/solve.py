@@ -19,6 +19,7 @@ import casadi as ca
 import numpy as np
 from scipy.stats import qmc
 
+from cvtdesign.design.infeasibility import unmet_constraints
 from cvtdesign.design.objectives import objective
 from cvtdesign.design.problem import Problem, build_problem, nlpsol
 from cvtdesign.design.report import constraint_report, variant_text, write_variant
@@ -289,7 +290,8 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
         best = min(solutions, key=lambda s: s.objective)
         result.update(status=best.status, success=False, objective=None, design=best.design,
                       active_constraints=[], constraints=[], variant_file=None,
-                      envelope_check=best.check.as_dict() if best.check else None)
+                      envelope_check=best.check.as_dict() if best.check else None,
+                      unmet_constraints=[] if best.check else strip(unmet_constraints(problem, starts(problem))))
         return result
     best = optima[0][0]
     report = constraint_report(problem, best)
@@ -312,6 +314,11 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
                             "worst_alpha_deg": best.objective,
                             "nominal_worst_alpha_deg": problem.nominal_worst_alpha(best.design)}
     return result
+
+
+def strip(unmet: list[dict]) -> list[dict]:
+    """The unmet constraints as the JSON gives them (without the sort key)."""
+    return [{k: v for k, v in u.items() if k != "miss"} for u in unmet]
 
 
 def _multistart(study_path, spec: StudySpec, base: Path, progress) -> tuple[Problem, list[Solution]]:

@@ -62,6 +62,7 @@ from filelock import FileLock, Timeout
 
 from cvtdesign.design import cluster
 from cvtdesign.design.problem import IPOPT_OPTIONS, build_problem
+from cvtdesign.design.infeasibility import unmet_constraints
 from cvtdesign.design.report import variant_text
 from cvtdesign.design.objectives import objective
 from cvtdesign.design.solve import pareto_front, solve_from, starts
@@ -81,7 +82,7 @@ from cvtdesign.io.variant import parameter_value
 
 # the columns every case file has (besides design.<variable>)
 CASE_COLUMNS = ("case_id", "kind", "variant", "fixed", "start", "point", "status", "success", "objective",
-                "worst_alpha_deg", "power_loss_W", "iterations", "variant_file", "seconds")
+                "worst_alpha_deg", "power_loss_W", "iterations", "variant_file", "seconds", "reason")
 
 
 MAX_CASES = 10_000       # cases of one study (variant files × sweep points × starts): more is a typo (40,000
@@ -249,7 +250,7 @@ def run_case(content: StudyContent, case: dict, out_dir: str) -> dict:
         rows.append(common | {"point": 0, "status": sol.status, "success": ok, "objective": _held(ok, sol.objective),
                               "worst_alpha_deg": _held(ok, sol.check.max_abs_alpha_deg if sol.check else np.nan),
                               "power_loss_W": _held(ok, sol.objective if goal.case_column == "power_loss_W" else np.nan),
-                              "iterations": sol.iterations,
+                              "iterations": sol.iterations, "reason": failure_reason(problem, sol),
                               "variant_file": design_file(problem, sol, f"{spec.name}_{case['id']}")}
                     | {f"design.{k}": v for k, v in sol.design.items()})
     else:
@@ -260,11 +261,23 @@ def run_case(content: StudyContent, case: dict, out_dir: str) -> dict:
                                   "objective": _held(ok, p["power_loss_W"]),
                                   "worst_alpha_deg": _held(ok, p["worst_alpha_deg"]),
                                   "power_loss_W": _held(ok, p["power_loss_W"]), "iterations": sol.iterations,
+                                  "reason": failure_reason(p["problem"], sol),
                                   "variant_file": design_file(p["problem"], sol, f"{spec.name}_{case['id']}{p['index']}")}
                         | {f"design.{k}": v for k, v in p["design"].items()})
     for r in rows:
         r["seconds"] = time.perf_counter() - t0
     return {"rows": rows, "files": files}
+
+
+def failure_reason(problem, sol) -> str:
+    """Why a case failed, for the store's `reason` column: the envelope check's worst point, or the constraint
+    that no design within the bounds meets (design.infeasibility), or '' (a success, or no such constraint)."""
+    if sol.success:
+        return ""
+    if sol.check is not None:
+        return f"{sol.status}: worst point {sol.check.as_dict().get('worst')}"
+    unmet = unmet_constraints(problem, starts(problem))
+    return unmet[0]["text"] if unmet else ""
 
 
 def _held(success: bool, value):
@@ -302,7 +315,7 @@ def failure_rows(case: dict, status: str) -> list[dict]:
     return [{"case_id": case["id"], "kind": case["kind"], "variant": Path(case["variant"]).name,
              "fixed": json.dumps(case["fixed"]), "start": case["start"], "point": 0, "status": status,
              "success": False, "objective": np.nan, "worst_alpha_deg": np.nan, "power_loss_W": np.nan,
-             "iterations": 0, "variant_file": None, "seconds": np.nan}]
+             "iterations": 0, "variant_file": None, "seconds": np.nan, "reason": status}]
 
 
 def write_case(out_dir: Path, case_id: str, rows: list[dict], files: dict | None = None):

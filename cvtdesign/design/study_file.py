@@ -76,7 +76,7 @@ class ObjectiveSpec(Strict):
 class Constraints(Strict):
     """Constraint settings: `traction_margin` a plain number in [0, 1); `clearance` a length >= 0 (at most
     1 m) between any two rollers; `envelope_radius` a length (0, 10 m]; `min_normal_force` a force > 0;
-    `max_steering_torque` a torque (0, 1000 N·m].
+    `max_steering_torque` a torque (0, 1000 N·m]; `min_capacity` a torque (0, 10,000 N·m].
     Each is finite; plain numbers are SI, and an implausible plain length gets the unit it probably meant."""
     hertz_pressure: StrictBool = True
     traction_margin: Num | None = 0.2
@@ -88,6 +88,8 @@ class Constraints(Strict):
     reach_gamma: StrictBool = True
     # the steering motor's torque, rolling and at standstill, at most this at every envelope point (core.steering)
     max_steering_torque: Num | None = None
+    # every γ of the envelope carries |τ⊥| = this with the traction margin, normal force and Hertz limits
+    min_capacity: Num | None = None
 
 
 class Multistart(Strict):
@@ -336,6 +338,10 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
         w = f"{where}: constraints.max_steering_torque"
         check_range(to_si(cs.max_steering_torque, "torque", w), cs.max_steering_torque, w, "steering torque",
                     "torque", 0.0, 1000.0, lo_open=True, guess="N*mm")
+    if cs.min_capacity is not None:
+        w = f"{where}: constraints.min_capacity"
+        check_range(to_si(cs.min_capacity, "torque", w), cs.min_capacity, w, "load capacity", "torque", 0.0,
+                    10000.0, lo_open=True, guess="N*mm")
     pre0 = np.array([float(r.preload) for r in base.rollers])
     min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
     duty_cycle(spec, gammas, loads, where)

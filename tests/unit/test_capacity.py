@@ -10,8 +10,9 @@ import json
 
 import numpy as np
 import pytest
+import yaml
 
-from conftest import shipped_model, variant_data, write_yaml
+from conftest import shipped_model, variant_data, variant_path, write_yaml
 
 from cvtdesign.cli import main
 
@@ -193,3 +194,45 @@ def test_smallest_capacity_over_gamma():
     least = smallest_capacity(capacity(box, np.radians([0.0, 80.0]), load_capacity(box.layout)))
     assert np.isnan(least["tau_perp"]) and least["limit"] is None and least["unknown"] == 1
     assert least["gamma"] == np.radians(80.0) and least["side"] == "max"
+
+
+# --- min_capacity: a constraint of optimise --------------------------------------------------------------------
+
+def _capacity_study(tmp_path, capacity, design, **constraints):
+    data = {"name": "t", "base": str(variant_path("box")), "multistart": {"starts": 2},
+            "envelope": {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "30 deg"},
+                         "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "0.5 N*m"}},
+            "design": design, "constraints": {"min_capacity": capacity, **constraints}}
+    path = tmp_path / "study.yaml"
+    path.write_text(yaml.safe_dump(data, allow_unicode=True))
+    return path
+
+
+def test_an_optimum_under_min_capacity_carries_it_at_every_gamma(tmp_path, cli):
+    """constraints.min_capacity: 6 N·m with the default traction margin 0.2: the optimum's capacity by the
+    full search (capacity --safety 1/(1 − 0.2)) is at least 6 N·m at every γ of the study's envelope, both
+    signs."""
+    design = {"d": {"lower": "30 mm", "upper": "110 mm"}, "r_drive": {"lower": "20 mm", "upper": "60 mm"}}
+    code, _, _ = cli("optimise", _capacity_study(tmp_path, "6 N*m", design, envelope_radius="160 mm"),
+                     "--out", tmp_path / "o", "--json", tmp_path / "r.json")
+    res = json.loads((tmp_path / "r.json").read_text())
+    assert code == 0 and res["status"] == "Solve_Succeeded"
+    assert cli("capacity", res["variant_file"], "--safety", 1.25, "--json", tmp_path / "c.json")[0] == 0
+    cap = json.loads((tmp_path / "c.json").read_text())["variants"][0]["capacity"]
+    assert len(cap) == 5 and all(c["tau_perp_max_Nm"] >= 6 - 1e-6 and c["tau_perp_min_Nm"] <= -6 + 1e-6 for c in cap)
+
+
+def test_a_capacity_no_design_reaches_is_named(tmp_path, cli):
+    """The box's drive rollers fixed at 40 mm slip together at 0.8·μP·2r = 5.12 N·m at γ = 0 with the margin:
+    5.5 N·m is out of reach whatever the steering pairs do, and optimise says which contact and where; with
+    the rollers free but the envelope radius holding them small, it says the two conflict."""
+    code, out, _ = cli("optimise", _capacity_study(tmp_path, "5.5 N*m", {"d": {"lower": "30 mm", "upper": "110 mm"}}),
+                       "--out", tmp_path / "o")
+    flat = " ".join(out.split())
+    assert code != 0 and "cannot be met: capacity: capacity: (|F| − 0.8μN)/(μP) of B" in flat
+    assert "at γ=+0° τ⊥=" in flat and "at the base design and at every corner of the bounds" in flat
+    design = {"d": {"lower": "30 mm", "upper": "110 mm"}, "r_drive": {"lower": "20 mm", "upper": "60 mm"}}
+    code, out, _ = cli("optimise", _capacity_study(tmp_path, "7 N*m", design, envelope_radius="160 mm"),
+                       "--out", tmp_path / "o")
+    flat = " ".join(out.split())
+    assert code != 0 and "misses one of:" in flat and "envelope_radius (" in flat and "capacity (" in flat

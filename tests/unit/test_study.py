@@ -311,7 +311,9 @@ def test_failed_case_status_is_recorded(tmp_path, shared, capsys):
                         batch={"sweep": {}})
     assert main(["study", str(study), "--out", str(tmp_path / "f"), "--scheduler", shared]) == 1
     df = read_store(tmp_path / "f")
-    assert f"no case succeeded: all 1 cases failed with {df['status'].iloc[0]}" in capsys.readouterr().out
+    assert df["status"].iloc[0] == "Infeasible_Problem_Detected"
+    assert df["reason"].iloc[0].startswith("clearance: clearance ") and "for every design within the bounds" in df["reason"].iloc[0]
+    assert "no case succeeded: all 1 cases failed: clearance: clearance " in " ".join(capsys.readouterr().out.split())
     assert len(df) == 1 and not df["success"].iloc[0]
     assert df["status"].iloc[0] in ("Infeasible_Problem_Detected", "Restoration_Failed", "Maximum_Iterations_Exceeded")
     assert df["variant_file"].iloc[0] is None
@@ -345,7 +347,7 @@ def test_no_successful_case_reports_the_failures_and_nothing_else(tmp_path, caps
         "startup_seconds": 0.1, "table": pd.DataFrame(rows)})
     assert main(["study", str(path), "--out", str(tmp_path / "s")]) == 1
     out = " ".join(capsys.readouterr().out.split())
-    assert f"no case succeeded: all 2 cases failed with {why}; no optimum, Pareto front or knee to report" in out
+    assert f"no case succeeded: all 2 cases failed: {why} ×2; no optimum, Pareto front or knee to report" in out
     assert "knee" not in out.replace("or knee", "") and "best optimum" not in out and "Pareto plot" not in out
     assert not (tmp_path / "s" / "pareto.png").exists()
 
