@@ -25,7 +25,9 @@ ROOT = Path(__file__).resolve().parents[2]
 EXISTING = ROOT / "variants" / "existing.yaml"
 BOX = ROOT / "variants" / "box.yaml"
 UNEQUAL = ROOT / "variants" / "unequal.yaml"
-STUDIES = sorted((ROOT / "studies").glob("*.yaml"))
+# the shipped studies: optimisation studies, and tolerance studies (a `tolerances:` list; cvtdesign tolerance)
+TOLERANCE_STUDIES = [f for f in sorted((ROOT / "studies").glob("*.yaml")) if "tolerances" in yaml.safe_load(f.read_text())]
+STUDIES = [f for f in sorted((ROOT / "studies").glob("*.yaml")) if f not in TOLERANCE_STUDIES]
 INF, NAN = float("inf"), float("nan")
 
 
@@ -277,6 +279,15 @@ def test_shipped_studies_build(tmp_path):
         for v in (spec.batch.variants or [spec.base]):
             problem = build_problem(f, spec, (f.parent / v).resolve())
             assert np.all(problem.lower < problem.upper) and np.all(np.isfinite(problem.upper))
+
+
+def test_shipped_tolerance_studies_load():
+    """studies/box_tolerances.yaml (the issue's shipped tolerance study) reads against the variant it names in
+    its header, every dimension a finite size."""
+    from cvtdesign.io.tolerance_file import load_tolerances
+    assert [f.name for f in TOLERANCE_STUDIES] == ["box_tolerances.yaml"]
+    spec, dims = load_tolerances(TOLERANCE_STUDIES[0], load_variant(ROOT / "variants/box_kalker.yaml"))
+    assert len(dims) == 42 and all(np.isfinite(d.size) and d.size > 0 for d in dims)
 
 
 def test_compare_box_figures_unchanged(tmp_path, monkeypatch):
