@@ -3,6 +3,7 @@ canvas and no two texts on top of each other. `captured` keeps the figures a mod
 from __future__ import annotations
 
 import itertools
+import sys
 
 
 def text_problems(fig) -> list[str]:
@@ -33,12 +34,15 @@ def text_problems(fig) -> list[str]:
 
 
 def captured(monkeypatch, module) -> list:
-    """The figures `module.save` is handed from now on (each is still written)."""
+    """The figures `module.save` is handed from now on (each is still written); for a package (io.plots), in
+    each of its modules that draws."""
     figures, save = [], module.save
 
     def keep(fig, path, *args, **kw):
         figures.append(fig)
         return save(fig, path, *args, **kw)
 
-    monkeypatch.setattr(module, "save", keep)
+    for name, m in list(sys.modules.items()):
+        if (name == module.__name__ or name.startswith(module.__name__ + ".")) and getattr(m, "save", None) is save:
+            monkeypatch.setattr(m, "save", keep)
     return figures

@@ -96,7 +96,7 @@ def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, c
             try:
                 image, part, extent = raster(*view_mesh(p, shapes), [part.colour for part in p.parts])
                 notes = annotations(p, part, extent)
-                painter.draw("cad_picture", np.round(255 * image).astype(np.uint8), extent, picture_caption(p), tmps[2],
+                painter.draw(plots.cad_picture, np.round(255 * image).astype(np.uint8), extent, picture_caption(p), tmps[2],
                              notes)
                 drawn = True
                 write_step(assembly(p, shapes), tmps[0], step_header(p, paths[0].name))

@@ -59,7 +59,7 @@ def run(args):
     figure = make_folder(args.out, kind="--out") / named_after(files, ".png")     # another set, another file
     replaced = figure.exists()
     # the figure is drawn while the ideal CVT is evaluated and the table printed
-    painter.draw("compare_figure", [(L.name, {k: res[k] for k in plots.COMPARE_KEYS} | point_bands(m, res)
+    painter.draw(plots.compare_figure, [(L.name, {k: res[k] for k in plots.COMPARE_KEYS} | point_bands(m, res)
                                      | {"theory_only": basis.calibration(L)["uncalibrated"]})
                                     for L, m, res in zip(layouts, models, results)], figure)
     rows = [with_intervals(m, res, metrics(m, res) | basis.fields(m.layout)) for m, res in zip(models, results)]

@@ -10,7 +10,8 @@ import pytest
 
 from cvtdesign.core.metrics import envelope
 from cvtdesign.core.model import compile_model
-from cvtdesign.io.plots import COMPARE_ROWS, Background, compare_figure
+from cvtdesign.io.plots import Background, compare_figure
+from cvtdesign.io.plots.compare import COMPARE_ROWS
 from cvtdesign.io.variant import load_variant
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -87,7 +88,7 @@ def test_closing_the_plotting_process_leaves_no_half_written_file(results, tmp_p
     """The parent fails while the plotting process draws and closes it (Background.close) at some moment
     of the drawing: the figure is then either whole or absent, and no temporary file is left behind."""
     painter = Background()
-    painter.draw("compare_figure", results, tmp_path / "compare.png")
+    painter.draw(compare_figure, results, tmp_path / "compare.png")
     time.sleep(delay)
     painter.close()
     assert not painter.proc.is_alive()
@@ -162,8 +163,8 @@ def test_colours_do_not_depend_on_the_order():
 class InlinePainter:
     """The plotting process's part done in this process, so that a test sees the figure."""
 
-    def draw(self, name, *args):
-        self.limits = getattr(plots, name)(*args)
+    def draw(self, figure, *args):
+        self.limits = figure(*args)
 
     def wait(self):
         return None

@@ -8,6 +8,7 @@ from conftest import variant_path
 
 from cvtdesign.cli import main
 from cvtdesign.io import plots
+from cvtdesign.io.plots import process
 
 
 @pytest.mark.parametrize("collecting", [True, False])
@@ -44,8 +45,8 @@ def test_an_interrupt_during_matplotlibs_import_ends_the_plotting_process_quietl
         for fail, answer in ((_import_interrupted, "nothing"), (no_ft2font, "ImportError: no ft2font")):
             here, there = multiprocessing.Pipe()
             spare, _ = multiprocessing.Pipe()
-            monkeypatch.setattr(plots, "_mpl", fail)
-            here.send(("compare_figure", ()))
+            monkeypatch.setattr(process, "figure_parts", fail)
+            here.send((plots.compare_figure, ()))
             plots.worker(there, spare)        # in this process: it returns instead of ending one
             assert (here.recv() if here.poll(1) else "nothing") == answer
     finally:

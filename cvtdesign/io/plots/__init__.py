@@ -1,0 +1,26 @@
+"""Matplotlib figures, drawn on Agg canvases without pyplot (no figure manager, no GUI backend), each written as a
+PNG by output.write_file: one module per command's figures, the common parts in `base`, and the plotting
+process in `process` (a command that draws while it computes hands it the figure function itself).
+
+The names below are the package's interface: `from cvtdesign.io import plots; plots.compare_figure(...)`.
+"""
+from cvtdesign.io.plots.base import figure_parts, place_labels, save
+from cvtdesign.io.plots.cad import cad_picture, scale_bar
+from cvtdesign.io.plots.capacity import capacity_figure
+from cvtdesign.io.plots.compare import (
+    COMPARE_KEYS,
+    EXISTING_COLOUR,
+    IDEAL_COLOUR,
+    PANELS_MAX,
+    compare_figure,
+    variant_colours,
+)
+from cvtdesign.io.plots.contact import contact_figures
+from cvtdesign.io.plots.design import pareto_figure, tolerance_figure
+from cvtdesign.io.plots.diagnosis import diagnosis_fit_figure, residual_map_figure, resteer_figure
+from cvtdesign.io.plots.process import Background, worker
+
+__all__ = ["Background", "COMPARE_KEYS", "EXISTING_COLOUR", "IDEAL_COLOUR", "PANELS_MAX", "cad_picture",
+           "capacity_figure", "compare_figure", "contact_figures", "diagnosis_fit_figure", "figure_parts",
+           "pareto_figure", "place_labels", "residual_map_figure", "resteer_figure", "save", "scale_bar",
+           "tolerance_figure", "variant_colours", "worker"]

@@ -1,0 +1,79 @@
+"""The diagnosis' figures: where the gap lies (residual maps), the fitted curves and the resteering commands."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from cvtdesign.io.plots.base import figure_parts, save
+
+
+def residual_map_figure(maps: list[tuple], regions: list[dict], path: Path, unit="deg"):
+    """Residual maps over commanded γ [deg] × lateral load τ⊥ [N·m], one panel per (title, γ, τ⊥, values):
+    each operating point a square coloured by its residual (mean over replicates), wherever the protocol put
+    it (a grid, random points); the gap's regions boxed on the first panel by the γ and τ⊥ of their points."""
+    mpl = figure_parts()
+    fig, axes = mpl.subplots(1, len(maps), figsize=(6 * len(maps), 4.6), squeeze=False)
+    lim = max(float(np.nanmax(np.abs(v))) if np.isfinite(v).any() else 0.0 for *_, v in maps) or 1.0
+    for ax, (title, g, t, v) in zip(axes[0], maps):
+        ok = np.isfinite(v)
+        sc = ax.scatter(g[ok], t[ok], c=v[ok], cmap="RdBu_r", vmin=-lim, vmax=lim, marker="s",
+                        s=max(8.0, 6000.0 / max(ok.sum(), 1)), edgecolors="none")
+        ax.scatter(g[~ok], t[~ok], marker="x", c="k", s=12, lw=0.8)      # no prediction (the model fails)
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("commanded γ [deg]")
+        ax.set_ylabel("τ⊥ [N·m]")
+        fig.colorbar(sc, ax=ax, label=f"measured − model [{unit}]")
+    g0, t0 = maps[0][1], maps[0][2]
+    dg, dl = 0.02 * (np.ptp(g0) or 1.0), 0.03 * (np.ptp(t0) or 0.1)
+    for k, r in enumerate(regions):
+        (ga, gb), (la, lb) = r["gamma_deg"], r["load_Nm"]
+        axes[0][0].add_patch(mpl.Rectangle((ga - dg, la - dl), gb - ga + 2 * dg, lb - la + 2 * dl, fill=False,
+                                           ec="k", lw=1.5, ls="--"))
+        axes[0][0].annotate(f"R{k + 1}: {r['mean_residual_deg']:+.2f}°", (ga - dg, lb + dl), fontsize=8)
+    fig.tight_layout()
+    save(fig, path, dpi=100)
+
+
+def diagnosis_fit_figure(curves: dict, path: Path):
+    """Slip angle and efficiency against commanded γ at a few loads: the data (points), the base model and
+    the diagnosed model (lines, held-out predictions). curves: {'loads': [...], 'panels': [(title, ylabel,
+    [(load, γ, data, base, final)])]}."""
+    mpl = figure_parts()
+    panels = curves["panels"]
+    fig, axes = mpl.subplots(1, len(panels), figsize=(7 * len(panels), 4.8), squeeze=False)
+    cmap = mpl.get_cmap("coolwarm")
+    for ax, (title, ylabel, series) in zip(axes[0], panels):
+        lo, hi = min(s[0] for s in series), max(s[0] for s in series)
+        for load, g, d, b, f in series:
+            c = cmap((load - lo) / max(hi - lo, 1e-12))
+            ax.plot(g, d, "o", ms=4, color=c, label=f"data τ⊥ ≈ {load:+.2f} N·m")
+            ax.plot(g, b, ":", color=c)
+            ax.plot(g, f, "-", color=c)
+        ax.set_title(f"{title} (dotted: base model, solid: diagnosed model)", fontsize=10)
+        ax.set_xlabel("commanded γ [deg]")
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    save(fig, path, dpi=100)
+
+
+def resteer_figure(ratios, load, table: dict, path: Path):
+    """Brokowski Fig. 17: speed-ratio error by eq 23 [%] against the requested ratio, one line per method."""
+    mpl = figure_parts()
+    fig, ax = mpl.subplots(figsize=(8, 5))
+    for m, row in table.items():
+        ax.plot(ratios, row["error_pct"], "o-", label=f"{m} (mean |error| {row['mean_abs_error_pct']:.1f} %)")
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_xscale("log")
+    ax.set_xticks(ratios)
+    ax.set_xticklabels([f"{q:g}" for q in ratios])
+    ax.set_xticks([], minor=True)       # the log scale's own minor labels ('6×10⁻¹') among the ratios asked for
+    ax.set_xlabel("requested speed ratio ω2/ω1")
+    ax.set_ylabel("error (requested − achieved)/requested [%]")
+    ax.set_title(f"resteering under τ⊥ = {load:+.2f} N·m (Brokowski Fig. 17)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    save(fig, path, dpi=110)
