@@ -52,15 +52,9 @@ from cvtdesign.core.metrics import envelope, metrics
 from cvtdesign.core.model import STATUS, CompiledModel, compile_model
 from cvtdesign.core.tolerances import DIRECTIONS, as_built, draw
 from cvtdesign.design import cluster
-from cvtdesign.design.study import (
-    Interrupted,
-    done_cases,
-    prepare_store,
-    read_store,
-    remove_stale_temps,
-    run_cases,
-    store_lock,
-)
+from cvtdesign.design.store import done_cases, prepare_store, read_store, store_lock
+from cvtdesign.design.study import Interrupted, run_cases
+from cvtdesign.io.output import remove_stale_temps
 from cvtdesign.errors import InputError
 from cvtdesign.io.tolerance_file import load_tolerances
 from cvtdesign.io.variant import load_variant

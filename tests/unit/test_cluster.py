@@ -22,7 +22,7 @@ import yaml
 from dask.distributed import Client
 
 from cvtdesign.cli import main
-from cvtdesign.design.study import read_store
+from cvtdesign.design.store import read_store
 
 ROOT = Path(__file__).resolve().parents[2]
 # the `dask` command of this Python's environment (beside its interpreter), else the first on PATH

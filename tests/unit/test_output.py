@@ -17,7 +17,7 @@ from cvtdesign.io import output  # noqa: E402
 from cvtdesign.cli import main  # noqa: E402
 from cvtdesign.io.output import OutputError, staged, write_file, write_files  # noqa: E402
 from cvtdesign.io.plots import save  # noqa: E402
-from cvtdesign.design.study import read_case, write_case  # noqa: E402
+from cvtdesign.design.store import read_case, write_case  # noqa: E402
 from cvtdesign.io.units import InputError  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]

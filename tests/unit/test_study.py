@@ -25,9 +25,11 @@ from dask.distributed import Client
 from filelock import FileLock
 
 from cvtdesign.design import cluster
+from cvtdesign.design import store as store_mod
 from cvtdesign.design import study as study_mod
 from cvtdesign.cli import main
-from cvtdesign.design.study import make_cases, read_store, run_study
+from cvtdesign.design.store import read_store
+from cvtdesign.design.study import make_cases, run_study
 from cvtdesign.core.model import compile_model
 from cvtdesign.errors import InputError
 from cvtdesign.io.variant import load_variant
@@ -327,8 +329,8 @@ def test_case_that_ended_in_an_error_runs_again(tmp_path, finished, shared):
     path, store, ref = finished
     store = copy_store(store, tmp_path)
     cases = make_cases(path)
-    study_mod.write_case(store, cases[0]["id"], study_mod.failure_rows(cases[0], "error: OSError: gone"))
-    study_mod.write_case(store, cases[1]["id"], study_mod.failure_rows(cases[1], "worker_crashed"))
+    store_mod.write_case(store, cases[0]["id"], store_mod.failure_rows(cases[0], "error: OSError: gone"))
+    store_mod.write_case(store, cases[1]["id"], store_mod.failure_rows(cases[1], "worker_crashed"))
     res = run_study(path, store, scheduler=shared)
     assert res["skipped"] == 4 and res["ran"] == 2
     pd.testing.assert_frame_equal(comparable(res["table"]), comparable(ref), rtol=1e-9)
@@ -341,7 +343,7 @@ def test_no_successful_case_reports_the_failures_and_nothing_else(tmp_path, caps
     path = small_study(tmp_path, batch={"pareto": True})
     cases = make_cases(path)
     why = "error: InputError: studies/x.yaml: cannot read file (No such file or directory)"
-    rows = [r for c in cases[-2:] for r in study_mod.failure_rows(c, why)]
+    rows = [r for c in cases[-2:] for r in store_mod.failure_rows(c, why)]
     monkeypatch.setattr(study_mod, "run_study", lambda *a, **k: {
         "out_dir": str(tmp_path / "s"), "cases": 2, "skipped": 0, "ran": 2, "seconds": 0.1,
         "startup_seconds": 0.1, "table": pd.DataFrame(rows)})

@@ -19,7 +19,7 @@ from cvtdesign.core.model import compile_model
 from cvtdesign.core.tolerances import Dimension, as_built
 from cvtdesign.core.uncertainty import sensitivities
 from cvtdesign.design import cluster
-from cvtdesign.design.study import read_store
+from cvtdesign.design.store import read_store
 from cvtdesign.design.tolerance import COLUMNS, FIGURES, built_model, check_directions, tolerance_content
 from cvtdesign.io import plots
 from figure_checks import captured, text_problems
