@@ -45,7 +45,8 @@ import numpy as np
 
 from cvtdesign.core.contact.laws import check_effects, contact_law
 from cvtdesign.core.deferred import DeferredCalls
-from cvtdesign.core.effects import EFFECTS, ContactState, parameter_vector, smooth_abs
+from cvtdesign.core.effects import parameter_vector
+from cvtdesign.core.equations import F_SCALE, Hooks, equations, unknowns
 from cvtdesign.core.geometry import (
     ideal_gamma,
     roller_pose,
@@ -56,14 +57,12 @@ from cvtdesign.core.kinematics import (
     ShaftFrame,
     shaft_frame,
     shaft_gain,
-    vec,
     wrap_axis_angle,
 )
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.native import Tiered, compiled
 from cvtdesign.core.newton import newton_solver
 
-F_SCALE = 10.0        # [N] force scaling of the unknowns
 RES_TOL = 1e-8        # scaled residual above which a point is reported as not converged
 LOAD_STEPS = 4        # steps of the continuation in the load from rest (_solve_from_rest)
 SAT_LIMIT = 0.999     # traction utilisation |F|/(μN) of a saturation law beyond which a point is gross slip
@@ -238,135 +237,6 @@ def _solvers(residual: ca.Function, jacobian: ca.Function, steer_residual: ca.Fu
                  for k in ("cvt", "steer"))
 
 
-class _Hooks:
-    """The hooks of the effects that are on, with their parameter symbols, in the vocabulary's order."""
-
-    def __init__(self, effects, theta, names):
-        ordered = [e for e in EFFECTS if e in effects]
-        self.items = [(EFFECTS[e], {p: theta[names.index(f"{e}.{p}")] for p in EFFECTS[e].params}) for e in ordered]
-
-    def transform(self, hook, value, *context):
-        """value ← f(*context, value, p) for every effect with that hook."""
-        for eff, p in self.items:
-            if hook in eff.hooks:
-                value = eff.hooks[hook](*context, value, p)
-        return value
-
-    def collect(self, hook, *context) -> list:
-        return [eff.hooks[hook](*context, p) for eff, p in self.items if hook in eff.hooks]
-
-
-@dataclass
-class _Unknowns:
-    x: ca.SX
-    Om: object
-    w2: object
-    w_idle: dict
-    Ft: object
-    Fa: object
-    v_ref: object
-    om_ref: object
-
-
-def _unknowns(layout: Layout, w1) -> _Unknowns:
-    """The unknowns, scaled: Ω by the ideal sphere speed, ω2 and idler speeds by ω1, forces by F_SCALE."""
-    rollers = layout.rollers
-    idlers = [r for r in rollers if r.role == "steering"]
-    nc, ni = len(rollers), len(idlers)
-    primary = next(r for r in rollers if r.role == "drive" and r.shaft == 1)
-    v_ref = w1 * primary.radius                      # [m/s] speed scale
-    om_ref = v_ref / layout.sphere_radius            # [rad/s] sphere speed scale
-    x = ca.SX.sym("x", 4 + ni + 2 * nc)
-    return _Unknowns(x, om_ref * x[0:3], w1 * x[3], {r.name: w1 * x[4 + j] for j, r in enumerate(idlers)},
-                     F_SCALE * x[4 + ni: 4 + ni + nc], F_SCALE * x[4 + ni + nc:], v_ref, om_ref)
-
-
-def _normal_forces(layout: Layout, poses, Fvec):
-    """Sphere force balance on preloaded compliant mounts: K δ = Σ (F_i − P_i n_i), N_i = P_i + k_i n_i·δ."""
-    rollers = layout.rollers
-    K = sum(r.stiffness * ca.mtimes(n, n.T) for r, (n, _) in zip(rollers, poses))
-    rhs = sum(Fvec[i] - rollers[i].preload * poses[i][0] for i in range(len(rollers)))
-    delta = ca.solve(K, rhs)
-    return [r.preload + r.stiffness * ca.dot(n, delta) for r, (n, _) in zip(rollers, poses)]
-
-
-def _equations(layout: Layout, hooks: _Hooks, law, const, u: _Unknowns, w1, phi, calls):
-    """Every contact's creep law, the sphere's moment balance, the idlers' torque balance and the shaft
-    torques, with the effects' terms. Returns (slip rows, moment, idler rows, shaft torques, per-contact
-    outputs, saturation utilisations)."""
-    R = layout.sphere_radius
-    poses = [roller_pose(r, phi) for r in layout.rollers]
-    tdirs = [ca.cross(n, a) for n, a in poses]
-    Fvec = [u.Ft[i] * tdirs[i] + u.Fa[i] * poses[i][1] for i in range(len(poses))]
-    N = _normal_forces(layout, poses, Fvec)
-    slip, moment, idle, tau, sat = [], ca.SX.zeros(3), [], {1: 0, 2: 0}, []
-    per = {k: [] for k in ("xi", "eta", "spin", "utilisation", "mu", "M_spin", "loss", "a", "b", "G", "C11", "C22",
-                           "C23", "roll_sign", "T_fork", "fork_pivot", "fork_slide")}
-    for i, r in enumerate(layout.rollers):
-        (n, a), t, c = poses[i], tdirs[i], const[i]
-        drive = r.role != "steering"
-        r_eff = hooks.transform("rolling_radius", r.radius, r)
-        w_i = r.ratio * (w1 if r.shaft == 1 else u.w2) if drive else u.w_idle[r.name]
-        s = R * ca.cross(u.Om, n) - r_eff * w_i * t
-        s_t, s_a = ca.dot(s, t), ca.dot(s, a)
-        roll, spin = ca.dot(u.Om, a), ca.dot(u.Om, n)
-        V = smooth_abs(R * roll, 1e-9 * u.v_ref)                          # rolling speed [m/s]
-        N_creep, n_exp = law.creep_normal(hooks, r, N[i])
-        eps = c["eps0"] * (c["n_ref"] / N_creep) ** n_exp if "eps0" in c else None
-        state = ContactState(r, drive, V, spin, 1e-9 * u.om_ref, 1e-6 * u.om_ref, roll, N[i], N_creep, eps, c["b"],
-                             hooks.transform("friction", c["mu"]), u.Ft[i], u.Fa[i], c)
-        law_rows = law.rows(layout, hooks, state, s_t, s_a, u.v_ref, calls)
-        slip += law_rows.rows
-        sat += law_rows.utilisation
-        m_spin = law_rows.spin_moment
-        M = sum(hooks.collect("resistance", state))
-        on_sphere = R * ca.cross(n, Fvec[i]) - M * a + m_spin * n      # the contact's moment about the centre
-        moment += on_sphere
-        if drive:
-            tau[r.shaft] = tau[r.shaft] + r.ratio * (r_eff * u.Ft[i] - M)
-        else:
-            idle.append((-r_eff * u.Ft[i] + M) / (r.radius * F_SCALE))
-        per["xi"].append(s_t / law_rows.speed)
-        per["eta"].append(s_a / law_rows.speed)
-        per["spin"].append(spin / law_rows.speed)
-        per["mu"].append(state.mu)
-        per["M_spin"].append(m_spin)
-        for k, v in zip(("T_fork", "fork_pivot", "fork_slide"), fork_terms(r, n, a, on_sphere, R)):
-            per[k].append(v)
-        per["loss"].append(-(u.Ft[i] * s_t + u.Fa[i] * s_a + m_spin * spin) - M * (w_i - roll))
-        size = (ca.fmax(N[i], 0) / r.preload) ** (1.0 / 3.0)
-        per["a"].append(c["a"] * size)
-        per["b"].append(c["b"] * size)
-        per["G"].append(c["G"])
-        per["roll_sign"].append(ca.if_else(roll >= 0, 1.0, -1.0))   # the patch frame's σ (core.contact.laws)
-        gab = c["G"] * c["a"] * c["b"] * size ** 2
-        per["C11"].append(law_rows.slopes[0] / gab)
-        per["C22"].append(law_rows.slopes[1] / gab)
-        per["C23"].append(law_rows.slopes[2] / (gab * ca.sqrt(gab / c["G"])))
-        per["utilisation"].append(ca.sqrt(u.Ft[i] ** 2 + u.Fa[i] ** 2 + 1e-6) / (state.mu * N[i]))  # 1 mN smoothing
-    per["N"] = N
-    return slip, moment, idle, tau, per, sat
-
-
-def fork_terms(roller, n, a, on_sphere, R):
-    """A forked roller's steering terms (0, 0, 0 for a roller on no fork), f its fork axis through the centre:
-
-    - T_fork [N m], the torque the steering actuator applies about f to hold the fork while the contact
-      rolls: f·M_c, M_c the contact's moment on the sphere about the centre (R n × F − M a + M_spin n). The
-      roller in equilibrium passes M_c to its fork (its axle carries none about a: the idler's balance), and
-      the fork's bearings none about f.
-    - fork_pivot [-] = f·n and fork_slide [m] = R (f × n)·a: per unit fork rate, the patch's pivoting rate
-      and its slide across the roller (the part along the rolling direction the free roller takes up), from
-      which core.steering finds the torque at standstill.
-
-    Brokowski et al. ("Toward improved CVTs: theoretical and experimental results", 6.2.2): smaller contact
-    patches reduce steering effort."""
-    if roller.fork_axis is None:
-        return ca.SX(0), ca.SX(0), ca.SX(0)
-    f = vec(roller.fork_axis)
-    return ca.dot(f, on_sphere), ca.dot(f, n), R * ca.dot(ca.cross(f, n), a)
-
-
 def _status(resid, per, sat, forward):
     """STATUS code of a solution: not_converged unless `_converged`; then reversed unless `forward` (the
     sphere's Ω has a positive component along the ideal kinematics' Ω: a root with the sphere turning against
@@ -430,14 +300,14 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None,
     design = ca.SX(0, 1) if design is None else design
     pnames, pvalues = parameter_vector(effects, layout.effect_parameters)
     theta = ca.SX.sym("theta", len(pnames))
-    hooks = _Hooks(effects, theta, pnames)
+    hooks = Hooks(effects, theta, pnames)
     frame = shaft_frame(layout)
     const = [law.constants(built, r) for r in built.rollers]
     gamma, w1, load, brake, phi_cmd = (ca.SX.sym(s) for s in ("gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_cmd"))
     phi = hooks.transform("steering_angle", phi_cmd)
-    u = _unknowns(built, w1)
+    u = unknowns(built, w1)
     calls = DeferredCalls()
-    slip, moment, idle, tau, per, sat = _equations(built, hooks, law, const, u, w1, phi, calls)
+    slip, moment, idle, tau, per, sat = equations(built, hooks, law, const, u, w1, phi, calls)
     per["F_t"], per["F_a"] = ca.vertsplit(u.Ft), ca.vertsplit(u.Fa)
     hertz_p0, peak_pressure, p0_all = _peak_pressure_functions(built, const, design)
     tau_perp, _ = frame.load_split(gamma, tau[1], tau[2])

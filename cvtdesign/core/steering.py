@@ -3,7 +3,7 @@
 Brokowski et al. ("Toward improved CVTs: theoretical and experimental results", 6.2.2) note that smaller
 contact patches reduce steering effort; for a cobot this torque sizes the steering actuator. Two cases:
 
-* **Rolling** (the model's outputs `T_fork` and `steering_torque`, core.model.fork_terms): the torque that
+* **Rolling** (the model's outputs `T_fork` and `steering_torque`, core.equations.fork_terms): the torque that
   holds fork i while its contact rolls, T_i = f_i·M_c, M_c the contact's moment on the sphere about the
   centre (the lateral force's lever R n × F, the spin moment about n, the rolling resistance). Through the
   linkage, where fork i turns by k_i times the steering angle φ (k_i its gear ratio, fork_ratio), virtual work gives the

@@ -1,4 +1,4 @@
-"""Steering effort (core.steering, core.model.fork_terms): the torque to turn each fork while the contacts roll
+"""Steering effort (core.steering, core.equations.fork_terms): the torque to turn each fork while the contacts roll
 and at standstill, and the steering motor's through the linkage; in compare's table, notes and JSON and in
 `--points`."""
 from __future__ import annotations
