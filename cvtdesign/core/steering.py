@@ -70,6 +70,17 @@ def _nodes(nodes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return rho * np.cos(t), rho * np.sin(t), weight
 
 
+INPUTS = ("N", "a", "b", "mu", "fork_pivot", "fork_slide")   # the model outputs the standstill torques are made of
+
+
+def standstill_slope(at: dict, along: dict, fork_ratios, h: float) -> np.ndarray:
+    """The derivative of the steering motor's standstill torque (points) along a direction in which the INPUTS
+    move: `at` their values and `along` their derivatives (each contacts × points, from the model's exact
+    derivatives), carried through the quadrature by a central difference of step h in the direction's unit."""
+    up, down = ({k: at[k] + sign * h * along[k] for k in INPUTS} for sign in (1, -1))
+    return (standstill_torques(up, fork_ratios)[1] - standstill_torques(down, fork_ratios)[1]) / (2 * h)
+
+
 def standstill_torques(res: dict, fork_ratios) -> tuple[np.ndarray, np.ndarray]:
     """The torque [N m] to turn each fork at standstill (contacts × points, 0 for a roller on no fork) and the
     steering motor's, Σ |k_i| T_i (points), from an envelope result (core.metrics.envelope): the normal

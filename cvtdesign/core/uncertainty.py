@@ -31,7 +31,7 @@ from cvtdesign.core.model import CompiledModel
 Z95 = 1.959963984540054
 SCALES = {"drive": "drive_longitudinal_creep.scale", "steering": "steering_lateral_creep.scale"}
 OUTPUTS = ("alpha", "alpha_steering", "alpha_drive", "omega_2", "tau_1", "tau_2", "power_loss", "utilisation",
-           "p_max", "steering_torque", "N")
+           "p_max", "steering_torque", *steering.INPUTS)
 
 
 def covariance(model: CompiledModel) -> tuple[list[int], np.ndarray] | None:
@@ -125,21 +125,20 @@ def _gradient(model: CompiledModel, key: str, e, i: int, d: dict, val: dict, res
     if key == "max_steering_torque_Nm":
         return np.sign(val["steering_torque"][k]) * d["steering_torque"][i]
     if key == "max_standstill_steering_torque_Nm":
-        return standstill_gradient(model, res, k, d["N"][i])
+        return standstill_gradient(model, res, k, {q: d[q][i] for q in steering.INPUTS})
     name = "utilisation" if key == "max_traction_utilisation" else "p_max"
     return d[name][i][e.contact] / (1e6 if name == "p_max" else 1.0)
 
 
-def standstill_gradient(model: CompiledModel, res: dict, k: int, dN: np.ndarray) -> np.ndarray:
-    """d(standstill steering torque)/dθ at flat point k, through the normal forces (dN: contacts × θ): each
-    fork's μ N L(a, b) with the patch growing as N^(1/3) (core.steering; L's slope by a relative step of 1e-6)."""
+def standstill_gradient(model: CompiledModel, res: dict, k: int, d: dict) -> np.ndarray:
+    """d(standstill steering torque)/dθ at flat point k from the exact derivatives of what it is made of
+    (d: core.steering.INPUTS, each contacts × θ), through the quadrature by core.steering.standstill_slope
+    (θ's entries are scales of order 1: a step of 1e-4)."""
     n_c = len(model.layout.rollers)
-    pick = {q: np.asarray(res[q], float).reshape(n_c, -1)[:, k] for q in ("N", "a", "b", "mu", "fork_pivot", "fork_slide")}
-    lever = [steering.sliding_lever(pick["a"] * s, pick["b"] * s, pick["fork_pivot"], pick["fork_slide"])
-             for s in (1.0, (1 + 1e-6) ** (1 / 3))]
-    dlever_dN = (lever[1] - lever[0]) / (1e-6 * pick["N"])
-    k_abs = np.abs([r.fork_ratio for r in model.layout.rollers])
-    return (k_abs * pick["mu"] * (lever[0] + pick["N"] * dlever_dN)) @ dN
+    at = {q: np.asarray(res[q], float).reshape(n_c, -1)[:, k:k + 1] for q in steering.INPUTS}
+    ratios = [r.fork_ratio for r in model.layout.rollers]
+    return np.array([steering.standstill_slope(at, {q: d[q][:, j:j + 1] for q in steering.INPUTS}, ratios, 1e-4)[0]
+                     for j in range(next(iter(d.values())).shape[1])])
 
 
 def intervals(model: CompiledModel, res: dict, row: dict) -> dict:

@@ -9,15 +9,14 @@ from statistics import NormalDist
 import numpy as np
 import pandas as pd
 
+from cvtdesign.core import steering
 from cvtdesign.core.metrics import efficiency
 from cvtdesign.core.model import CompiledModel
-from cvtdesign.core.steering import standstill_torques
 from cvtdesign.core.tolerances import KINDS, draw
 from cvtdesign.core.uncertainty import OUTPUTS, sensitivities
 from cvtdesign.design.tolerance import FIGURES, LINEAR_DRAWS, LINEAR_STREAM, figures
 
 EFFECT_NODES = 33       # equal-probability points of a dimension's distribution for its effect
-STANDSTILL = ("N", "a", "b", "mu", "fork_pivot", "fork_slide")   # what the standstill torques are made of
 STANDSTILL_STEP = 1e-3  # × σ: the step of the standstill torque's central differences along each slope
 
 
@@ -26,9 +25,10 @@ def first_order(model: CompiledModel, nominal: dict, dims, xs: np.ndarray, seed:
     dimensions), "values": its figures at them (draws, FIGURES), "at_samples": its figures at the deviations
     `xs`, "ok": the points it is taken over (flat indices), "slopes": every output's derivatives there}."""
     ok = np.flatnonzero(np.ravel(nominal["ok"]))
-    slopes = sensitivities(model, nominal, ok, list(range(len(dims))), OUTPUTS + STANDSTILL[1:], wrt="design")
+    # OUTPUTS include core.steering.INPUTS, what the standstill torque is made of
+    slopes = sensitivities(model, nominal, ok, list(range(len(dims))), OUTPUTS, wrt="design")
     slopes["steering_torque_standstill"] = standstill_slopes(model, nominal, ok, slopes, dims)
-    for name in STANDSTILL[1:]:
+    for name in steering.INPUTS[1:]:
         del slopes[name]
     draws = draw(dims, np.random.default_rng([seed, LINEAR_STREAM]), LINEAR_DRAWS)
     return {"draws": draws, "values": linearised_figures(model, nominal, ok, slopes, draws),
@@ -53,16 +53,15 @@ def linearised_figures(model: CompiledModel, nominal: dict, ok: np.ndarray, slop
 
 def standstill_slopes(model: CompiledModel, nominal: dict, ok: np.ndarray, slopes: dict, dims) -> np.ndarray:
     """d(steering motor's torque at standstill)/dx at the ok points (points, dimensions) [N·m per SI unit]:
-    the exact derivatives of what it is made of (STANDSTILL) carried through core.steering's quadrature by
-    central differences along them (step STANDSTILL_STEP·σ_j). The quadrature is numpy's, so it costs 2 of
-    its evaluations a dimension rather than one a linearised envelope."""
-    at = {k: np.asarray(nominal[k], float).reshape(len(model.roller_names), -1)[:, ok] for k in STANDSTILL}
+    the exact derivatives of what it is made of (core.steering.INPUTS) carried through its quadrature by
+    central differences along them (core.steering.standstill_slope, step STANDSTILL_STEP·σ_j). The quadrature is
+    numpy's, so it costs 2 of its evaluations a dimension rather than one a linearised envelope."""
+    at = {k: np.asarray(nominal[k], float).reshape(len(model.roller_names), -1)[:, ok] for k in steering.INPUTS}
     ratios = [r.fork_ratio for r in model.layout.rollers]
     out = np.zeros((ok.size, len(dims)))
     for j, d in enumerate(dims):
-        h = STANDSTILL_STEP * d.std
-        up, down = ({k: v + sign * h * slopes[k][:, :, j].T for k, v in at.items()} for sign in (1, -1))
-        out[:, j] = (standstill_torques(up, ratios)[1] - standstill_torques(down, ratios)[1]) / (2 * h)
+        along = {k: slopes[k][:, :, j].T for k in steering.INPUTS}
+        out[:, j] = steering.standstill_slope(at, along, ratios, STANDSTILL_STEP * d.std)
     return out
 
 
