@@ -10,6 +10,7 @@ from rich.console import Console
 from cvtdesign.cli import compare_report
 from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
 from cvtdesign.core import basis
+from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.core.metrics import ZERO_TORQUE, at_key, envelope, ideal_model, metrics
 from cvtdesign.core.model import compile_model
 from cvtdesign.core.uncertainty import intervals, point_bands
@@ -48,7 +49,7 @@ def run(args):
     files = [Path(f) for f in args.variants]
     layouts = [load_variant(f) for f in files]
     if len(files) == 1:                            # Kim's CVT under the same law, wherever the command runs from
-        existing = shipped_variant("existing_kalker" if layouts[0].contact_law == "kalker" else "existing")
+        existing = shipped_variant(contact_law(layouts[0].contact_law).reference_variant)
         if existing.resolve() != files[0].resolve():
             layouts.insert(0, load_variant(existing))
     layouts = one_basis(layouts, layouts[-1] if len(files) == 1 else layouts[0], args)

@@ -13,6 +13,7 @@ from cvtdesign.cli.diagnosis_text import report_blocks
 from cvtdesign.cli.printing import json_text, progress_bar, report_text, show
 from cvtdesign.diagnosis import diagnose
 from cvtdesign.diagnosis import measured
+from cvtdesign.core.effects import CALIBRATION
 from cvtdesign.diagnosis.diagnose import Report, model_efficiency, residuals
 from cvtdesign.errors import InputError
 from cvtdesign.io import materials, plots
@@ -32,9 +33,9 @@ def run(args):
     if set(candidates) & set(base):
         raise InputError(f"--candidates: {', '.join(e for e in candidates if e in base)} is already in the base model "
                          f"({', '.join(base)}); expected effects to add to it")
-    if args.save_calibration and not set(SCALES.values()) & set(base):
+    if args.save_calibration and not set(CALIBRATION.values()) & set(base):
         raise InputError(f"--save-calibration: the base model ({', '.join(base) or 'no effects'}) fits no creep "
-                         f"compliance; expected {' or '.join(SCALES.values())} in --base")
+                         f"compliance; expected {' or '.join(CALIBRATION.values())} in --base")
     data = measured.load_measured(args.data, layout, args.drop_bad)
     console = Console(width=140)
     with progress_bar(console, "diagnosis", str, transient=True) as progress:
@@ -64,15 +65,14 @@ def run(args):
     return 0
 
 
-SCALES = {"drive": "drive_longitudinal_creep", "steering": "steering_lateral_creep"}
 
 
 def saved_calibration(args, layout, rep: Report) -> str:
     """The library file --save-calibration writes: the diagnosed model's fitted creep scales as creep moduli
     of the rollers' materials (io.materials.fitted_calibrations), with their σ and provenance."""
     scales = {role: (rep.final_fit[f"{e}.scale"]["value"], rep.final_fit[f"{e}.scale"]["std"])
-              for role, e in SCALES.items() if f"{e}.scale" in rep.final_fit}
-    fitted = ", ".join(f"{SCALES[r]}.scale {v:.4g} ± {s:.2g}" for r, (v, s) in scales.items())
+              for role, e in CALIBRATION.items() if f"{e}.scale" in rep.final_fit}
+    fitted = ", ".join(f"{CALIBRATION[r]}.scale {v:.4g} ± {s:.2g}" for r, (v, s) in scales.items())
     effects = " + ".join(rep.base + rep.accepted)
     entries = materials.fitted_calibrations(
         layout, scales, machine=f"{layout.name} ({args.variant})", data=f"{args.data} ({rep.rows} rows)",
@@ -82,7 +82,7 @@ def saved_calibration(args, layout, rep: Report) -> str:
 
 def other_fits(rep: Report) -> str:
     """The diagnosed model's other fitted parameters, as the variant lines that carry them with their σ."""
-    other = {k: v for k, v in rep.final_fit.items() if k.split(".")[0] not in SCALES.values()}
+    other = {k: v for k, v in rep.final_fit.items() if k.split(".")[0] not in CALIBRATION.values()}
     if not other:
         return ""
     values = {}

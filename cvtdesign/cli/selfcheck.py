@@ -5,8 +5,8 @@ from rich.console import Console
 from rich.table import Table
 
 from cvtdesign.cli.printing import json_text, progress_bar
-from cvtdesign.diagnosis import selfcheck
-from cvtdesign.diagnosis.selfcheck import meets_targets
+from cvtdesign.verification import selfcheck
+from cvtdesign.verification.selfcheck import meets_targets
 from cvtdesign.errors import InputError
 from cvtdesign.io.output import write_file
 from cvtdesign.io.schema import MAX_COUNT

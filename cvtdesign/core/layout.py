@@ -69,8 +69,8 @@ class Layout:
     gamma_grid: np.ndarray         # [rad]
     load_grid: np.ndarray          # [N m]
     motor_speed: float             # [rad/s]
+    contact_law: str               # a core.contact.laws.LAWS name (the laws are chosen there)
     parameters: dict = field(default_factory=dict)
-    contact_law: str = "kim"       # a core.contact.laws.LAWS name: 'kim' (fitted constants) or 'kalker'
     calibration: dict = field(default_factory=lambda: {"drive": 1.0, "steering": 1.0})   # kalker compliance factors
     effect_uncertainty: dict = field(default_factory=dict)   # effect -> {param: SI 1σ} of fitted parameters
     spec: object = None            # the io.schema.VariantSpec it was read from

@@ -69,7 +69,7 @@ def as_built(layout: Layout, dims, x) -> Layout:
         for name in d.rollers:
             rollers[name] = _deviate(rollers[name], d, x[j], layout.sphere_radius)
     built = replace(layout, rollers=tuple(rollers[r.name] for r in layout.rollers))
-    fitted = layout.contact_law == "kim" and (layout.creep_drive is not None or layout.creep_steering is not None)
+    fitted = layout.creep_drive is not None or layout.creep_steering is not None   # a law with fitted constants
     if fitted and layout.creep_reference_force is None and any(d.kind == "preload" for d in dims):
         drawn = {float(r.preload) for r in layout.rollers}
         if len(drawn) > 1:

@@ -24,12 +24,13 @@ import casadi as ca
 import numpy as np
 
 from cvtdesign.core import basis
+from cvtdesign.core.effects import CALIBRATION
 from cvtdesign.core.metrics import extremes
 from cvtdesign.core import steering
 from cvtdesign.core.model import CompiledModel
 
 Z95 = 1.959963984540054
-SCALES = {"drive": "drive_longitudinal_creep.scale", "steering": "steering_lateral_creep.scale"}
+SCALES = {side: f"{effect}.scale" for side, effect in CALIBRATION.items()}
 OUTPUTS = ("alpha", "alpha_steering", "alpha_drive", "omega_2", "tau_1", "tau_2", "power_loss", "utilisation",
            "p_max", "steering_torque", *steering.INPUTS)
 

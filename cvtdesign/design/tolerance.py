@@ -47,6 +47,7 @@ import casadi as ca
 import numpy as np
 import pandas as pd
 
+from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.metrics import envelope, metrics
 from cvtdesign.core.model import STATUS, CompiledModel, compile_model
@@ -137,9 +138,9 @@ def check_directions(model: CompiledModel, dims, where: str) -> None:
         moved = f"moved by only {x[j] * 1e3:.2g} mm" if d.kind == "contact" else "turned by only 1e-5°"
         held = "" if status == 0 else f", where they {STATUS[int(status)].replace('_', ' ')}"
         roles = sorted({r.role for r in L.rollers if r.name in d.rollers})
-        why = (f"law kim holds {' and '.join(roles)} rollers rigid across their rolling direction (no effect makes it "
-               "compliant), so their directions would have to be exact to about 1e-9 rad" if L.contact_law == "kim"
-               else f"law {L.contact_law} holds that direction rigid")
+        why = (f"law {L.contact_law} holds {' and '.join(roles)} rollers rigid across their rolling direction (no effect "
+               "makes it compliant), so their directions would have to be exact to about 1e-9 rad"
+               if contact_law(L.contact_law).rigid_unless_effects else f"law {L.contact_law} holds that direction rigid")
         raise InputError(f"{where}: tolerances.{d.entry}: the {d.label} is not a meaningful tolerance under contact law "
                          f"{L.contact_law}: {moved}, it already makes the contacts fight with {force:.3g} N more "
                          f"({force / preload:.2g} × the {preload:g} N preload) at γ = {math.degrees(g):g}°, "

@@ -98,7 +98,7 @@ def _elastic(m: MaterialSpec) -> tuple:
 
 
 def contact_calibration(variant_file: str, spec: VariantSpec, role: str, roller_material: str,
-                        sphere_material: str, law: str) -> CreepSource:
+                        sphere_material: str) -> CreepSource:
     """Where a contact's creep compliance comes from, in this order: the variant's own constants (kim's
     creep_drive or creep_steering, kalker's calibration factors, with contact.uncertainty), a library
     calibration of its two materials, else the theory alone (uncalibrated)."""
@@ -107,10 +107,10 @@ def contact_calibration(variant_file: str, spec: VariantSpec, role: str, roller_
     std = getattr(c.uncertainty, side)
     std = None if std is None else to_si(std, "dimensionless", f"{variant_file}: contact.uncertainty.{side}")
     fitted = c.creep_drive if side == "drive" else c.creep_steering
-    if law == "kim" and fitted is not None:
+    if fitted is not None:                  # only a law that takes fitted constants has them (io.variant)
         return source("fitted", f"the variant's fitted creep_{side} = {fitted}", std)
     factor = getattr(c.calibration, side)
-    if law != "kim" and factor is not None:
+    if factor is not None:                  # only a law that takes calibration factors has them
         if isinstance(factor, (int, float)) and factor == 1:
             return source("theory", f"theory only: contact.calibration.{side} = 1, the theory as it stands "
                                     f"({THEORY_GAP})")

@@ -17,10 +17,11 @@ from pathlib import Path
 from pydantic import BaseModel
 
 from cvtdesign.core import effects as fx
+from cvtdesign.core.contact.laws import LAWS
 from cvtdesign.io.output import write_files
-from cvtdesign.io.schema import Spherical, VariantSpec, unit_text
+from cvtdesign.io.schema import Spherical, VariantSpec, law_name, unit_text
 from cvtdesign.io.units import KINDS
-from cvtdesign.io.variant import LOAD_MARGIN, MAX_GRID_POINTS, MAX_POINTS, PLAUSIBLE, POSITIVE_EFFECT_PARAMS
+from cvtdesign.io.variant import LOAD_MARGIN, MAX_GRID_POINTS, MAX_POINTS, PLAUSIBLE
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"    # the repository's docs/ (run from a checkout)
 REFERENCE, EFFECTS_DOC = "variant-reference.md", "effects.md"
@@ -156,7 +157,9 @@ def field_row(path: str, name: str, info, inherited: dict) -> str:
     else:
         rng = range_text(key) if key else "—"
     meaning = info.description.removesuffix("; " + unit_text(kind)) if kind else info.description
-    cells = [f"`{path}{name}`", type_text(info.annotation), unit_cell(kind), default_text(info), rng, meaning]
+    what = " or ".join(f"`{n}`" for n in LAWS) if law_name in [getattr(m, "func", None) for m in info.metadata] \
+        else type_text(info.annotation)
+    cells = [f"`{path}{name}`", what, unit_cell(kind), default_text(info), rng, meaning]
     return "| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"
 
 
@@ -271,7 +274,7 @@ def _bound(value: float, kind: str) -> str:
 def param_row(effect: str, name: str, p: fx.Param) -> str:
     lo = "" if not math.isfinite(p.lower) else _bound(p.lower, p.kind)
     hi = "" if not math.isfinite(p.upper) else _bound(p.upper, p.kind)
-    op = "<" if (effect, name) in POSITIVE_EFFECT_PARAMS else "≤"
+    op = "<" if p.positive else "≤"
     bounds = f"{lo} {op} value ≤ {hi}" if lo and hi else (f"≥ {lo}" if lo else (f"≤ {hi}" if hi else "—"))
     cells = [f"`{name}`", unit_cell(p.kind), f"`{_bound(p.default, p.kind)}`", bounds, p.doc]
     return "| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"

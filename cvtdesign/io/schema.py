@@ -10,7 +10,8 @@ from typing import Annotated, Literal, Union
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 from pydantic_core import PydanticCustomError, PydanticUndefined
 
-from cvtdesign.core.contact.laws import LAWS
+from cvtdesign.core.contact.laws import IDEAL, LAWS
+from cvtdesign.core.effects import KIM_MODEL
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.units import KINDS
 
@@ -33,6 +34,17 @@ def _file_name(v):
 
 
 Name = Annotated[str, AfterValidator(_file_name)]
+
+
+def law_name(v):
+    """A contact law's name: one of core.contact.laws.LAWS (read when the file is, so a law added there is known)."""
+    if v not in LAWS:
+        raise PydanticCustomError("law_name", "input should be {laws}, got '{value}'",
+                                  {"laws": " or ".join(f"'{k}'" for k in LAWS), "value": shorten(v)})
+    return v
+
+
+LawName = Annotated[str, AfterValidator(law_name)]
 Num = Annotated[Union[float, int, str], BeforeValidator(no_bool)]   # a plain number (SI), a quantity or '= expr'
 
 
@@ -192,8 +204,8 @@ class ContactSpec(Strict):
     normal force, its creepages normalised by Kalker's coefficients (C11, C22, C23), and the force and spin
     moment of Kalker's simplified theory (FASTSIM) for creep and spin together (core.contact.surface), scaled
     by `calibration`."""
-    law: Literal[tuple(LAWS)] = spec_field("the contact law: kim (fitted creep constants) or kalker (Hertz + "
-                                           "Kalker + FASTSIM at every contact)", "kim")
+    law: LawName = spec_field("the contact law: kim (fitted creep constants) or kalker (Hertz + "
+                                           "Kalker + FASTSIM at every contact)", IDEAL)
     calibration: CalibrationSpec = spec_field("factors on the Kalker compliances (law kalker only): drive, steering",
                                               CalibrationSpec())
     creep_drive: Num | None = spec_field("creep constant ε_D of drive and follower rollers: slip ratio per "
@@ -256,7 +268,7 @@ class VariantSpec(Strict):
     Kim's CVT), at most MAX_GRID_POINTS points per axis and MAX_POINTS (γ × load) in all, fewer where half the
     machine's free memory holds fewer, motor speed 0 < ω ≤ 1e4 rad/s; frame distance 0 < d ≤ 10 m,
     thickness 0 < t ≤ 1 m;
-    effect parameters within their `effects.Param` bounds, and above 0 for `POSITIVE_EFFECT_PARAMS`. Every
+    effect parameters within their `effects.Param` bounds, the lower one exclusive for a `positive` one. Every
     value must be finite; named `parameters` are any finite quantity (their use is checked where they land).
     A quantity must be of its field's kind, the angle counted as a kind of its own (io.units.dimension): an
     angle field takes angle units or a plain number (rad), never '%' or a ratio such as 'm/m'; a plain-number
@@ -286,7 +298,7 @@ class VariantSpec(Strict):
                                       "creep_steering, creep_reference_force (kim)", ContactSpec())
     effects: list[str] = spec_field("the effects the model includes, names from the effect vocabulary "
                                     "(docs/effects.md); [] is the ideal CVT",
-                                    ["drive_longitudinal_creep", "steering_lateral_creep"])
+                                    list(KIM_MODEL))
     effect_parameters: dict[str, dict[str, Num]] = spec_field(
         "effect parameters that differ from their defaults: effect → {parameter: value}, each in the "
         "parameter's unit (docs/effects.md)", {})

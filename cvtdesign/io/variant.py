@@ -147,10 +147,6 @@ BYTES_PER_POINT = 256
 # could carry it (the shipped variants keep no point ok beyond a quarter of it); the margin is for normal
 # forces that grow under load. The range of PLAUSIBLE["load"] holds for any variant; this one is the variant's.
 LOAD_MARGIN = 2.0
-# effect parameters that must be above zero (zero would switch the effect off or be unphysical); every effect
-# parameter must also lie within its `effects.Param` bounds (the fit's bounds)
-POSITIVE_EFFECT_PARAMS = {("drive_longitudinal_creep", "scale"), ("steering_lateral_creep", "scale"),
-                          ("drive_spin_creep", "scale"), ("rolling_resistance", "offset")}
 _EFFECT_GUESS = {"length": "mm", "angle": "deg"}
 
 
@@ -178,17 +174,14 @@ def _not_singular(gamma, where: str) -> None:
 
 
 def effect_value(effect: str, param: str, raw, where: str, names: dict | None = None):
-    """An effect parameter in SI, finite and within its physical range: the `effects.Param` bounds, the lower
-    one exclusive for POSITIVE_EFFECT_PARAMS. Enforced: drive_longitudinal_creep.scale and
-    steering_lateral_creep.scale in (0, 50], drive_spin_creep.scale in (0, 200], normal_force_variation.exponent
-    in [0, 3], rolling_resistance.offset in (0, 5 mm], steering_offset.offset in [-0.2, 0.2] rad (±11.5°),
-    drive_radius_mismatch.delta in [-0.2, 0.2], traction_saturation.mu_scale in [0.05, 5]."""
+    """An effect parameter in SI, finite and within the bounds of its `effects.Param` (the lower one exclusive
+    for a `positive` parameter: zero would switch the effect off or be unphysical); docs/effects.md lists them."""
     spec = fx.EFFECTS[effect].params[param]
     value = to_si(raw, spec.kind, where, names)
     lo = spec.lower if math.isfinite(spec.lower) else None
     hi = spec.upper if math.isfinite(spec.upper) else None
     return check_range(value, raw, where, f"{effect}.{param}", spec.kind, lo, hi,
-                       lo_open=(effect, param) in POSITIVE_EFFECT_PARAMS, guess=_EFFECT_GUESS.get(spec.kind))
+                       lo_open=spec.positive, guess=_EFFECT_GUESS.get(spec.kind))
 
 
 def grid(r: RangeSpec, kind, where):
@@ -258,12 +251,12 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
     R = quantity(spec.sphere.radius, "sphere_radius", f"{where}: sphere.radius", names, "a positive radius")
     forks = _forks(spec, where, names)
     law, calibration = _contact_law(spec, where, names)
-    rollers = tuple(_with_creep_source(_roller(spec, rn, where, names, mats, forks, R), spec, where, law)
+    rollers = tuple(_with_creep_source(_roller(spec, rn, where, names, mats, forks, R), spec, where)
                     for rn in spec.rollers)
     for s in (1, 2):
         if not any(r.role == "drive" and r.shaft == s for r in rollers):
             raise InputError(f"{where}: rollers: no drive roller on shaft {s} (role: drive, shaft: {s})")
-    laws.check_effects(spec.effects, f"{where}: effects")
+    laws.check_effects(spec.effects, f"{where}: effects", law)
     eparams = _effect_parameters(spec, where, names)
     if spec.frame is not None:     # drawn by `cvtdesign export` only, checked here with the rest
         vector(spec.frame.side, f"{where}: frame.side", names)
@@ -300,22 +293,21 @@ def check_envelope_limits(layout: Layout, where: str) -> None:
 
 
 def _contact_law(spec: VariantSpec, where: str, names: dict) -> tuple[str, dict]:
-    """contact.law and the kalker calibration factors; under kalker the fitted constants and the effects the
-    law already contains are refused (one InputError line), under kim a calibration is."""
-    c = spec.contact
+    """contact.law and its calibration factors: a law that takes fitted creep constants refuses calibration
+    factors, one that takes factors refuses fitted constants (one InputError line each)."""
+    c, law = spec.contact, laws.contact_law(spec.contact.law)
     w = f"{where}: contact"
-    if c.law == "kim":
+    if law.fitted:
         if c.calibration != type(c.calibration)():
             raise InputError(f"{w}.calibration: applies to law kalker only; expected contact.law: kalker with it, "
-                             "or no calibration (law kim uses creep_drive and creep_steering)")
-        return "kim", {"drive": 1.0, "steering": 1.0}
+                             f"or no calibration (law {law.name} uses creep_drive and creep_steering)")
+        return law.name, {"drive": 1.0, "steering": 1.0}
     for f in ("creep_drive", "creep_steering", "creep_reference_force"):
         if getattr(c, f) is not None:
-            raise InputError(f"{w}.{f}: a fitted creep constant belongs to law kim; under law kalker the contacts "
-                             "follow Hertz and Kalker, scaled by contact.calibration: {drive, steering}")
-    laws.check_effects(spec.effects, f"{where}: effects", "kalker")
+            raise InputError(f"{w}.{f}: a fitted creep constant belongs to law kim; under law {law.name} the "
+                             "contacts follow Hertz and Kalker, scaled by contact.calibration: {drive, steering}")
     factors = {k: getattr(c.calibration, k) for k in ("drive", "steering")}
-    return "kalker", {k: 1.0 if v is None else quantity(v, "calibration", f"{w}.calibration.{k}", names,
+    return law.name, {k: 1.0 if v is None else quantity(v, "calibration", f"{w}.calibration.{k}", names,
                                                         "a positive factor") for k, v in factors.items()}
 
 
@@ -334,11 +326,11 @@ def _materials(spec: VariantSpec, where: str, names: dict) -> dict:
     return mats
 
 
-def _with_creep_source(roller: Roller, spec: VariantSpec, where: str, law: str) -> Roller:
+def _with_creep_source(roller: Roller, spec: VariantSpec, where: str) -> Roller:
     """The roller with where its creep compliance comes from (io.materials.contact_calibration)."""
     material, _ = _own_or_default(spec, roller.name, "material", where)
     return dataclasses.replace(roller, creep=materials.contact_calibration(
-        where, spec, roller.role, material, spec.sphere.material, law))
+        where, spec, roller.role, material, spec.sphere.material))
 
 
 def _material(mats: dict, name: str, where: str) -> Material:

@@ -13,7 +13,7 @@ from conftest import shipped_model, variant_path
 from cvtdesign.design.problem import build_problem
 from cvtdesign.design.solve import knee, pareto_front
 from cvtdesign.design.study_file import load_study
-from cvtdesign.diagnosis import selfcheck
+from cvtdesign.verification import selfcheck
 
 EXISTING = variant_path("existing")
 

@@ -211,11 +211,11 @@ def test_independent_simulators_moderate_spin_creep_is_named(layout):
     """Data from the independent simulator (its own spin law: a sliding line contact with an elliptical
     pressure, in series with elastic creep) at a moderate strength: the vocabulary's drive_spin_creep is
     named, its held-out share of the structured gap at least 0.8, and nothing structured remains."""
-    from cvtdesign.diagnosis import independent_sim
-    from cvtdesign.diagnosis import selfcheck
+    from cvtdesign.verification import independent_rig
+    from cvtdesign.verification import selfcheck
 
     case = next(c for c in selfcheck.make_cases(matrices=("independent",)) if c["id"].endswith("spin_creep-moderate"))
-    rows, left_out = independent_sim.simulate(case["effects"], seed=case["seed"])
+    rows, left_out = independent_rig.simulate(case["effects"], seed=case["seed"])
     rep = diagnose.diagnose(layout, measured.from_rows(rows, shaft_frame(layout)), case["base"])
     assert left_out == {} and rep.verdict == "drive_spin_creep" and [x["effect"] for x in rep.shares] == ["drive_spin_creep"]
     assert rep.how_far["shrink"] >= diagnose.SHRINK_MIN and not rep.gap["structured_after"]

@@ -11,7 +11,8 @@ import pytest
 from cvtdesign.cli import main
 from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.diagnosis import diagnose
-from cvtdesign.diagnosis import independent_sim as sim
+from cvtdesign.verification import independent_rig as rig_sim
+from cvtdesign.verification import independent_sim as sim
 from cvtdesign.diagnosis import measured
 from cvtdesign.diagnosis import rig
 from cvtdesign.diagnosis.diagnose.predictor import Predictor
@@ -105,8 +106,8 @@ def test_backlash_swept_up_and_down_is_named_and_not_taken_for_noise(existing, t
     `unexplained`."""
     g = np.degrees(SMALL.gammas)
     seq = np.array([(a, b) for a in g for b in SMALL.loads] + [(a, b) for a in g[::-1] for b in SMALL.loads])
-    rows, left = sim.simulate_sequence(sim.BASE, seq[:, 0], seq[:, 1], backlash=np.radians(0.4), seed=10)
-    exact, _ = sim.simulate_sequence(sim.BASE, seq[:, 0], seq[:, 1], backlash=np.radians(0.4), noise=(0, 0, 0))
+    rows, left = rig_sim.simulate_sequence(sim.BASE, seq[:, 0], seq[:, 1], backlash=np.radians(0.4), seed=10)
+    exact, _ = rig_sim.simulate_sequence(sim.BASE, seq[:, 0], seq[:, 1], backlash=np.radians(0.4), noise=(0, 0, 0))
     assert left == {}
     data = measured.load_measured(write(rows, tmp_path / "b.csv"), existing)
     assert set(approach(data)) == {0, 1, -1}
@@ -129,7 +130,7 @@ def test_creep_drifting_during_the_test_is_named(existing, tmp_path):
     drift cannot be told from a γ-dependent effect, and the report says the test was not possible."""
     rng = np.random.default_rng(12)
     g, t = rng.uniform(-80, 80, 120), rng.uniform(-1, 1, 120)
-    rows, _ = sim.simulate_sequence(sim.BASE, g, t, drift={"drive_longitudinal_creep": 0.4}, seed=12, seconds_per_row=20)
+    rows, _ = rig_sim.simulate_sequence(sim.BASE, g, t, drift={"drive_longitudinal_creep": 0.4}, seed=12, seconds_per_row=20)
     assert "time_s" in rows.columns
     rep = diagnose.diagnose(existing, measured.load_measured(write(rows, tmp_path / "d.csv"), existing), KIM,
                             ("drive_spin_creep", "steering_offset"))
@@ -138,7 +139,7 @@ def test_creep_drifting_during_the_test_is_named(existing, tmp_path):
     print(f"[measured] ε_D scale early {early:.3f}, late {late:.3f}")
     assert drift["found"] and late > early * 1.15 and rep.verdict == "unexplained"
     grid = [(a, b) for a in np.degrees(SMALL.gammas) for b in SMALL.loads]
-    rows, _ = sim.simulate_sequence(sim.BASE, *np.array(grid).T, drift={"drive_longitudinal_creep": 0.4}, seed=13)
+    rows, _ = rig_sim.simulate_sequence(sim.BASE, *np.array(grid).T, drift={"drive_longitudinal_creep": 0.4}, seed=13)
     rep = diagnose.diagnose(existing, measured.load_measured(write(rows, tmp_path / "g.csv"), existing), KIM,
                             ("steering_offset",))
     assert not rep.sequence["drift"]["testable"] and "order" in rep.sequence["drift"]["why_not"]

@@ -1,4 +1,4 @@
-"""The independent simulator of Kim's existing CVT (cvtdesign/independent_sim.py): ideal law, energy balance,
+"""The independent simulator of Kim's existing CVT (cvtdesign/verification/independent_sim.py): ideal law, energy balance,
 Kim's closed forms at small load, agreement of its base with the package's model, the effects' visibility,
 points past the physics, and the data format. Measured numbers are printed (pytest -s)."""
 from __future__ import annotations
@@ -11,13 +11,14 @@ import pytest
 import kim_closed_forms as kim  # tests/validation is on sys.path (tests/conftest.py)
 from conftest import ROOT
 
-from cvtdesign.diagnosis import independent_sim as sim
+from cvtdesign.verification import independent_rig as rig_sim
+from cvtdesign.verification import independent_sim as sim
 
 GAMMA_DEG = np.arange(-80.0, 81.0, 10.0)
 GAMMAS = np.radians(GAMMA_DEG)
 LOADS = np.round(np.arange(-1.0, 1.0001, 0.1), 10)
 G, T = np.meshgrid(GAMMAS, LOADS, indexing="ij")
-KIM_G, KIM_T = np.meshgrid(GAMMAS, sim.KIM_LOADS, indexing="ij")
+KIM_G, KIM_T = np.meshgrid(GAMMAS, rig_sim.KIM_LOADS, indexing="ij")
 OUT_OF_VOCABULARY = [e for e, spec in sim.EFFECTS.items() if not spec[3]]
 IN_VOCABULARY = [e for e, spec in sim.EFFECTS.items() if spec[3]]
 
@@ -26,16 +27,18 @@ def report(msg):
     print(f"[measured] {msg}")
 
 
-def test_module_imports_nothing_from_cvtdesign():
-    """Independent: numpy, scipy and pandas only."""
-    tree = ast.parse((ROOT / "cvtdesign" / "diagnosis" / "independent_sim.py").read_text())
+@pytest.mark.parametrize("name", ["independent_sim", "newton", "independent_rig"])
+def test_module_imports_nothing_from_cvtdesign(name):
+    """Independent: numpy, scipy and pandas only, besides each other."""
+    tree = ast.parse((ROOT / "cvtdesign" / "verification" / f"{name}.py").read_text())
     mods = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             mods |= {a.name.split(".")[0] for a in node.names}
         elif isinstance(node, ast.ImportFrom):
             assert node.level == 0, "relative import"
-            mods.add(node.module.split(".")[0])
+            if node.module not in ("cvtdesign.verification.independent_sim", "cvtdesign.verification.newton"):
+                mods.add(node.module.split(".")[0])
     assert mods <= {"__future__", "numpy", "scipy", "pandas"}, mods
 
 
@@ -71,7 +74,7 @@ def test_no_creep_no_loss(effects):
 def test_energy_balance_dissipative(effect):
     """With the base creep and any one effect on top (at its clear CASES strength) the CVT only dissipates:
     τ1ω1 + τ2ω2 ≥ 0 at every point it can run, > 0 wherever it carries load."""
-    case = next(c for c in sim.CASES if list(set(c["effects"]) - set(sim.BASE)) == [effect])
+    case = next(c for c in rig_sim.CASES if list(set(c["effects"]) - set(sim.BASE)) == [effect])
     r = sim.solve(KIM_G, KIM_T, case["effects"])
     ok = r["ok"]
     power = (r["tau_1"] * r["omega_1"] + r["tau_2"] * r["omega_2"])[ok]
@@ -138,10 +141,10 @@ def test_base_agrees_with_the_package_model():
 def test_out_of_vocabulary_effects_change_the_data_beyond_noise(effect):
     """Each out-of-vocabulary effect, at every strength CASES uses, moves some channel (α, τ∥ or the axis
     angle) by more than the noise: per-point RMS > 1.5 σ and χ over the protocol > 20."""
-    cases = [c for c in sim.CASES if effect in c["effects"]]
+    cases = [c for c in rig_sim.CASES if effect in c["effects"]]
     assert cases
     for c in cases:
-        z = sim.signal_to_noise(c["effects"], sim.BASE)
+        z = rig_sim.signal_to_noise(c["effects"], sim.BASE)
         best = max(z[k][0] for k in ("alpha", "tau_par", "axis"))
         chi = float(np.sqrt(sum(z[k][1] ** 2 for k in ("alpha", "tau_par", "axis"))))
         report(f"{c['id']}: RMS z α {z['alpha'][0]:.2f}, τ∥ {z['tau_par'][0]:.2f}, axis {z['axis'][0]:.2f}; "
@@ -154,10 +157,10 @@ def test_cases_catalogue():
     has one), two nulls; every case is Kim's base plus what it withholds, its diagnosis base is Kim's two
     creeps or one of them; each non-null case is visible against its diagnosis base's truth (per-point RMS
     > 1.5 σ in some channel, χ > 20)."""
-    ids = [c["id"] for c in sim.CASES]
+    ids = [c["id"] for c in rig_sim.CASES]
     assert len(ids) == len(set(ids))
     truths = set(sim.EFFECTS) | {"unexplained", "none"}
-    for c in sim.CASES:
+    for c in rig_sim.CASES:
         assert set(c) >= {"id", "effects", "truth", "note", "seed", "base"} and c["truth"] in truths
         assert set(sim.BASE) <= set(c["effects"]) and set(c["base"]) <= set(sim.BASE)
         sim._check(c["effects"])
@@ -167,16 +170,16 @@ def test_cases_catalogue():
             assert c["base"] == list(sim.BASE)
             assert all(c["effects"][e] == v for e, v in sim.BASE.items())
     for e in IN_VOCABULARY:
-        assert sum(c["truth"] == e for c in sim.CASES) == 2, e
+        assert sum(c["truth"] == e for c in rig_sim.CASES) == 2, e
     for e in OUT_OF_VOCABULARY:
-        n = sum(e in c["effects"] and c["truth"] == "unexplained" for c in sim.CASES)
+        n = sum(e in c["effects"] and c["truth"] == "unexplained" for c in rig_sim.CASES)
         assert n == (1 if e == "creep_reference" else 2), e
-    nulls = [c for c in sim.CASES if c["truth"] == "none"]
+    nulls = [c for c in rig_sim.CASES if c["truth"] == "none"]
     assert len(nulls) == 2 and all(c["effects"] == sim.BASE for c in nulls)
-    for c in sim.CASES:
+    for c in rig_sim.CASES:
         if c["truth"] == "none":
             continue
-        z = sim.signal_to_noise(c["effects"], {e: c["effects"][e] for e in c["base"]})
+        z = rig_sim.signal_to_noise(c["effects"], {e: c["effects"][e] for e in c["base"]})
         best = max(z[k][0] for k in ("alpha", "tau_par", "axis"))
         chi = float(np.sqrt(sum(z[k][1] ** 2 for k in ("alpha", "tau_par", "axis"))))
         assert best > 1.5 and chi > 20, (c["id"], best, chi)
@@ -190,7 +193,7 @@ def test_past_the_physics_left_out_and_counted():
     bad = ~r["ok"]
     assert np.count_nonzero(r["status"] == sim.STATUS.index("gross_slip")) >= 10
     assert np.all(np.isnan(r["omega_2"][bad])) and np.all(np.isfinite(r["omega_2"][~bad]))
-    rows, left = sim.simulate(eff, noise=(0, 0, 0))
+    rows, left = rig_sim.simulate(eff, noise=(0, 0, 0))
     report(f"μ = 0.2: left out {left}, {len(rows)} rows of 187")
     assert sum(left.values()) == bad.sum() and len(rows) == 187 - bad.sum()
     assert left.get("gross_slip", 0) >= 10
@@ -207,14 +210,14 @@ def test_simulate_format_noise_and_replicates(tmp_path):
     from cvtdesign.diagnosis.measured import load_measured
     from cvtdesign.io.variant import load_variant
 
-    rows, left = sim.simulate(sim.BASE)
-    assert list(rows.columns) == list(sim.COLUMNS) and len(rows) == 187 and left == {}
-    rows_na, _ = sim.simulate(sim.BASE, axis=False)
-    assert list(rows_na.columns) == list(sim.COLUMNS[:5])
-    exact, _ = sim.simulate(sim.BASE, noise=(0, 0, 0))
-    rep, _ = sim.simulate(sim.BASE, replicates=3, seed=5)
+    rows, left = rig_sim.simulate(sim.BASE)
+    assert list(rows.columns) == list(rig_sim.COLUMNS) and len(rows) == 187 and left == {}
+    rows_na, _ = rig_sim.simulate(sim.BASE, axis=False)
+    assert list(rows_na.columns) == list(rig_sim.COLUMNS[:5])
+    exact, _ = rig_sim.simulate(sim.BASE, noise=(0, 0, 0))
+    rep, _ = rig_sim.simulate(sim.BASE, replicates=3, seed=5)
     assert len(rep) == 3 * 187
-    again, _ = sim.simulate(sim.BASE, replicates=3, seed=5)
+    again, _ = rig_sim.simulate(sim.BASE, replicates=3, seed=5)
     assert rep.equals(again)
     d = rep - np.tile(exact.to_numpy(), (3, 1))
     assert abs(d["omega_2"].std() - 0.01) < 0.002 and abs(d["tau_1"].std() - 0.005) < 0.001
@@ -229,4 +232,4 @@ def test_simulate_format_noise_and_replicates(tmp_path):
 
 def test_unknown_effect_is_refused():
     with pytest.raises(ValueError, match="unknown effect"):
-        sim.simulate({"drive_longitudnal_creep": 1.0})
+        rig_sim.simulate({"drive_longitudnal_creep": 1.0})

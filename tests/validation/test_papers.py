@@ -33,10 +33,11 @@ GAMMAS = np.radians(GAMMA_DEG)
 LOADS = np.round(np.arange(-1.0, 1.0001, 0.1), 10)    # [N m], Kim sec. 4.2
 SMALL_LOADS = (0.05, -0.05)                           # [N m], linear range of the closed forms
 
-# Effects that act at zero load: rolling resistance loads the contacts whatever τ⊥ is, and a steering
-# offset or a radius mismatch change the kinematics. Every other effect acts through the tractive forces,
-# which vanish at zero load (drive_spin_creep included: its slip is proportional to F_t).
-ACT_AT_ZERO_LOAD = ("rolling_resistance", "steering_offset", "drive_radius_mismatch")
+# Effects that act at zero load (each entry says so, core.effects.Effect.at_zero_load): rolling resistance
+# loads the contacts whatever τ⊥ is, and a steering offset or a radius mismatch change the kinematics. Every
+# other effect acts through the tractive forces, which vanish at zero load (drive_spin_creep included: its
+# slip is proportional to F_t).
+ACT_AT_ZERO_LOAD = tuple(e for e, fx in EFFECTS.items() if fx.at_zero_load)
 ZERO_LOAD_SAFE = tuple(e for e in EFFECTS if e not in ACT_AT_ZERO_LOAD)
 
 EXISTING_ONLY_STEERING = ("steering_lateral_creep",)

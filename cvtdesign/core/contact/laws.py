@@ -5,11 +5,19 @@ for every contact while it assembles the equations:
  * `constants(layout, roller)`: the patch's constants at its preload (numbers, or CasADi expressions of the
    design);
  * `creep_normal(hooks, roller, N)`: the normal force the law follows and the exponent of ε ∝ N^(−n);
+ * `compliance(layout, roller)`: the creep compliance [1/N] at the preload in the roller's own direction (along
+   the rolling direction for drive and follower rollers, across it for steering rollers), as calibrated;
  * `rows(layout, hooks, c, s_t, s_a, v_ref, calls)`: a ContactRows (two scaled residual rows, zero when the law holds;
    the traction utilisations for the gross-slip test; the spin moment the patch puts on the sphere about its
    normal; the creep coefficients as the law used them).
-`contains` names the effects of the vocabulary that the law already contains (they are refused as effects).
-Adding a law means adding one class here (docs/adding-a-contact-law.md).
+and says, as class attributes, what the rest of the package reads of it:
+ * `contains`: the effects of the vocabulary that the law already contains (they are refused as effects);
+ * `fitted`: whether the variant gives the law fitted creep constants (contact.creep_drive, creep_steering and
+   creep_reference_force) or else calibration factors on its theory (contact.calibration);
+ * `rigid_unless_effects`: whether a direction that no effect makes compliant is held rigid;
+ * `reference_variant`: the shipped variant that is Kim's CVT written under this law (compare's reference).
+Adding a law means adding one class here (docs/adding-a-contact-law.md); nothing outside this module compares
+a law's name.
 
 A law that calls a compiled function (a table) does so through `calls` (core.deferred), so the model
 differentiates the call once, not once per unknown. Notation as in core.model: s_t, s_a the slip velocity of the sphere over the roller along the rolling direction
@@ -66,6 +74,9 @@ class KimLaw:
     Kalker theory's 1/(G a b C11) for drive and 1/(G a b C22) for steering rollers at the preload."""
     name = "kim"
     contains: dict = {}
+    fitted = True
+    rigid_unless_effects = True
+    reference_variant = "existing"
     several_roots = False   # inside the envelopes the roots are unique (core.model._solve_from_rest)
 
     def constants(self, layout: Layout, roller: Roller) -> dict:
@@ -79,6 +90,11 @@ class KimLaw:
 
     def creep_normal(self, hooks, roller: Roller, N):
         return hooks.transform("creep_normal", (roller.preload, 2.0 / 3.0), N)
+
+    def compliance(self, layout: Layout, roller: Roller) -> float:
+        """The fitted constant moved to the preload (ε ∝ N^(-2/3)), or the theory's."""
+        c = self.constants(layout, roller)
+        return float(c["eps0"] * (c["n_ref"] / roller.preload) ** (2.0 / 3.0))
 
     def rows(self, layout: Layout, hooks, c: ContactState, s_t, s_a, v_ref, calls):
         floor = EPS_RIGID * ca.fabs(v_ref)
@@ -111,6 +127,9 @@ class KalkerLaw:
     contains = {"normal_force_variation": "the Hertz patch follows the force-balanced N",
                 "drive_spin_creep": "spin acts through Kalker's C23 and FASTSIM",
                 "traction_saturation": "FASTSIM saturates every contact towards μN"}
+    fitted = False
+    rigid_unless_effects = False
+    reference_variant = "existing_kalker"
     several_roots = True    # a point may have two roots: each is also solved from rest (core.model)
 
     def constants(self, layout: Layout, roller: Roller) -> dict:
@@ -121,6 +140,13 @@ class KalkerLaw:
         """N kept above zero on the scale of 1e-3 of the preload P (a patch at N ≤ 0 does not exist; such a
         point is lost contact), smooth for Newton: (N + √(N² + (1e-3 P)²))/2; a and b follow N^(1/3)."""
         return 0.5 * (N + ca.sqrt(N * N + (1e-3 * roller.preload) ** 2)), 0.0
+
+    def compliance(self, layout: Layout, roller: Roller) -> float:
+        """Linear theory's 1/(G a b C11) (drive) or 1/(G a b C22) (steering) at the roller's creep modulus (a
+        library calibration), times contact.calibration."""
+        p, side = patch_constants(layout, roller), "drive" if roller.role != "steering" else "steering"
+        e_long, e_lat = kalker.creep_compliances(p["G"], p["a"], p["b"], p["C11"], p["C22"])
+        return float((e_long if side == "drive" else e_lat) * layout.calibration[side])
 
     def rows(self, layout: Layout, hooks, c: ContactState, s_t, s_a, v_ref, calls):
         const = c.constants
@@ -154,7 +180,7 @@ def contact_law(name: str):
     return LAWS[name]
 
 
-def check_effects(names, where: str, law: str = "kim") -> tuple:
+def check_effects(names, where: str, law: str = IDEAL) -> tuple:
     """The effect names, checked against the vocabulary (core.effects.check_names) and against the law: an
     effect the law already contains is an InputError naming `where`."""
     contained = contact_law(law).contains

@@ -14,7 +14,7 @@ import dataclasses
 import numpy as np
 
 from cvtdesign.core.contact import kalker, surface
-from cvtdesign.core.contact.laws import LAWS, patch_constants
+from cvtdesign.core.contact.laws import contact_law, patch_constants
 from cvtdesign.core.layout import CreepSource, Layout, Roller
 
 CURVE_POINTS = 41        # points of each creep–force curve
@@ -44,15 +44,8 @@ def theory_patch(layout: Layout, roller: Roller, N=None) -> dict:
 
 def calibrated_compliance(layout: Layout, roller: Roller) -> float:
     """The creep compliance [1/N] the layout's contact law gives `roller` at its preload, in the roller's own
-    direction (along the rolling direction for drive and follower rollers, across it for steering rollers):
-    under kim the fitted constant moved to the preload (ε ∝ N^(-2/3)) or the theory's, under kalker the
-    theory's at the roller's creep modulus (a library calibration) times contact.calibration."""
-    drive = roller.role != "steering"
-    if layout.contact_law == "kim":
-        c = LAWS["kim"].constants(layout, roller)
-        return float(c["eps0"] * (c["n_ref"] / roller.preload) ** (2.0 / 3.0))
-    p = patch(layout, roller)
-    return float((p["eps_long"] if drive else p["eps_lat"]) * layout.calibration["drive" if drive else "steering"])
+    direction (core.contact.laws: each law's `compliance`)."""
+    return contact_law(layout.contact_law).compliance(layout, roller)
 
 
 def creep_modulus_for(layout: Layout, roller: Roller, compliance: float) -> float:

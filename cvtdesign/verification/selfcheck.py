@@ -9,7 +9,7 @@ default, or the box CVT), Kim's protocol (187 rows):
  * nulls: the base model is the truth (nothing withheld), both noise levels, several seeds;
  * weak effects: withheld at values whose signature is at or below the noise (right: `none` or the effect);
  * pairs: two effects withheld at once; both must be accepted.
-`independent`: an independently written simulator of Kim's existing CVT (independent_sim.py: its own
+`independent`: an independently written simulator of Kim's existing CVT (verification/independent_sim.py: its own
 formulation and its own functional forms for every effect) makes the data; its cases withhold each
 vocabulary effect (right: its name), effects outside the vocabulary (right: `unexplained`, and never a
 name) and nothing (right: `none`).
@@ -21,39 +21,23 @@ from __future__ import annotations
 import numpy as np
 from dask.distributed import as_completed
 
+from cvtdesign.core.effects import EFFECTS, KIM_MODEL
 from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.core.metrics import envelope, metrics
 from cvtdesign.core.model import compile_model
 from cvtdesign.design.cluster import check_workers, dask_client
-from cvtdesign.diagnosis import diagnose, independent_sim, measured, rig
+from cvtdesign.diagnosis import diagnose, measured, rig
+from cvtdesign.verification import independent_rig
 from cvtdesign.diagnosis.rig import kim_protocol
 from cvtdesign.errors import InputError
 from cvtdesign.io.variant import load_variant, shipped_variant
 
-KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
 EXISTING = str(shipped_variant("existing"))   # Kim's CVT
-# two values per effect, chosen as what a rig would plausibly show (Kim's and Gillespie's/Brokowski's ranges)
-VALUES = {
-    "drive_longitudinal_creep": ("scale", (1.0, 0.5)),          # Kim's ε_D and half of it
-    "steering_lateral_creep": ("scale", (1.0, 0.5)),            # Kim's ε_S and half of it
-    "drive_spin_creep": ("scale", (4.0, 9.0)),                  # Brokowski's fitted k / nominal: 4.0 and 9.0
-    # second order in the existing CVT (its steering pair's normal forces move in opposite directions, so
-    # their compliances compensate to first order): at the Hertz exponent 2/3 it changes α by 0.013° RMS,
-    # below the rig noise, so the visible cases use amplified exponents and 2/3 is a weak case (WEAK)
-    "normal_force_variation": ("exponent", (2.0, 3.0)),
-    "rolling_resistance": ("offset", (1e-4, 3e-4)),             # 0.1 and 0.3 mm pressure-centre offset
-    "steering_offset": ("offset", (np.radians(0.5), np.radians(-1.0))),
-    "drive_radius_mismatch": ("delta", (0.01, -0.02)),
-    # μ scaled so that the base model's largest traction utilisation over Kim's protocol reaches 0.8 and 1.0
-    # (existing: μ × 0.39 and × 0.31; box, whose four drive rollers share the force: × 0.20 and × 0.16)
-    "traction_saturation": ("mu_scale", None),
-}
+# each effect's values, weak value and pairs are in its entry (core.effects.SelfCheck), read when the cases
+# are made; traction_saturation's values are set per variant (_values): μ scaled so that the base model's
+# largest traction utilisation over Kim's protocol reaches SATURATION_UTILISATION (existing: μ × 0.39 and
+# × 0.31; box, whose four drive rollers share the force: × 0.20 and × 0.16)
 SATURATION_UTILISATION = (0.8, 1.0)
-# weak effects: their per-point signature is below the rig's noise, though 187 points may still reveal it;
-# the right verdict is `none` or the effect itself, never another name
-WEAK = [("normal_force_variation", "exponent", 2.0 / 3.0), ("drive_radius_mismatch", "delta", 0.0005)]
-PAIRS = [("steering_lateral_creep", "rolling_resistance"), ("steering_offset", "drive_radius_mismatch"),
-         ("drive_spin_creep", "steering_offset"), ("rolling_resistance", "traction_saturation")]
 NOISE_SCALES = (1.0, 3.0)
 WEAK_CHI = 5.0          # a withheld effect whose dataset-wide signal χ (σ units) is below this is a weak case
 MATRICES = ("rig", "independent")
@@ -61,7 +45,7 @@ TARGETS = {"top1_single": 0.9, "false_positive_null": 0.05, "named_out_of_vocabu
 
 
 def _base_without(effects):
-    return tuple(e for e in KIM if e not in effects)
+    return tuple(e for e in KIM_MODEL if e not in effects)
 
 
 def make_cases(quick: bool = False, seeds: int = 3, matrices=MATRICES, variant: str = EXISTING) -> list[dict]:
@@ -74,7 +58,7 @@ def make_cases(quick: bool = False, seeds: int = 3, matrices=MATRICES, variant: 
 
 def _independent_cases(quick: bool) -> list[dict]:
     out, seen = [], set()
-    for c in independent_sim.CASES:
+    for c in independent_rig.CASES:
         kind = {"none": "null", "unexplained": "out_of_vocabulary"}.get(c["truth"], "single")
         key = c["id"].rsplit("-", 1)[0]
         if quick and key in seen:
@@ -87,11 +71,30 @@ def _independent_cases(quick: bool) -> list[dict]:
     return out
 
 
+def weak_cases() -> list[tuple]:
+    """(effect, parameter, value) of the weak cases: a signature below the rig's noise, though 187 points may
+    still reveal it; the right verdict is `none` or the effect itself, never another name."""
+    return [(e, fx.selfcheck.param, fx.selfcheck.weak) for e, fx in EFFECTS.items() if fx.selfcheck.weak is not None]
+
+
+def pairs() -> list[tuple]:
+    """The pairs of effects with resembling signatures (each entry's `told_from`), each pair in the
+    vocabulary's order: both are withheld together."""
+    return [tuple(sorted((e, other), key=list(EFFECTS).index)) for e, fx in EFFECTS.items()
+            for other in fx.selfcheck.told_from]
+
+
 def _values(variant: str) -> dict:
-    """VALUES with the saturation's μ scales for the variant (SATURATION_UTILISATION)."""
-    m = compile_model(load_variant(variant).with_effects(KIM))
-    u = metrics(m, envelope(m))["max_traction_utilisation"]
-    return VALUES | {"traction_saturation": ("mu_scale", tuple(round(u / x, 3) for x in SATURATION_UTILISATION))}
+    """effect → (parameter, its two values), the values an entry leaves to the variant (traction_saturation's
+    μ scales, at SATURATION_UTILISATION) filled in."""
+    out, u = {}, None
+    for e, fx in EFFECTS.items():
+        if fx.selfcheck.values is None and u is None:
+            m = compile_model(load_variant(variant).with_effects(KIM_MODEL))
+            u = metrics(m, envelope(m))["max_traction_utilisation"]
+        out[e] = (fx.selfcheck.param, fx.selfcheck.values if fx.selfcheck.values is not None
+                  else tuple(round(u / x, 3) for x in SATURATION_UTILISATION))
+    return out
 
 
 def _rig_cases(quick: bool, seeds: int, values: dict) -> list[dict]:
@@ -102,22 +105,23 @@ def _rig_cases(quick: bool, seeds: int, values: dict) -> list[dict]:
             for k in NOISE_SCALES[:1] if quick else NOISE_SCALES:
                 seed += 1
                 cases.append({"id": f"single-{e}-{p}={v:.4g}-noise{k:g}", "kind": "single", "withheld": [e],
-                              "base": list(_base_without([e])), "truth": list(KIM) + [e] if e not in KIM else list(KIM),
+                              "base": list(_base_without([e])), "truth": list(KIM_MODEL) + [e] if e not in KIM_MODEL else list(KIM_MODEL),
                               "params": {e: {p: v}}, "noise": k, "seed": seed, "matrix": "rig"})
     for k in NOISE_SCALES[:1] if quick else NOISE_SCALES:
         for s in range(2 if quick else seeds * 2):
             seed += 1
-            cases.append({"id": f"null-noise{k:g}-seed{s}", "kind": "null", "withheld": [], "base": list(KIM),
-                          "truth": list(KIM), "params": {}, "noise": k, "seed": seed, "matrix": "rig"})
-    for e, p, v in WEAK[:1] if quick else WEAK:
+            cases.append({"id": f"null-noise{k:g}-seed{s}", "kind": "null", "withheld": [], "base": list(KIM_MODEL),
+                          "truth": list(KIM_MODEL), "params": {}, "noise": k, "seed": seed, "matrix": "rig"})
+    weak = weak_cases()
+    for e, p, v in weak[:1] if quick else weak:
         seed += 1
         cases.append({"id": f"weak-{e}-{p}={v:.4g}", "kind": "weak", "withheld": [e],
-                      "base": list(_base_without([e])), "truth": list(KIM) + [e], "params": {e: {p: v}},
+                      "base": list(_base_without([e])), "truth": list(KIM_MODEL) + [e], "params": {e: {p: v}},
                       "noise": 1.0, "seed": seed, "matrix": "rig"})
-    for a, b in PAIRS[:1] if quick else PAIRS:
+    for a, b in pairs()[:1] if quick else pairs():
         seed += 1
         params = {e: {values[e][0]: values[e][1][0]} for e in (a, b)}
-        truth = list(dict.fromkeys(list(KIM) + [a, b]))
+        truth = list(dict.fromkeys(list(KIM_MODEL) + [a, b]))
         cases.append({"id": f"pair-{a}+{b}", "kind": "pair", "withheld": [a, b], "base": list(_base_without([a, b])),
                       "truth": truth, "params": params, "noise": 1.0, "seed": seed, "matrix": "rig"})
     return cases
@@ -148,10 +152,10 @@ def _dataset(case, layout):
     """(rows, points not measured, (signal per point, χ)) of a case: the withheld effects' noise-free change
     of α, τ∥ and the axis angle, in units of the rig's noise."""
     if case["matrix"] == "independent":
-        rows, failed = independent_sim.simulate(case["effects"], seed=case["seed"])
+        rows, failed = independent_rig.simulate(case["effects"], seed=case["seed"])
         if case["kind"] == "null":
             return rows, failed, (0.0, 0.0)
-        z = independent_sim.signal_to_noise(case["effects"], {k: case["effects"][k] for k in case["base"]})
+        z = independent_rig.signal_to_noise(case["effects"], {k: case["effects"][k] for k in case["base"]})
         chans = [v for k, v in z.items() if k != "points"]
         return rows, failed, (float(np.sqrt(np.mean([r ** 2 for r, _ in chans]))),
                               float(np.sqrt(sum(c ** 2 for _, c in chans))))
