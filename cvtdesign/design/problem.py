@@ -49,7 +49,7 @@ IPOPT_OPTIONS = {"tol": 1e-8, "acceptable_tol": 1e-6, "hessian_approximation": "
                  "limited_memory_aug_solver": "extended"}   # few variables, many rows: cheaper than Sherman-Morrison
 
 
-@dataclass
+@dataclass(kw_only=True)
 class Parts:
     """The pieces both NLPs are built from. Per envelope point k, `point_rows` gives m rows (epigraph
     α ∓ t, Hertz p_max/p_allow per roller, traction (|F| − (1 − margin)μN)/(μP) per roller, normal force
@@ -82,7 +82,7 @@ class Parts:
     theta_pts: np.ndarray = None   # the model's θ at each point (len(θ) × points): a robust study's corners
 
 
-@dataclass
+@dataclass(kw_only=True)
 class Problem:
     """The NLP of one study, in normalised design variables z ∈ [0, 1]^n (p = lower + (upper − lower)·z),
     with the epigraph variable t appended for worst-|α| objectives: x = (z, t).
@@ -209,16 +209,18 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
     evaluate = ca.Function("evaluate", inputs, [f, g_full])
     row_r, row_k, row_scale = row_maps(nlp, blocks, pt_index, reach_index, misfit_row, len(rows.lb))
     big = np.abs(nlp.l_pts) >= np.max(np.abs(nlp.l_pts)) * (1 - 1e-12)
-    parts = Parts(nlp.x, nlp.eps, f, g_full, g_design, nlp.P0, point_rows, np.array([b[0] for b in blocks], float),
-                  np.array([b[1] for b in blocks], float), pt_index, misfit_row, reach_index, design_index,
-                  row_r, row_k, row_scale, nlp.g_pts, nlp.l_pts, nlp.phi0,
-                  (np.arange(nlp.npts) % nlp.per_scenario) // nlp.nload, np.flatnonzero(big), nlp=nlp,
-                  theta_pts=nlp.theta_pts)
-    return Problem(spec, nlp.where, base_file, nlp.names, nlp.lower, nlp.upper, nlp.x.shape[0], np.array(rows.lb),
-                   np.array(rows.ub), rows.labels, rows.family, evaluate, nlp.epigraph, _start_t(nlp),
-                   np.array([nlp.base.parameters[n] for n in nlp.names]), parts, fixed=dict(fixed),
-                   g_report=report_scale(nlp, blocks, pt_index, len(rows.lb)), vspec=nlp.vspec,
-                   motor_speed=float(nlp.w1))
+    parts = Parts(x=nlp.x, eps=nlp.eps, f=f, g_full=g_full, g_design=g_design, P0=nlp.P0, point_rows=point_rows,
+                  pt_lb=np.array([b[0] for b in blocks], float), pt_ub=np.array([b[1] for b in blocks], float),
+                  pt_index=pt_index, misfit_row=misfit_row, reach_index=reach_index, design_index=design_index,
+                  row_r=row_r, row_k=row_k, row_scale=row_scale, gamma=nlp.g_pts, load=nlp.l_pts, phi0=nlp.phi0,
+                  gamma_of=(np.arange(nlp.npts) % nlp.per_scenario) // nlp.nload, screen=np.flatnonzero(big),
+                  nlp=nlp, theta_pts=nlp.theta_pts)
+    return Problem(spec=spec, study_file=nlp.where, base_file=base_file, names=nlp.names, lower=nlp.lower,
+                   upper=nlp.upper, nx=nlp.x.shape[0], g_lb=np.array(rows.lb), g_ub=np.array(rows.ub),
+                   g_labels=rows.labels, g_family=rows.family, evaluate=evaluate, epigraph=nlp.epigraph,
+                   start_t=_start_t(nlp), base_values=np.array([nlp.base.parameters[n] for n in nlp.names]),
+                   parts=parts, fixed=dict(fixed), g_report=report_scale(nlp, blocks, pt_index, len(rows.lb)),
+                   vspec=nlp.vspec, motor_speed=float(nlp.w1))
 
 
 def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, goal: Objective) -> NLP:
@@ -248,8 +250,10 @@ def _setup(study_path, spec: StudySpec, base_file: Path, fixed: dict, goal: Obje
     pre0 = np.array([float(r.preload) for r in base.rollers])
     n_min = min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
     preload = ca.Function("preload", [p], [ca.vertcat(*[r.preload for r in layout.rollers])])
-    return NLP(where, spec, goal, vspec, base, layout, model, names, lower, upper, p, z, t, eps, x, P, P0,
-                g_pts, l_pts, phi0, nload, margin, allow, pre0, n_min, preload, theta_pts, labels, steer_max)
+    return NLP(where=where, spec=spec, objective=goal, vspec=vspec, base=base, layout=layout, model=model,
+               names=names, lower=lower, upper=upper, p=p, z=z, t=t, eps=eps, x=x, P=P, P0=P0, g_pts=g_pts,
+               l_pts=l_pts, phi0=phi0, nload=nload, margin=margin, allow=allow, pre0=pre0, n_min=n_min,
+               preload=preload, theta_pts=theta_pts, scenarios=labels, steer_max=steer_max)
 
 
 def _steering_data(nlp: NLP) -> tuple[ca.Function, np.ndarray]:

@@ -34,7 +34,7 @@ from cvtdesign.design.study_file import StudySpec, duty_cycle
 from cvtdesign.io.variant import parameter_value
 
 
-@dataclass
+@dataclass(kw_only=True)
 class NLP:
     """What the pieces of build_problem share: the study's checked inputs, the model compiled with the
     design as symbols p, the NLP's variables and the envelope points."""
