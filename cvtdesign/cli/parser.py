@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import gc
 import importlib
 import os
@@ -48,7 +49,9 @@ COMMANDS = {     # name -> one-line help; cvtdesign.cli.<name> runs it
 SHORT_WITH_FIGURE = ("compare",)
 
 
+@functools.cache
 def build_parser():
+    """The command line's parser, built once per process (parsing leaves it as it was)."""
     p = _Parser(prog="cvtdesign", description="Design, optimise, compare and diagnose spherical CVTs.",
                 epilog="`cvtdesign COMMAND --help` describes a command; docs/ has the rest.")
     p.add_argument("--version", action="version", version=f"%(prog)s {version('cvtdesign')}")
@@ -56,8 +59,8 @@ def build_parser():
     adders = {"new": _add_new, "show": _add_show, "compare": _add_compare, "optimise": _add_optimise,
               "study": _add_study, "export": _add_export, "contact": _add_contact, "rig": _add_rig, "diagnose": _add_diagnose,
               "resteer": _add_resteer, "selfcheck": _add_selfcheck, "cache": _add_cache}
-    adders["capacity"] = _add_capacity          # issue 27
-    adders["tolerance"] = _add_tolerance        # issue 27
+    adders["capacity"] = _add_capacity
+    adders["tolerance"] = _add_tolerance
     for name, text in COMMANDS.items():
         adders[name](sub.add_parser(name, help=text, description=text))
     return p

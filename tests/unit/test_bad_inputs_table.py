@@ -233,10 +233,10 @@ CASES: list = []
 COMMAND_OF: dict = {}      # case id -> (command, file type read), for the coverage test
 
 
-def case(id, expect, build, command, kind, xfail=None):
+def case(id, expect, build, command, kind, xfail=None, slow=False):
     assert id not in COMMAND_OF, id
     COMMAND_OF[id] = (command, kind)
-    marks = [pytest.mark.xfail(strict=True, reason=xfail)] if xfail else []
+    marks = ([pytest.mark.xfail(strict=True, reason=xfail)] if xfail else []) + ([pytest.mark.slow] if slow else [])
     CASES.append(pytest.param(build, expect, id=id, marks=marks))
 
 
@@ -651,7 +651,7 @@ for id, expect, args in [
     case(f"study: {id}", expect, cli("study", P, *args), "study", "command line")
 # (cmd_study asks the scheduler before run_study creates the store's .lock and manifest.json)
 case("study: --scheduler with nobody listening", ("--scheduler", "no Dask scheduler answered"),
-     scheduler_nobody("study"), "study", "command line")
+     scheduler_nobody("study"), "study", "command line", slow=True)   # waits out the connect timeout
 
 # ------------------------------------------------------------------------------------------------- export
 
@@ -915,7 +915,7 @@ for id, expect, args in [
 ]:
     case(f"selfcheck: {id}", expect, cli("selfcheck", *args), "selfcheck", "command line")
 case("selfcheck: --scheduler with nobody listening", ("--scheduler", "no Dask scheduler answered"),
-     scheduler_nobody("selfcheck"), "selfcheck", "command line")
+     scheduler_nobody("selfcheck"), "selfcheck", "command line", slow=True)
 case("selfcheck: --variant missing", ("nope.yaml", "cannot read file"), with_variant("selfcheck", missing=True),
      "selfcheck", "variant YAML")
 case("selfcheck: --variant with non-finite preload", ("bad.yaml", "rollers.D1.preload"),
@@ -1084,6 +1084,7 @@ SUBPROCESS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("build, expect", SUBPROCESS)
 def test_console_script_bad_input(build, expect, tmp_path):
     env = make_env(tmp_path)

@@ -39,6 +39,7 @@ def exported(tmp_path_factory):
     return out, {name: export_variant(path, out, check=True) for name, path in (("box", BOX), ("existing", EXISTING))}
 
 
+@pytest.mark.slow
 def test_step_svg_png_written_and_nothing_else(exported):
     out, res = exported
     assert sorted(p.name for p in out.iterdir()) == sorted(f"{n}.{e}" for n in res for e in ("png", "step", "svg"))
@@ -206,6 +207,7 @@ def test_checks_catch_a_roller_pushed_into_the_sphere(tmp_path):
     assert "file name 'other.step', expected 'short.step'" in rows["header"]["detail"]
 
 
+@pytest.mark.slow
 def test_hull_gap_is_a_lower_bound_of_the_distance():
     """The fast screen may only pass pairs that are really apart: its gap never exceeds OpenCascade's distance."""
     cq = kernel().cq
@@ -324,6 +326,7 @@ def test_triangles_are_cadquerys_tessellation():
         assert np.allclose(verts, [v.toTuple() for v in cq_verts], rtol=0, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_model_path_does_not_import_cadquery():
     code = ("import sys, cvtdesign.cli, cvtdesign.core.model, cvtdesign.design.solve, cvtdesign.design.study, "
             "cvtdesign.cad.export, cvtdesign.cad.checks, cvtdesign.cad.picture, cvtdesign.cad.kernel; "
@@ -355,6 +358,7 @@ def two_on_one_fork() -> dict:
     return d
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["two steering rollers on one fork", "one fork for both pole pairs",
                                   "one fork for both pole pairs near the poles"])
 def test_a_fork_with_rollers_on_both_sides_of_the_sphere_is_exported(case, tmp_path, capsys):
@@ -403,6 +407,7 @@ def exportable_layouts(draw):
     return d, draw(st.sampled_from([-60.0, -20.0, 0.0, 30.0, 70.0]), label="γ [deg]")
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None, derandomize=True, database=None, phases=(Phase.explicit, Phase.generate),
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture], print_blob=False)
 @given(case=exportable_layouts())

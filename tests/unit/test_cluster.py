@@ -123,6 +123,7 @@ def results(store: Path) -> pd.DataFrame:
     return df[cols].sort_values("case_id").reset_index(drop=True)
 
 
+@pytest.mark.slow
 def test_relative_study_on_a_separate_cluster_equals_a_local_run(tmp_path, monkeypatch, capsys, dask_cluster):
     here = client_folder(tmp_path / "project")
     monkeypatch.chdir(here)

@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 NOT_LOADED = ("dask", "distributed", "cadquery", "OCP")     # packages, and pyplot
 SCRIPT = """
@@ -18,6 +20,7 @@ print("status", status, "parent modules:", " ".join(sorted(sys.modules)))
 """
 
 
+@pytest.mark.slow
 def test_compare_imports_no_pyplot_dask_or_cadquery(tmp_path):
     run = subprocess.run([sys.executable, "-X", "importtime", "-c", SCRIPT, str(tmp_path)], cwd=ROOT,
                          capture_output=True, text=True, timeout=300)

@@ -100,6 +100,7 @@ def test_knee_skips_failed_points_and_short_fronts():
     assert knee(front(pts[:2], failed={0})) == 1
 
 
+@pytest.mark.slow
 def test_pareto_front_of_the_box_study(tmp_path):
     """studies/box_pareto.yaml on a small envelope, 4 points: ε runs from the slip optimum's worst |α| to the
     loss optimum's; every successful point meets its ε (IPOPT's 1e-8 relaxation) and the loss falls as ε

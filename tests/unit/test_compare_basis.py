@@ -29,6 +29,7 @@ def run(cli, tmp_path, *argv):
     return code, out, err, rows
 
 
+@pytest.mark.slow
 def test_columns_share_the_first_files_envelope(tmp_path, cli):
     """existing over ±1 N·m and X over ±0.5 N·m: both evaluated on the first file's envelope, said once under
     the table; with --envelope FILE on that file's; with --as-written each on its own, and the note says so."""
@@ -46,6 +47,7 @@ def test_columns_share_the_first_files_envelope(tmp_path, cli):
     assert [r["points"] for r in rows] == [25, 45] and "envelopes differ (--as-written)" in out
 
 
+@pytest.mark.slow
 def test_different_laws_are_refused_in_one_line(tmp_path, cli):
     """existing (kim) and existing_kalker: refused with one line naming both files and their laws, nothing
     written; --as-written compares them, each column saying its law."""

@@ -51,6 +51,7 @@ def test_plot_written(box_vs_existing):
     assert [p.name for p in (tmp / "plots").iterdir()] == ["box.png"]   # no temporary files left
 
 
+@pytest.mark.slow
 def test_three_variants_side_by_side(tmp_path, capsys):
     files = [str(ROOT / f"variants/{n}.yaml") for n in ("existing", "box", "unequal")]
     assert main(["compare", *files, "--out", str(tmp_path), "--json", str(tmp_path / "f.json")]) == 0
@@ -66,6 +67,7 @@ def test_three_variants_side_by_side(tmp_path, capsys):
     assert "max |α| [°]" in table and "unequal" in table
 
 
+@pytest.mark.slow
 def test_single_file_outside_the_repository_still_compares_with_existing(tmp_path, monkeypatch, make_variant):
     """Run from another folder with a copy of box.yaml there: Kim's existing CVT comes from the package, not
     from a `variants/` folder beside the working directory, so its column is never silently dropped."""
@@ -135,6 +137,7 @@ def test_a_table_never_looks_better_than_the_run(make_variant, tmp_path, capsys)
     assert "&gt; 2.5 allowed" in report.read_text() and "(under half)" in report.read_text()
 
 
+@pytest.mark.slow
 def test_the_files_are_written_before_the_table_and_a_closed_pipe_is_quiet(tmp_path):
     """`compare … --json f | head` lost the JSON: it was written after the table, which the closed pipe
     stopped. Now the JSON, the report and the plot are there, and nothing is said about the pipe."""

@@ -121,6 +121,7 @@ def legend_colours(fig) -> dict:
     return {h.get_label(): to_hex(h.get_color()) for h in fig.legends[0].legend_handles if hasattr(h, "get_color")}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("count", [2, 3, 5])
 def test_legend_and_labels_inside_the_canvas(five, count, monkeypatch, tmp_path):
     """With 3 or more variants the legend ran off both edges. Now it takes as many columns as fit, the
@@ -130,6 +131,7 @@ def test_legend_and_labels_inside_the_canvas(five, count, monkeypatch, tmp_path)
     assert text_problems(figures[-1]) == []
 
 
+@pytest.mark.slow
 def test_beyond_three_variants_each_gets_its_column(five, monkeypatch, tmp_path):
     """Five variants overlaid made 20 curves a panel. Beyond OVERLAY_MAX each variant has a column of its
     own (its four loads only), every row still on one y-scale; beyond PANELS_MAX the figure draws existing
@@ -173,6 +175,7 @@ class InlinePainter:
         pass
 
 
+@pytest.mark.slow
 def test_two_runs_in_another_order_give_each_variant_its_colour(monkeypatch, tmp_path, capsys):
     """existing was blue, then green, then orange, by its place on the command line. Two runs of compare
     with the variants in another order draw each in the same colour (existing's always), write one figure

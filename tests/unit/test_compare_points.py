@@ -27,6 +27,7 @@ def kalker_points(tmp_path_factory):
     return pd.read_csv(tmp / "p.csv"), pd.read_parquet(tmp / "p.parquet"), json.loads((tmp / "f.json").read_text())
 
 
+@pytest.mark.slow
 def test_one_row_per_variant_point_and_contact(kalker_points):
     """The columns outside tools rely on, in order; 357 points × 4 contacts of existing_kalker and × 8 of the box;
     the CSV and the Parquet file hold the same table."""

@@ -11,6 +11,7 @@ from cvtdesign.io import plots
 from cvtdesign.io.plots import process
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("collecting", [True, False])
 def test_compare_leaves_the_collector_as_it_was(tmp_path, capsys, collecting):
     was = gc.isenabled()

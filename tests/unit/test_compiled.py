@@ -55,6 +55,7 @@ def assert_same(res, ref, tol=1e-10):
         np.testing.assert_allclose(a, b, rtol=tol, atol=tol, err_msg=k)
 
 
+@pytest.mark.slow
 @needs_compiler
 @pytest.mark.parametrize("name", SHIPPED)
 def test_compiled_interpreted_and_rootfinder_agree_on_the_shipped_variants(name, monkeypatch):
@@ -95,6 +96,7 @@ def test_newton_written_out_is_casadis_newton():
     np.testing.assert_allclose(np.array(jac[1]), np.array(jac[0]), rtol=1e-11)
 
 
+@pytest.mark.slow
 @needs_compiler
 def test_compiled_derivatives_match_interpreted(cache):
     """d(outputs)/d(θ, design) of the compiled library (its fwd1_/adj1_ functions, found by CasADi's

@@ -37,6 +37,7 @@ def dataset(layout, tmp_path, effects, params=None, seed=0, protocol=None, noise
     return path
 
 
+@pytest.mark.slow
 def test_replay_kim_steering_creep_is_named(tmp_path):
     """README replay 1 (Kim): a drive-creep-only model on rig data with steering lateral creep at Kim's
     ε_S names steering_lateral_creep, says where the gap lies, and removes most of it (held out)."""
@@ -64,6 +65,7 @@ def test_replay_kim_steering_creep_is_named(tmp_path):
     assert 0.02 < rep["noise"]["alpha"]["rms"] < 0.12
 
 
+@pytest.mark.slow
 def test_replay_rolling_resistance_from_efficiency(layout, tmp_path):
     """README replay 2 (Brokowski sec. 4.4.2): a creep-only model on data with rolling resistance names
     rolling_resistance, and the efficiency gap shrinks."""
@@ -77,6 +79,7 @@ def test_replay_rolling_resistance_from_efficiency(layout, tmp_path):
     assert abs(off["value"] - 1e-4) < 3 * off["std"] and off["std"] < 3e-6   # measured 1.0068e-4 ± 6.2e-7 m
 
 
+@pytest.mark.slow
 def test_null_data_with_replicates_gives_none(layout, tmp_path):
     """Nothing withheld: the verdict is `none`, and the noise comes from the replicates."""
     proto = rig.Protocol(np.radians(np.arange(-80, 81, 20.0)), np.array([-1, -0.5, 0, 0.5, 1.0]),
@@ -90,6 +93,7 @@ def test_null_data_with_replicates_gives_none(layout, tmp_path):
     assert not any(r["accepted"] for r in rep.ranking)
 
 
+@pytest.mark.slow
 def test_gap_no_candidate_removes_is_unexplained(layout, tmp_path):
     """A 1° steering offset diagnosed with candidates that cannot produce it: `unexplained`, not a name."""
     path = dataset(layout, tmp_path, KIM + ("steering_offset",), {"steering_offset": {"offset": np.radians(1.0)}}, seed=14)
@@ -121,6 +125,7 @@ def test_resteer_inverts_the_model_exactly(layout):
     assert abs(resteer.ideal_command(layout, 1.0) - np.pi / 4) < 1e-15
 
 
+@pytest.mark.slow
 def test_selfcheck_cli_on_a_dask_cluster(tmp_path, monkeypatch):
     """`cvtdesign selfcheck` on a real local Dask cluster, reduced to a withheld steering offset and a null set
     of the rig matrix, and an effect outside the vocabulary from the independent simulator (right answer:
@@ -143,6 +148,7 @@ def test_selfcheck_cli_on_a_dask_cluster(tmp_path, monkeypatch):
     assert s["independent"]["named_out_of_vocabulary"] == 0
 
 
+@pytest.mark.slow
 def test_confounded_pair_is_reported_and_the_suggested_points_separate_it(layout):
     """A narrow γ range (30°..50°) without the axis channel: a steering offset and a radius mismatch both
     shift α by a near-constant angle there, so their fitted signatures are parallel. The report says so and
@@ -170,6 +176,7 @@ def test_confounded_pair_is_reported_and_the_suggested_points_separate_it(layout
     assert msz["drive_radius_mismatch"] > 20 * msz["steering_offset"]
 
 
+@pytest.mark.slow
 def test_replicates_are_merged_into_operating_points(layout, tmp_path):
     """Kim's protocol × 27 replicates (5049 rows) is fitted at its 187 operating points; the noise of a point
     is that of a row over √27, and the verdict and the fitted ε_S match."""
@@ -190,6 +197,7 @@ def test_replicates_are_merged_into_operating_points(layout, tmp_path):
     assert abs(p["value"] - 1.0) < 3 * p["std"] and p["std"] < 0.001   # measured 1.00029 ± 0.00020
 
 
+@pytest.mark.slow
 def test_a_failing_model_counts_as_failing_not_as_a_misfit(layout, tmp_path):
     """Where a candidate has no physical solution (here traction saturation with μ too small for the high
     loads: gross slip), its points have no prediction: they are counted in `failed`, left out of its
@@ -207,6 +215,7 @@ def test_a_failing_model_counts_as_failing_not_as_a_misfit(layout, tmp_path):
     assert c.points == int((base.ok & sc.ok).sum()) < len(data.rows)
 
 
+@pytest.mark.slow
 def test_independent_simulators_moderate_spin_creep_is_named(layout):
     """Data from the independent simulator (its own spin law: a sliding line contact with an elliptical
     pressure, in series with elastic creep) at a moderate strength: the vocabulary's drive_spin_creep is
@@ -221,6 +230,7 @@ def test_independent_simulators_moderate_spin_creep_is_named(layout):
     assert rep.how_far["shrink"] >= diagnose.SHRINK_MIN and not rep.gap["structured_after"]
 
 
+@pytest.mark.slow
 def test_one_typo_row_leaves_the_verdict(layout, tmp_path):
     """Replay 1 with one typo row added (τ1 = 30 N·m instead of ~1): that row used to set the load-level
     tolerance and merge the 187 operating points into 18, so the noise estimate became ~6° and the verdict
@@ -270,6 +280,7 @@ def test_a_candidate_that_fits_one_channel_by_spoiling_another_is_not_accepted(l
     assert offset["heldout_rms_after"] > 5 * offset["heldout_rms_before"]      # what accepting it would cost
 
 
+@pytest.mark.slow
 def test_the_noise_source_is_named_as_it_was_estimated(layout, tmp_path):
     """Every row at its own γ (as a simulator sampling γ at random writes it): no replicates and no load
     sweep. It was labelled "second differences along load", then estimated as the residuals' own scatter (an
@@ -284,6 +295,7 @@ def test_the_noise_source_is_named_as_it_was_estimated(layout, tmp_path):
     assert rep.noise["source"].startswith("neighbours in (γ, τ⊥): local fits")
 
 
+@pytest.mark.slow
 def test_noisy_replicates_keep_their_load_levels_and_the_verdict(layout, tmp_path):
     """Two replicates a point with 6× the default torque noise (0.03 N·m): the first compact-level rule split
     replicate pairs wider than a third of the next gap, broke the load grid into 126 levels, read the gap as

@@ -55,6 +55,7 @@ def write(rows, path):
     return path
 
 
+@pytest.mark.slow
 def test_random_protocol_noise_regions_and_one_set_of_numbers(box, tmp_path, capsys):
     """A random protocol (γ and τ⊥ drawn at random, no replicates, `rig --protocol random`) on the box CVT with
     a drive spin creep the base model lacks. The noise was the residuals' own scatter, 0.30° against a true
@@ -83,6 +84,7 @@ def test_random_protocol_noise_regions_and_one_set_of_numbers(box, tmp_path, cap
     assert rep["gap"]["structured"] and not rep["gap"]["structured_after"]
 
 
+@pytest.mark.slow
 def test_gross_outliers_are_named_and_left_out(existing, tmp_path):
     """Four rows with ω2 20 % off: each was a one-point region, nothing called them outliers, and they pulled
     the fitted creep scale 3σ off its truth. Now they are named by line and left out: no region, the verdict
@@ -99,6 +101,7 @@ def test_gross_outliers_are_named_and_left_out(existing, tmp_path):
     assert abs(p["value"] - 0.947) < 3 * p["std"]
 
 
+@pytest.mark.slow
 def test_backlash_swept_up_and_down_is_named_and_not_taken_for_noise(existing, tmp_path):
     """Steering backlash of 0.4° (the independent simulator), γ swept up then down: the up/down disagreement
     became the noise level (replicates), 0.45° here against a true 0.05°. Now the readings are said to depend
@@ -123,6 +126,7 @@ def test_backlash_swept_up_and_down_is_named_and_not_taken_for_noise(existing, t
     assert rep.noise["alpha"]["rms"] < 1.6 * np.std(direct)
 
 
+@pytest.mark.slow
 def test_creep_drifting_during_the_test_is_named(existing, tmp_path):
     """Drive creep drifting 40 % over a test run in random order with a time column (the independent
     simulator): the verdict was `none` and nothing said it. Now the drift is found (the model fitted on the
@@ -145,6 +149,7 @@ def test_creep_drifting_during_the_test_is_named(existing, tmp_path):
     assert not rep.sequence["drift"]["testable"] and "order" in rep.sequence["drift"]["why_not"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("replicates", [1, 3, 10])
 def test_the_same_rig_replicated_gives_the_same_verdict(box, tmp_path, replicates):
     """The box CVT with a true steering offset of −0.8°: the offset was fitted to −0.800° and 98 % of the gap
@@ -163,6 +168,7 @@ def test_the_same_rig_replicated_gives_the_same_verdict(box, tmp_path, replicate
     assert rep.how_far["shrink"] > 0.8 and g["after"] <= g["noise"]
 
 
+@pytest.mark.slow
 def test_heavy_noise_keeps_the_name(existing, tmp_path):
     """A 0.5° steering offset under 5× the rig's noise: the offset removed 85 % of the gap and the verdict
     was `unexplained` on the structure gate (z 3.5 after). What remains (0.1° in α) is half a reading's noise:
@@ -174,6 +180,7 @@ def test_heavy_noise_keeps_the_name(existing, tmp_path):
     assert abs(np.degrees(rep.final_fit["steering_offset.offset"]["value"]) - 0.5) < 0.05
 
 
+@pytest.mark.slow
 def test_a_weak_effect_is_never_given_another_name(existing, tmp_path):
     """Shaft 2's radius 0.05 % off, below the noise at every point: `none` or the effect, nothing else."""
     rows, _ = rig.simulate(existing, KIM + ("drive_radius_mismatch",), {"drive_radius_mismatch": {"delta": 0.0005}},

@@ -185,6 +185,7 @@ def test_cases_catalogue():
         assert best > 1.5 and chi > 20, (c["id"], best, chi)
 
 
+@pytest.mark.slow
 def test_past_the_physics_left_out_and_counted():
     """With traction_saturation at μ = 0.2 (×0.25) the largest loads need more than μN: those points are
     counted as gross slip and are not in the data (never returned as numbers); the rest are."""

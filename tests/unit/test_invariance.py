@@ -188,6 +188,7 @@ def test_explicit_frame_side():
     np.testing.assert_allclose(lt.rotate(data, Q)["frame"]["side"], Q @ [0, 0, -1], atol=1e-15)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SHIPPED)
 @GEOMETRY
 @given(q=quaternions, phi=steering_angles)
@@ -209,6 +210,7 @@ def test_rotate(name, q, phi):
             np.testing.assert_allclose(lt.as_array(r1.fork_axis), Q @ lt.as_array(r0.fork_axis), atol=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SHIPPED)
 @GEOMETRY
 @given(q=quaternions, v=directions, phi=steering_angles)
@@ -290,6 +292,7 @@ def test_flip_drive_axle_without_followers_fights():
         _rigid_motion(lt.layout_of(lt.flip_axle(data, "A", followers="none")))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SHIPPED)
 @GEOMETRY
 @given(phi=steering_angles)
@@ -328,6 +331,7 @@ def test_set_radius_keeps_follower_consistent():
 # 2. the model: same figures, and pointwise where the map is known
 # ==============================================================================================
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SHIPPED + KALKER)
 @MODEL
 @given(q=quaternions)
@@ -350,6 +354,7 @@ def _flip_sign_map(res, s):
     return res if s == 1 else res[..., ::-1, ::-1]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SHIPPED + KALKER)
 @MODEL
 @given(data=st.data())
@@ -383,6 +388,7 @@ def test_axle_and_fork_flips(name, data):
         assert_close(res1["N"], _flip_sign_map(res0["N"], s), f"{what}: N [N]", scaled=FORCE_TOL)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SHIPPED + KALKER)
 @MODEL
 @given(q=quaternions, v=directions)
@@ -398,6 +404,7 @@ def test_mirror_image(name, q, v):
         assert_close(res1[k], res0[k], f"{what}: {k} [rad]", atol=ANGLE_TOL)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SHIPPED + KALKER)
 @MODEL
 @given(q=quaternions, v=directions, data=st.data())
@@ -472,6 +479,7 @@ def valid_layouts(draw):
     return d
 
 
+@pytest.mark.slow
 @settings(max_examples=12, **_COMMON)
 @given(d=valid_layouts())
 def test_zero_load_no_slip(d):

@@ -94,6 +94,7 @@ def fitted_report(path, **values) -> str:
     return str(path)
 
 
+@pytest.mark.slow
 def test_optimise_carries_a_fitted_calibration(tmp_path):
     """optimise --calibration REPORT.json: under kalker the fitted drive_longitudinal_creep.scale multiplies the
     drive contacts' compliances in the study, and the optimum's variant file carries it, so compare of that

@@ -120,6 +120,7 @@ def test_non_unit_ratios_steer_by_the_vectors(tmp_path, capsys):
     assert err.endswith("; fix S1 with steering.forks[1].ratio: 2 (the rule: docs/linkages.md)"), err
 
 
+@pytest.mark.slow
 def test_three_steering_rollers_from_new_export_one_solid_per_part(tmp_path, capsys):
     """`new --steering 3` → `export --check`: a STEP file re-read with one valid solid per part."""
     path = tmp_path / "three.yaml"

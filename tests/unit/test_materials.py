@@ -42,6 +42,7 @@ def figures(path) -> dict:
     return metrics(m, envelope(m))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("law, explicit", [("kim", KIM_FITTED), ("kalker", KALKER_FACTORS)])
 def test_a_new_layout_of_kims_materials_is_calibrated(tmp_path, law, explicit):
     """The same new layout with no contact section (the library's calibration) and with Kim's fitted constants
@@ -77,6 +78,7 @@ def test_the_calibration_gives_kims_constants_at_his_rollers(tmp_path):
     assert ratio == pytest.approx((3.1364, 3.6033), rel=2e-3)
 
 
+@pytest.mark.slow
 def test_a_pair_with_no_calibration_is_theory_only_everywhere(tmp_path, cli):
     """Urethane on a steel ball: no calibration in the library. The JSON says uncalibrated: true with the
     theory's known gap, the table's calibration row says THEORY ONLY, its figures carry no interval, and the
@@ -146,6 +148,7 @@ def test_the_kim_variant_and_the_library_agree_on_kims_machine(tmp_path):
     assert np.isclose(own["max_abs_alpha_deg"], 10.761, atol=5e-4)
 
 
+@pytest.mark.slow
 def test_a_diagnosis_saves_its_calibration_for_later_variants(tmp_path, cli):
     """Rig data of Kim's CVT with the drive contacts 1.5× and the steering contacts 0.8× as compliant as the
     library's calibration; `diagnose --save-calibration` writes the library entries (creep moduli 3.399/1.5 and

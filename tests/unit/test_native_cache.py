@@ -87,6 +87,7 @@ DAMAGE = {"truncated": truncate, "random bytes": random_bytes, "two libraries sw
           "two libraries swapped with their sidecars": lambda libs: swap(libs, (".so", ".sha256"))}
 
 
+@pytest.mark.slow
 @needs_compiler
 @pytest.mark.parametrize("how, policy", [(how, "always") for how in DAMAGE] +
                          [("truncated", "auto"), ("two libraries swapped", "auto")])

@@ -109,6 +109,7 @@ def test_written_with_mode_0644_under_umask_022(tmp_path, monkeypatch):
     assert oct(os.stat(tmp_path / "m.yaml").st_mode & 0o777) == oct(0o644)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("count", [2, 3, 4])
 def test_steering_n_writes_a_layout_that_shows_and_compares(count, tmp_path, monkeypatch, capsys):
     """`new --steering N`: the box's drive rollers with N steering rollers at the poles on forks about z

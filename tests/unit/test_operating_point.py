@@ -107,6 +107,7 @@ def test_a_solve_that_did_not_converge_is_not_called_gross_slip():
     assert ref["converged"] and res["alpha"][1] == pytest.approx(ref["alpha"][0], abs=1e-10)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("compile_policy", ["never", "always"])
 def test_under_kalkers_law_the_answer_does_not_depend_on_how_the_layout_is_written(compile_policy, monkeypatch):
     """tests/data/asym_kalker.yaml, an asymmetric box under Kalker's law, at γ = 85°: with Polach's closed form

@@ -63,6 +63,7 @@ def test_steering_pair_moves_to_the_largest_moment_arm(tmp_path):
     assert sol.design["d"] == pytest.approx(R * (2 * rs + c) / (R + rs), rel=1e-4)
 
 
+@pytest.mark.slow
 def test_optimise_cli_improves_box(tmp_path):
     path = study(tmp_path, constraints={"clearance": "2 mm", "envelope_radius": "143.5 mm"},
                  design={"d": {"lower": "30 mm", "upper": "110 mm"}, "r_steer": {"lower": "20 mm", "upper": "60 mm"}})
@@ -113,6 +114,7 @@ def test_a_design_variable_no_field_uses_is_refused(tmp_path, capsys):
     assert err.count("\n") == 1 and not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_working_set_reaches_the_optimum_of_every_row(tmp_path):
     """IPOPT on a working set of envelope rows (violated rows added, solved again) ends where IPOPT on every
     row at once does, with every row of the whole formulation satisfied; here the traction limit binds at
@@ -217,6 +219,7 @@ def lossy_existing(tmp_path):
     return path
 
 
+@pytest.mark.slow
 def test_normal_force_floor_holds_where_the_optimum_would_unload_a_contact(tmp_path):
     """Minimum power loss with the preload free: without a floor that binds, the optimum (P = 68.9 N) leaves a
     steering roller at 25.9 N; with min_normal_force 40 N the floor is the active constraint (the preload

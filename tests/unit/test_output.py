@@ -48,6 +48,7 @@ def one_line(err: str, *needles):
 
 # --- modes -------------------------------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_compare_json_and_png_are_0644_under_umask_022(tmp_path, umask022, capsys):
     assert main(["compare", str(BOX), "--out", str(tmp_path / "plots"), "--json", str(tmp_path / "f.json")]) == 0
     assert mode(tmp_path / "f.json") == 0o644 and mode(tmp_path / "plots" / "box.png") == 0o644

@@ -65,6 +65,7 @@ def test_check_is_the_numeric_model_of_the_design():
         assert (status == 0).all()
 
 
+@pytest.mark.slow
 def test_check_is_the_numeric_model_where_points_fail(tmp_path):
     """Points that slip grossly or do not converge (box, low preloads, τ⊥ to ±2 N·m), points that lose
     contact (Kim's existing CVT at τ⊥ = ±4 N·m) and a reversed root (the same with a saturation law at

@@ -181,6 +181,7 @@ def check_header_and_images(doc: Tables, command: str, images: int):
         assert int(img["data-natural-width"]) > 300                            # and the browser decoded it
 
 
+@pytest.mark.slow
 def test_compare_report(tmp_path, capsys):
     report = tmp_path / "compare.html"
     assert main(["compare", str(BOX), "--out", str(tmp_path / "c"), "--json", str(tmp_path / "c.json"),
@@ -215,6 +216,7 @@ def test_every_row_of_compare_has_its_meaning_in_the_glossary():
     assert {key for key, _, _ in COLUMNS} <= set(MEANINGS)
 
 
+@pytest.mark.slow
 def test_compare_report_of_five_fits_any_width(tmp_path, capsys):
     """Five variants: the page fits 1280 and 700 pixels (the table scrolls in its own box), its images
     decode; the screenshots are kept."""
@@ -231,6 +233,7 @@ def test_bad_report_path_refused_before_computing(tmp_path, capsys):
     assert not (tmp_path / "c").exists()
 
 
+@pytest.mark.slow
 def test_optimise_report(tmp_path, capsys):
     """The closed-form optimum of test_optimise (d = R (2 r_s + c)/(R + r_s) = 48.80 mm) in mm, in the
     printed table and in the report."""
@@ -265,6 +268,7 @@ def test_optimise_report(tmp_path, capsys):
     assert len(fits(report, tmp_path)) == 2
 
 
+@pytest.mark.slow
 def test_diagnose_report(tmp_path, capsys):
     """Rolling resistance withheld from the model (offset 0.1 mm): the fitted offset is shown in mm, the same
     as the JSON's metres; the residual map and the fit plot are embedded without --plots."""

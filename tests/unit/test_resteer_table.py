@@ -8,6 +8,7 @@ import shlex
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from conftest import ROOT, shipped_model, variant_path
 
@@ -93,6 +94,7 @@ def test_interpolating_a_finer_table_leaves_less():
     assert errors[1] < 0.5 * errors[0]
 
 
+@pytest.mark.slow
 def test_controller_loop_example_in_the_docs_runs(cli, tmp_path, monkeypatch):
     """The example of docs/diagnosis.md, on the table its command line writes: the interpolated command for
     ratio 1.2 under 0.35 N·m gives that ratio on the model to the interpolation's 1e-3."""

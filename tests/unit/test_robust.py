@@ -30,6 +30,7 @@ def study(folder: Path, worst_case=True, **extra) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_the_corners_are_the_calibrations_95_percent_box(tmp_path):
     """box_kalker's drive (82A, σ 1.3 %) and steering (84A, σ 1.0 %) calibrations are independent: 4 corners at
     ±2.236σ (a box of joint probability 0.95), each the whole envelope, and the misfit rows once per γ."""
@@ -46,6 +47,7 @@ def test_the_corners_are_the_calibrations_95_percent_box(tmp_path):
     assert p.parts.gamma.size == 4 * 9 and sum(f == "reach_gamma" for f in p.g_family) in (0, 3)
 
 
+@pytest.mark.slow
 def test_the_robust_optimum_holds_over_the_region(tmp_path, cli):
     """The robust optimum's worst |α| over the corners is its objective, at least its nominal worst |α|, and no
     more than the nominal optimum's own worst over the corners (measured: the same design, 1e-9 mm apart:
@@ -76,6 +78,7 @@ def test_bad_robust_settings_are_one_line(tmp_path, cli, edit, message):
     assert code == 2 and err.count("\n") == 1 and message in err and not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_robust_needs_a_stated_uncertainty(tmp_path, cli):
     """A base variant whose compliance has no σ (THEORY ONLY here: kalker factors of 1) is refused in one line."""
     v = yaml.safe_load((ROOT / "variants/box_kalker.yaml").read_text())

@@ -44,6 +44,7 @@ def compare_laws(tmp_path_factory):
     return laws
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", VARIANTS, ids=lambda p: p.stem)
 def test_show_each_shipped_variant(variant, compare_laws, cli, tmp_path):
     code, out, err = cli("show", variant, "--out", tmp_path)
@@ -86,6 +87,7 @@ def test_forks_at_the_commanded_gamma(name, gamma, cli, tmp_path):
                for r in scene["rollers"])
 
 
+@pytest.mark.slow
 def test_rotated_copy_prints_the_same_law(cli, tmp_path):
     law = law_of(cli("show", ROOT / "variants/unequal.yaml", "--out", tmp_path / "a")[1])
     turned = dump(rotate(read("unequal"), axis_angle_matrix([1.0, 2.0, 3.0], 0.7)), tmp_path / "unequal.yaml")

@@ -69,6 +69,7 @@ def test_rolling_torque_of_a_fork_through_its_contact_is_its_spin_moment():
         assert (np.max(np.abs(motor[ok])) > 1e-3) == spins
 
 
+@pytest.mark.slow
 def test_compare_reports_steering_torque_and_where(tmp_path, cli):
     """compare's JSON: max_steering_torque_Nm and max_steering_torque_at (the interface outside tools read), the
     standstill figure and its place; the table's rows and the note saying where each extreme is taken."""

@@ -106,6 +106,7 @@ def test_cases_are_the_product(tmp_path):
     assert all(re.fullmatch(r"[A-Za-z0-9_.+-]+", c["id"]) for c in cases), [c["id"] for c in cases]
 
 
+@pytest.mark.slow
 def test_finished_store_holds_the_closed_form_optimum(finished):
     _, store, table = finished
     assert len(case_files(store)) == 6 and (store / "manifest.json").exists()
@@ -114,6 +115,7 @@ def test_finished_store_holds_the_closed_form_optimum(finished):
         assert d == pytest.approx(0.0635 * (2 * rs + 0.002) / (0.0635 + rs), rel=1e-4)
 
 
+@pytest.mark.slow
 def test_interrupt_then_resume(tmp_path, finished, shared, capfd, monkeypatch):
     """Ctrl-C (a KeyboardInterrupt once the second case is stored) closes the run's own LocalCluster and says
     in one line what is kept; the next run resumes from there and reaches the uninterrupted result."""
@@ -207,6 +209,7 @@ def test_a_refused_study_prints_no_progress_bar(tmp_path, capsys, no_cluster):
     assert cap.out == ""
 
 
+@pytest.mark.slow
 def test_sigterm_stops_a_study_as_ctrl_c_does(tmp_path):
     """SIGTERM (`kill`, a batch system's stop) ended a study with no message. Now it closes the cluster and
     says in the same one line as Ctrl-C how many cases are kept, which stay in the store (exit 128 + 15)."""

@@ -105,6 +105,7 @@ def test_as_built_moves_each_roller_as_its_dimension_says():
     assert all(built[r] == by[r] for r in ("S1", "S2"))
 
 
+@pytest.mark.slow
 def test_the_drawing_is_compares_machine(content):
     """At zero deviation the as-built model gives compare's figures of the variant to 1e-9."""
     model, nominal = built_model(content)
@@ -134,6 +135,7 @@ def test_derivatives_in_the_deviations_are_exact(content):
         assert np.allclose(exact["utilisation"][:, :, j], fu.T, rtol=0, atol=1e-5 * np.max(np.abs(exact["utilisation"])))
 
 
+@pytest.mark.slow
 def test_the_json_interface_and_the_first_order_against_the_samples(finished):
     """The --json keys outside tools rely on; every sample held; the first order taken at the samples' own
     deviations gives their mean shift and σ of max |α| to 2 % (measured: 0.1 %), and each least-squares
@@ -165,6 +167,7 @@ def test_the_ranked_figure_names_each_tolerance_with_its_unit(finished):
     assert text_problems(fig) == []
 
 
+@pytest.mark.slow
 def test_a_second_run_resumes_and_more_samples_add_to_the_same_draws(finished, kalker, shared, capsys):
     """Run again with 40 samples: the store's 30 are kept (not drawn again) and the first 30 rows are the
     same samples; a changed tolerances file is another study, refused on that store."""

@@ -53,6 +53,7 @@ def test_figure_gradients_are_the_figures_derivatives(which, tmp_path):
         np.testing.assert_allclose(grads[k], fd[k], rtol=0, atol=1e-5 * scale, err_msg=k)
 
 
+@pytest.mark.slow
 def test_the_interval_is_the_one_sampling_gives():
     """Kim's CVT at its σ (1.3 % drive, 1.0 % steering): 100 draws of the scales from N(1, Σ) (seed 0), and
     the figures' sampled standard deviation against the first-order σ_f = √(gᵀΣg). The draws' own noise on a

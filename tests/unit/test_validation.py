@@ -270,6 +270,7 @@ def test_shipped_variants_load_unchanged(path):
     assert all(float(r.preload) == 100.0 and float(r.stiffness) == 1e5 for r in L.rollers)
 
 
+@pytest.mark.slow
 def test_shipped_studies_build(tmp_path):
     from cvtdesign.design.problem import build_problem
     from cvtdesign.design.study_file import load_study
@@ -290,6 +291,7 @@ def test_shipped_tolerance_studies_load():
     assert len(dims) == 42 and all(np.isfinite(d.size) and d.size > 0 for d in dims)
 
 
+@pytest.mark.slow
 def test_compare_box_figures_unchanged(tmp_path, monkeypatch):
     monkeypatch.chdir(ROOT)
     js = tmp_path / "c.json"

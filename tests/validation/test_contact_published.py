@@ -138,6 +138,7 @@ def test_linear_slope():
     assert abs(p["C"][0] / C11_exact - 1) < 0.016
 
 
+@pytest.mark.slow
 def test_elliptic_bound():
     """fastsim.fastsim with bound="elliptic" (the Hertz pressure as traction bound, CONTACT's B = 2), checked as
     test_fastsim_published checks the parabolic bound, on its patches (a b = 1 mm^2, a/b = 1, 0.5, 2).

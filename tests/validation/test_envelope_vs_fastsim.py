@@ -50,6 +50,7 @@ def fastsim_rows(g: pd.DataFrame) -> np.ndarray:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", ["existing_kalker", "box_kalker"])
 def test_the_law_is_fastsim_at_every_contact(rows, variant):
     """Measured: existing_kalker 1428 contact-points, forces within 0.0046 μN (D2 at γ = 0°, zero load),

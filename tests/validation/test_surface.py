@@ -113,6 +113,7 @@ def test_shipped_table_is_fastsim_at_its_nodes():
     np.testing.assert_allclose(stored, reference(c, ratio), atol=5e-4)     # measured 2.4e-4: the grids differ
 
 
+@pytest.mark.slow
 def test_compiled_law_is_the_same_spline():
     """The law the model calls (surface.c, loaded into the process; or CasADi's bspline without a compiler) gives
     the numpy spline's numbers, and its Jacobian is the spline's derivative (central differences, 1e-7)."""
