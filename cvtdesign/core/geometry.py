@@ -45,6 +45,7 @@ FRAME = {
     "c2": np.array([0.0, -1.0, -1.0]) / S2,
     "c3": np.array([1.0, 0.0, 0.0]),
 }
+KIM_FRAME = ("d1", "d2", "d3", "c1", "c2", "c3")   # Kim's frame vectors, as opposed to the axes x, y, z
 
 
 def named_vector(name: str) -> np.ndarray | None:

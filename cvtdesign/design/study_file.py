@@ -241,11 +241,12 @@ def _at_bound(vspec, base_file, overrides: dict, where: str, raw):
 
 
 def _contents(obj):
-    """What a resolved layout is made of (numbers, names, nested), without its parameters and source, so
-    that two layouts compare equal when they are the same machine."""
+    """What a resolved layout is made of (numbers, names, nested), without its parameters, source and
+    mounting plate (which only `export` draws), so that two layouts compare equal when they are the same
+    machine."""
     if dataclasses.is_dataclass(obj):
         return [_contents(getattr(obj, f.name)) for f in dataclasses.fields(obj)
-                if f.name not in ("parameters", "spec", "file")]
+                if f.name not in ("parameters", "file", "frame")]
     if isinstance(obj, dict):
         return [(k, _contents(v)) for k, v in obj.items()]
     if isinstance(obj, (list, tuple)):

@@ -14,7 +14,9 @@ mean '45 mm'?"). docs/variant-reference.md lists the ranges.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+import re
 from importlib import resources
 from pathlib import Path
 
@@ -24,8 +26,8 @@ import numpy as np
 from cvtdesign.core import effects as fx
 from cvtdesign.core.contact import laws
 from cvtdesign.core.checks import check_layout
-from cvtdesign.core.geometry import named_vector, spherical
-from cvtdesign.core.layout import Layout, Material, Roller
+from cvtdesign.core.geometry import KIM_FRAME, named_vector, spherical
+from cvtdesign.core.layout import Frame, Layout, Material, Roller
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io import machine, materials
 from cvtdesign.io.schema import RangeSpec, Spherical, VariantSpec
@@ -256,19 +258,15 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         names.record(k, v)
     mats = _materials(spec, where, names)
     R = quantity(spec.sphere.radius, "sphere_radius", f"{where}: sphere.radius", names, "a positive radius")
-    forks = _forks(spec, where, names)
+    forks, fork_of = _forks(spec, where, names)
     law, calibration = _contact_law(spec, where, names)
-    rollers = tuple(_with_creep_source(_roller(spec, rn, where, names, mats, forks, R), spec, where, law)
+    rollers = tuple(_with_creep_source(_roller(spec, rn, where, names, mats, fork_of, R), spec, where, law)
                     for rn in spec.rollers)
     for s in (1, 2):
         if not any(r.role == "drive" and r.shaft == s for r in rollers):
             raise InputError(f"{where}: rollers: no drive roller on shaft {s} (role: drive, shaft: {s})")
     laws.check_effects(spec.effects, f"{where}: effects")
     eparams = _effect_parameters(spec, where, names)
-    if spec.frame is not None:     # drawn by `cvtdesign export` only, checked here with the rest
-        vector(spec.frame.side, f"{where}: frame.side", names)
-        quantity(spec.frame.distance, "frame_distance", f"{where}: frame.distance", names, "a positive distance")
-        quantity(spec.frame.thickness, "frame_thickness", f"{where}: frame.thickness", names, "a positive thickness")
     c, env = spec.contact, spec.envelope
 
     def creep(value, key, field):
@@ -285,7 +283,9 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         gamma_grid=grid(env.gamma, "angle", f"{where}: envelope.gamma"),
         load_grid=grid(env.load, "torque", f"{where}: envelope.load"),
         motor_speed=quantity(env.motor_speed, "motor_speed", f"{where}: envelope.motor_speed", None, "a positive value"),
-        parameters=names, spec=spec, contact_law=law, calibration=calibration)
+        parameters=names, contact_law=law, calibration=calibration, forks=forks,
+        frame=None if spec.frame is None else _frame(spec.frame, f"{where}: frame", names),
+        kim_vectors=_kim_vectors(spec))
     check_envelope_limits(layout, f"{where}: envelope")
     return layout
 
@@ -362,9 +362,9 @@ def _fork_ratio(f, w: str, names: dict) -> float:
     return ratio
 
 
-def _forks(spec: VariantSpec, where: str, names: dict) -> dict:
-    """Steering roller name -> (fork axis, gear ratio, index of the fork in steering.forks)."""
-    forks = {}
+def _forks(spec: VariantSpec, where: str, names: dict) -> tuple[tuple[tuple[str, ...], ...], dict]:
+    """Each fork's rollers, and steering roller name -> (fork axis, gear ratio, index of its fork)."""
+    forks, fork_of = [], {}
     for i, f in enumerate(spec.steering.forks):
         w = f"{where}: steering.forks[{i}]"
         axis = vector(f.axis, f"{w}.axis", names)
@@ -376,10 +376,24 @@ def _forks(spec: VariantSpec, where: str, names: dict) -> dict:
                 raise InputError(f"{w}.rollers: unknown roller '{rn}'{suggest(rn, spec.rollers)}")
             if spec.rollers[rn].role != "steering":
                 raise InputError(f"{w}.rollers: '{rn}' is a {spec.rollers[rn].role} roller; only steering rollers turn with φ")
-            if rn in forks:
+            if rn in fork_of:
                 raise InputError(f"{w}.rollers: '{rn}' is already on another fork")
-            forks[rn] = (axis, ratio, i)
-    return forks
+            fork_of[rn] = (axis, ratio, i)
+        forks.append(tuple(f.rollers))
+    return tuple(forks), fork_of
+
+
+def _frame(f, w: str, names: dict) -> Frame:
+    """The mounting plate `frame` in SI (drawn by `cvtdesign export` only, checked here with the rest)."""
+    return Frame(side=vector(f.side, f"{w}.side", names),
+                 distance=quantity(f.distance, "frame_distance", f"{w}.distance", names, "a positive distance"),
+                 thickness=quantity(f.thickness, "frame_thickness", f"{w}.thickness", names, "a positive thickness"))
+
+
+def _kim_vectors(spec: VariantSpec) -> tuple[str, ...]:
+    """The names of Kim's frame vectors that the variant file writes in its rollers or forks ('d1', '-c2')."""
+    text = json.dumps([spec.model_dump(mode="json")[k] for k in ("rollers", "steering")])
+    return tuple(k for k in KIM_FRAME if re.search(rf"(?<![\w.]){k}(?!\w)", text))
 
 
 def _own_or_default(spec: VariantSpec, rn: str, field: str, where: str):

@@ -136,3 +136,24 @@ def test_nothing_points_outside_the_repository():
     bad = [f"{p.relative_to(ROOT)}:{i}" for p in files for i, line in enumerate(p.read_text().splitlines(), 1)
            if pattern.search(line)]
     assert not bad, f"references to files outside the repository: {bad}"
+
+
+def test_core_receives_no_schema_objects():
+    """core is handed SI values in its own dataclasses (core.layout), never the parsed variant file: no core
+    module imports io or pydantic, names a schema class (`...Spec`) or reads a `.spec`, and no class of core
+    has a field `spec` (Layout once carried the io.schema.VariantSpec down as `spec: object`)."""
+    bad = []
+    for m, tree in MODULES.items():
+        if layer(m) != "core":
+            continue
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                bad += [f"{m} line {node.lineno}: imports {n}" for n in imported(node)
+                        if n.startswith(("cvtdesign.io", "pydantic"))]
+            elif isinstance(node, ast.Name) and node.id.endswith("Spec") or isinstance(node, ast.Attribute) \
+                    and (node.attr == "spec" or node.attr.endswith("Spec")):
+                bad.append(f"{m} line {node.lineno}: names {ast.unparse(node)}")
+            elif isinstance(node, ast.ClassDef):
+                bad += [f"{m} line {f.lineno}: {node.name}.spec" for f in node.body
+                        if isinstance(f, ast.AnnAssign) and isinstance(f.target, ast.Name) and f.target.id == "spec"]
+    assert not bad, f"schema objects in core: {bad}"
