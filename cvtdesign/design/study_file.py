@@ -38,9 +38,10 @@ from cvtdesign.core.contact.laws import check_effects
 from cvtdesign.design.objectives import OBJECTIVES
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.fitted import read_fitted
+from cvtdesign.io.limits import check_envelope_limits
 from cvtdesign.io.schema import MAX_COUNT, EnvelopeSpec, Name, Num, Strict, VariantSpec, no_bool
 from cvtdesign.io.units import check_range, dimension_of, kind_name, to_si
-from cvtdesign.io.variant import check_envelope_limits, grid, load_spec, parameter_value, quantity, resolve
+from cvtdesign.io.variant import grid, load_spec, parameter_value, quantity, resolve
 from cvtdesign.io.yaml_file import read_spec
 
 DEFAULT_MIN_NORMAL_FRACTION = 0.05   # default min_normal_force: this fraction of each roller's base preload

@@ -17,10 +17,11 @@ from pathlib import Path
 from pydantic import BaseModel
 
 from cvtdesign.core import effects as fx
+from cvtdesign.io.limits import LOAD_MARGIN, MAX_GRID_POINTS, MAX_POINTS
 from cvtdesign.io.output import write_files
 from cvtdesign.io.schema import Spherical, VariantSpec, unit_text
 from cvtdesign.io.units import KINDS
-from cvtdesign.io.variant import LOAD_MARGIN, MAX_GRID_POINTS, MAX_POINTS, PLAUSIBLE, POSITIVE_EFFECT_PARAMS
+from cvtdesign.io.variant import PLAUSIBLE, POSITIVE_EFFECT_PARAMS
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"    # the repository's docs/ (run from a checkout)
 REFERENCE, EFFECTS_DOC = "variant-reference.md", "effects.md"
