@@ -67,14 +67,6 @@ def rotate(v, k, angle):
     return v * c + ca.cross(k, v) * s + k * ca.dot(k, v) * (1 - c)
 
 
-def kim_gamma_from_phi(phi):
-    """Kim eq 5: commanded transmission angle γ [rad] for steering angle φ [rad] of the existing CVT.
-
-    Written with atan2 so the branch is continuous: tan γ = (√2 + tan φ)/(√2 − tan φ) ⇔
-    γ = atan2(√2 cos φ + sin φ, √2 cos φ − sin φ)."""
-    return np.arctan2(S2 * np.cos(phi) + np.sin(phi), S2 * np.cos(phi) - np.sin(phi))
-
-
 def linkage_terms(t0s, forks, frame, gammas) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(A, B, C), each (len(gammas), n): the lateral-constraint misfit of steered roller i at γ and φ is
     t_i(φ)·u(γ) = A cos ρ_iφ − B sin ρ_iφ + C (1 − cos ρ_iφ) (Rodrigues: t_i(φ)·u = t0 · R(−ρ_i φ) u,

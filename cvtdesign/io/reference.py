@@ -96,13 +96,6 @@ def sections(model=VariantSpec, prefix: str = "", extra: dict | None = None) -> 
     return out
 
 
-def schema_paths() -> list[str]:
-    """Every field path of a variant file ('rollers.<roller>.radius'), and those of a direction's
-    {polar, azimuth}."""
-    paths = [f"{prefix}{name}" for prefix, model, _ in sections() for name in model.model_fields]
-    return paths + [f"{{polar, azimuth}}.{name}" for name in Spherical.model_fields]
-
-
 def _number(v: float) -> str:
     return f"{v:g}".replace("e+0", "e").replace("e+", "e").replace("e-0", "e-")
 

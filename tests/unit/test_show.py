@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from kim_closed_forms import kim_gamma_from_phi  # tests/validation is on sys.path (tests/conftest.py)
 from cvtdesign.core.geometry import steering_angle
 from cvtdesign.cli import main
-from cvtdesign.core.geometry import kim_gamma_from_phi
 from cvtdesign.io.layout_drawing import layout_scene
 from cvtdesign.io.variant import load_variant
 
