@@ -12,7 +12,7 @@ from cvtdesign.io import machine
 MAX_GRID_POINTS = 100_000      # per envelope axis (γ, load): a 1e-9° step would otherwise allocate terabytes
 # operating points of one evaluation (γ × load × speed): about a minute of the compiled model; fewer where half
 # the machine's free memory holds fewer, at BYTES_PER_POINT for each of (4 + the rollers) (2.1 kB measured
-# for the box CVT's 8 rollers). 94,119 γ × 95,239 loads asked numpy for 67 GB.
+# for the box CVT's 8 rollers). 94,119 γ × 95,239 loads would ask numpy for 67 GB.
 MAX_POINTS = 1_000_000
 BYTES_PER_POINT = 256
 # a load may be at most LOAD_MARGIN × all the traction the preloads allow (load_capacity): beyond it no contact
@@ -50,7 +50,7 @@ def load_capacity(layout: Layout) -> float | None:
 
 def check_loads(fields, layout: Layout) -> None:
     """Each (where, load [N·m]) of `fields` within ±load_capacity(layout), else one InputError line naming
-    the field (and N·mm, when the values look meant in it: '-1000..1000' was read as N·m, and 340 of 357
+    the field (and N·mm, when the values look meant in it: '-1000..1000' read as N·m leaves 340 of 357
     points failed)."""
     cap = load_capacity(layout)
     for where, value in fields:

@@ -120,7 +120,7 @@ def _positive(value, where, what="a positive value"):
 # plausible SI range of each dimensional field: (what, kind, lower, upper, lower exclusive, unit a plain number
 # probably meant); see VariantSpec
 PLAUSIBLE = {
-    # lengths below a tenth of a millimetre are no machine part (a 1e-6 mm roller gave 5947 MPa, unflagged)
+    # lengths below a tenth of a millimetre are no machine part (a 1e-6 mm roller would give 5947 MPa)
     "sphere_radius": ("sphere radius", "length", 1e-3, 2.0, False, "mm"),
     "roller_radius": ("roller radius", "length", 1e-4, 1.0, False, "mm"),
     "crown_radius": ("crown radius", "length", 1e-4, 1.0, False, "mm"),
