@@ -1,5 +1,5 @@
 """Drawings of the assembly for the reviewer: a line drawing as SVG (cadquery's exporter, framed by
-`framed_svg`) and a shaded picture (`view_mesh` → `rasterise`, numpy only; `io.plots.cad_picture` writes it
+`framed_svg`) and a shaded picture (`view_mesh` → `raster`, numpy only; `io.plots.cad_picture` writes it
 as PNG), both viewed along VIEW with z drawn upwards, both with the parts named as in the STEP file, a scale
 bar and a legend (`annotations`).
 
@@ -69,7 +69,7 @@ def triangles(shape, tolerance=0.5, angular=0.4):
 
 def view_mesh(p: Plan, shapes: dict, view=VIEW):
     """The front-facing triangles of every part but the couplings in view coordinates along VIEW (z upwards),
-    for `rasterise`:
+    for `raster`:
     (triangles (T, 3, [right, up, towards viewer]) [mm], part index (T,), Lambert shade (T,))."""
     right, up, d = view_basis(view)
     light = unit(d + 0.6 * up + 0.3 * right)
@@ -120,17 +120,12 @@ def _spans(tri, pixels: int):
     return (t, row, start, count), (a, b, c)
 
 
-def rasterise(tri, ids, shade, colours, pixels: int = 800):
+def raster(tri, ids, shade, colours, pixels: int = 800):
     """Flat-shaded orthographic image by z-buffer (numpy only): every triangle marks the pixel centres
     inside it (scanline spans) with its depth, each pixel keeps the nearest; dark outlines where the part
-    under a pixel changes. colours: RGB per part index. Returns a (pixels, pixels, 3) RGB array, white
-    background."""
-    return raster(tri, ids, shade, colours, pixels)[0]
-
-
-def raster(tri, ids, shade, colours, pixels: int = 800):
-    """`rasterise`'s image, with the part index under each pixel ((pixels, pixels), −1: background) and the
-    image's extent in view coordinates [mm] (left, right, bottom, top), as matplotlib's imshow takes it."""
+    under a pixel changes. colours: RGB per part index. Returns the image ((pixels, pixels, 3) RGB, white
+    background), the part index under each pixel ((pixels, pixels), −1: background) and the image's extent
+    in view coordinates [mm] (left, right, bottom, top), as matplotlib's imshow takes it."""
     tri = np.array(tri, float)
     xy = tri[..., :2].reshape(-1, 2)
     lo, hi = xy.min(axis=0), xy.max(axis=0)

@@ -51,8 +51,6 @@ from cvtdesign.core.geometry import (
 )
 from cvtdesign.core.layout import Layout
 from cvtdesign.errors import InputError
-from cvtdesign.io.units import to_si
-from cvtdesign.io.variant import vector
 
 # part dimensions [mm] that the variant does not fix
 AXLE_RADIUS = 4.0          # axle (steel rod, 8 mm)
@@ -138,7 +136,7 @@ def named_by_role(name: str, layout: Layout) -> bool:
     roller's bare name is not."""
     roles = {r.name: r.role for r in layout.rollers}
     kind, _, rest = name.partition("_")
-    forks = len(layout.spec.steering.forks)
+    forks = len(layout.forks)
     return name not in roles and (
         name in ("sphere", "frame") or roles.get(rest) == kind or (kind == "axle" and rest in roles)
         or (kind == "coupling" and roles.get(rest) == "follower")
@@ -153,8 +151,7 @@ def mm(v) -> float:
 def _forks(layout: Layout):
     """[(index, fork axis, [rollers])] of the variant's steering forks."""
     by_name = {r.name: r for r in layout.rollers}
-    return [(i, unit(vec3(by_name[f.rollers[0]].fork_axis)), [by_name[n] for n in f.rollers])
-            for i, f in enumerate(layout.spec.steering.forks)]
+    return [(i, unit(vec3(by_name[f[0]].fork_axis)), [by_name[n] for n in f]) for i, f in enumerate(layout.forks)]
 
 
 def _wheel(layout, r, phi, R) -> Crowned:
@@ -263,16 +260,8 @@ def _coupling(follower, drive, axles, wheels, r_out, vias) -> Part:
 
 def _frame_spec(layout: Layout):
     """(side (unit), distance [mm], thickness [mm]) of the variant's mounting plate, or None."""
-    spec = getattr(layout.spec, "frame", None)
-    if spec is None:
-        return None
-    where, names = f"{layout.file}: frame", layout.parameters
-    side = unit(vec3(vector(spec.side, f"{where}.side", names)))
-    dist = mm(to_si(spec.distance, "length", f"{where}.distance", names))
-    thick = mm(to_si(spec.thickness, "length", f"{where}.thickness", names))
-    if not thick > 0:
-        raise InputError(f"{where}.thickness: expected a positive thickness, got {thick:g} mm")
-    return side, dist, thick
+    f = layout.frame
+    return None if f is None else (unit(vec3(f.side)), mm(f.distance), mm(f.thickness))
 
 
 def _frame(layout: Layout, parts, side, dist, thick) -> Part:

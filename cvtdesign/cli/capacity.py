@@ -17,9 +17,10 @@ from cvtdesign.core.metrics import allowable_pressures
 from cvtdesign.core.model import compile_model
 from cvtdesign.errors import InputError
 from cvtdesign.io import plots
+from cvtdesign.io.limits import load_capacity
 from cvtdesign.io.output import make_folder, named_after, write_file
 from cvtdesign.io.report import Note, Table
-from cvtdesign.io.variant import load_capacity, load_variant
+from cvtdesign.io.variant import load_variant
 
 LIMIT_WORDS = {"gross_slip": "gross slip", "lost_contact": "lost contact", "pressure": "pressure"}
 

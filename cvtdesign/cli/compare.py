@@ -15,11 +15,12 @@ from cvtdesign.core.metrics import ZERO_TORQUE, at_key, envelope, ideal_model, m
 from cvtdesign.core.model import compile_model
 from cvtdesign.core.uncertainty import intervals, point_bands
 from cvtdesign.io import plots
+from cvtdesign.io.limits import check_envelope_limits
 from cvtdesign.io.output import make_folder, named_after, write_file
 from cvtdesign.io.points import check_points_path, contact_points, write_points
 from cvtdesign.io.report import Note, Table
 from cvtdesign.errors import InputError
-from cvtdesign.io.variant import check_envelope_limits, load_variant, shipped_variant
+from cvtdesign.io.variant import load_variant, shipped_variant
 
 
 COLUMNS = [

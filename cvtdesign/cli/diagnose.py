@@ -19,7 +19,7 @@ from cvtdesign.errors import InputError
 from cvtdesign.io import materials, plots
 from cvtdesign.io.output import make_folder, write_files
 from cvtdesign.io.report import png_figure
-from cvtdesign.io.variant import load_variant
+from cvtdesign.io.variant import load_spec, load_variant
 
 CAPTIONS = ("α residual (measured − model) at each operating point over γ × τ⊥, base and diagnosed model; the "
             "gap's regions boxed; × where the model has no physical solution",
@@ -77,7 +77,7 @@ def saved_calibration(args, layout, rep: Report) -> str:
     entries = materials.fitted_calibrations(
         layout, scales, machine=f"{layout.name} ({args.variant})", data=f"{args.data} ({rep.rows} rows)",
         fit=f"cvtdesign diagnose, {date.today().isoformat()}: {effects}; {fitted} on the variant's compliances")
-    return materials.saved_library(args.save_calibration, layout, entries)
+    return materials.saved_library(args.save_calibration, load_spec(args.variant), entries)
 
 
 def other_fits(rep: Report) -> str:

@@ -14,10 +14,11 @@ from cvtdesign.diagnosis import resteer, rig
 from cvtdesign.errors import InputError
 from cvtdesign.diagnosis import measured
 from cvtdesign.io import plots
+from cvtdesign.io.limits import check_points
 from cvtdesign.io.output import make_folder, write_file
 from cvtdesign.io.units import to_si
 from cvtdesign.io.report import Note
-from cvtdesign.io.variant import check_points, load_variant
+from cvtdesign.io.variant import load_variant
 
 
 TABLE_ONLY = ("--table-ratios", "--table-loads")                                  # options of --table alone

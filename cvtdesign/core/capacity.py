@@ -59,7 +59,7 @@ def limit_codes(model: CompiledModel, res: dict, allow: np.ndarray, safety: floa
 
 def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, progress=None) -> dict:
     """The load capacity of `model` at each commanded γ [rad] (module docstring), searched up to |τ⊥| =
-    `bound` [N m] (e.g. io.variant.load_capacity: all the traction the preloads allow), a contact counted as
+    `bound` [N m] (e.g. io.limits.load_capacity: all the traction the preloads allow), a contact counted as
     slipping grossly once its utilisation |F|/(μN) reaches 1/`safety` (safety ≥ 1).
 
     Returns a dict of arrays over γ, for side in ('max', 'min') (τ⊥ > 0 and τ⊥ < 0):

@@ -235,6 +235,17 @@ def check_names(names, where: str) -> tuple:
     return tuple(names)
 
 
+def friction_factor(effects, parameters: dict) -> object:
+    """The factor the `friction` hooks of the effects that are on put on a friction coefficient [-], at their
+    parameters (`parameters`: effect → {param: value}; a parameter not given is at its default)."""
+    mu = 1.0
+    for e in effects:
+        hook = EFFECTS[e].hooks.get("friction")
+        if hook is not None:
+            mu = hook(mu, {k: parameters.get(e, {}).get(k, spec.default) for k, spec in EFFECTS[e].params.items()})
+    return mu
+
+
 def parameter_vector(effects, overrides: dict | None = None):
     """Ordered (names, values) of the parameters of the effects that are on; overrides: {effect: {param: v}}."""
     names, values = [], []

@@ -45,6 +45,7 @@ FRAME = {
     "c2": np.array([0.0, -1.0, -1.0]) / S2,
     "c3": np.array([1.0, 0.0, 0.0]),
 }
+KIM_FRAME = ("d1", "d2", "d3", "c1", "c2", "c3")   # Kim's frame vectors, as opposed to the axes x, y, z
 
 
 def named_vector(name: str) -> np.ndarray | None:
@@ -64,14 +65,6 @@ def rotate(v, k, angle):
     v, k = vec(v), vec(k)
     c, s = ca.cos(angle), ca.sin(angle)
     return v * c + ca.cross(k, v) * s + k * ca.dot(k, v) * (1 - c)
-
-
-def kim_gamma_from_phi(phi):
-    """Kim eq 5: commanded transmission angle γ [rad] for steering angle φ [rad] of the existing CVT.
-
-    Written with atan2 so the branch is continuous: tan γ = (√2 + tan φ)/(√2 − tan φ) ⇔
-    γ = atan2(√2 cos φ + sin φ, √2 cos φ − sin φ)."""
-    return np.arctan2(S2 * np.cos(phi) + np.sin(phi), S2 * np.cos(phi) - np.sin(phi))
 
 
 def linkage_terms(t0s, forks, frame, gammas) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

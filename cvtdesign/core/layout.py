@@ -54,6 +54,15 @@ class Roller:
 
 
 @dataclass(frozen=True)
+class Frame:
+    """The mounting plate, drawn by `cvtdesign export` only: perpendicular to `side`, its near face `distance`
+    from the sphere centre."""
+    side: object                   # unit vector from the sphere centre towards the plate (3-vector)
+    distance: object               # [m]
+    thickness: object              # [m]
+
+
+@dataclass(frozen=True)
 class Layout:
     """A resolved variant: what the compiler needs, in SI."""
     name: str
@@ -73,7 +82,10 @@ class Layout:
     parameters: dict = field(default_factory=dict)
     calibration: dict = field(default_factory=lambda: {"drive": 1.0, "steering": 1.0})   # kalker compliance factors
     effect_uncertainty: dict = field(default_factory=dict)   # effect -> {param: SI 1σ} of fitted parameters
-    spec: object = None            # the io.schema.VariantSpec it was read from
+    forks: tuple[tuple[str, ...], ...] = ()   # each steering fork's rollers by name, in the file's order
+                                              # (fork k + 1 is forks[k]; its axis and ratio: Roller.fork_*)
+    frame: Frame | None = None     # the mounting plate, if the variant has one
+    kim_vectors: tuple[str, ...] = ()     # Kim's frame vectors (core.geometry.KIM_FRAME) its file names ('d1')
 
     def with_effects(self, effects, parameters=None) -> "Layout":
         params = {k: dict(v) for k, v in self.effect_parameters.items()}

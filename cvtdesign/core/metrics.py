@@ -46,7 +46,7 @@ ZERO_TORQUE = 1e-9     # [N m] a steering torque below this is round-off: no for
 def ideal_model(layout) -> CompiledModel:
     """The ideal CVT of a layout: the same rollers and linkage with rigid rolling contacts (Kim's law with no
     effects: no creep, no losses), whatever the layout's contact law. Kalker's law creeps with no effect
-    on, so `effects=()` alone is not ideal under it (box_kalker.yaml's 'ideal' slipped 4.185°)."""
+    on, so `effects=()` alone does not make it ideal."""
     return compile_model(dataclasses.replace(layout, contact_law=IDEAL), effects=())
 
 

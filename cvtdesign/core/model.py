@@ -162,8 +162,8 @@ class CompiledModel:
 def _call(mapped: ca.Function, args: list) -> list[np.ndarray]:
     """Outputs (rows × points arrays) of a function mapped over points, given per-point inputs (length-n
     vectors) and shared ones (vectors repeated for every point). Evaluated on numpy buffers (CasADi's
-    FunctionBuffer): converting ~100 rows of 30k points from CasADi matrices took half as long again as the
-    compiled model itself."""
+    FunctionBuffer), with no conversion from CasADi matrices, which for ~100 rows of 30k points costs half
+    as long again as the compiled model itself."""
     n = mapped.size2_in(0)
     # CasADi stores a rows × points input column by column: a points × rows C array
     rows = [mapped.size1_in(i) for i in range(len(args))]
@@ -385,22 +385,25 @@ def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX
 
     Past the envelope the equations can have more than one root, and the Newton solve from the ideal
     kinematics (no forces) can land on either, depending on round-off: an asymmetric box under Kalker's law
-    gave α = 2.612° written one way and 2.610° rotated, both converged, where loading from rest gives 2.679°.
-    The state then depends on how the load came, which no steady-state model can tell, so such a point
-    carries no number (`multiple_roots`). Where the contact law can have several roots (laws.*.several_roots),
-    the direct root stands unless it failed or some contact uses more than UTIL_CHECK of its friction: a second
-    root needs the law to bend, which it does near saturation (existing_kalker.yaml at γ = −16°, τ⊥ = 2.5 N·m,
-    contacts at 0.68 μN: the direct solve reached α = 18.49° where loading from rest reaches 18.35°; inside the
-    shipped envelopes no contact passes 0.38 μN, and scans of the shipped kalker variants and an asymmetric
-    box over γ ±88°, τ⊥ ±4 N·m found no second root below 0.5 μN). There the point is also solved as a rig
-    reaches it, the load applied from rest in LOAD_STEPS equal steps, each solve starting from the last
-    converged one. Where both hold and differ (by more than ROOT_TOL in the scaled unknowns), the point is
-    `multiple_roots`; where only one holds, that one is the solution. (The stepped solution alone is no answer: near a fold, four steps
-    land on whichever root they reach, and its α jumped by 0.6° between loads one ulp apart.) Under Kim's
-    law the roots inside the envelopes are unique, and the stepped solve only replaces a direct one that
-    fails or turns backwards (existing.yaml at (−80°, 2.1 N·m), `reversed` from the ideal kinematics, is
-    ω2 = −20.2 rad/s from rest). Derivatives are those of the solve whose root is returned, by the implicit
-    function theorem."""
+    reaches α = 2.612° written one way and 2.610° rotated, both converged, where loading from rest reaches
+    2.679°. The state then depends on how the load came, which no steady-state model can tell, so such a
+    point carries no number (`multiple_roots`).
+
+    Where the contact law can have several roots (laws.*.several_roots), the direct root stands unless it
+    failed or some contact uses more than UTIL_CHECK of its friction: a second root needs the law to bend,
+    which it does near saturation (existing_kalker.yaml at γ = −16°, τ⊥ = 2.5 N·m, contacts at 0.68 μN: the
+    direct solve reaches α = 18.49°, loading from rest 18.35°; inside the shipped envelopes no contact passes
+    0.38 μN, and the shipped kalker variants and an asymmetric box have no second root below 0.5 μN over
+    γ ±88°, τ⊥ ±4 N·m). There the point is also solved as a rig reaches it, the load applied from rest in
+    LOAD_STEPS equal steps, each solve starting from the last converged one. Where both hold and differ (by
+    more than ROOT_TOL in the scaled unknowns), the point is `multiple_roots`; where only one holds, that one
+    is the solution. The stepped solution alone is no answer: near a fold its steps land on whichever root
+    they reach, and its α can jump by 0.6° between loads one ulp apart.
+
+    Under Kim's law the roots inside the envelopes are unique, and the stepped solve only replaces a direct
+    one that fails or turns backwards (existing.yaml at (−80°, 2.1 N·m) is `reversed` from the ideal
+    kinematics and ω2 = −20.2 rad/s from rest). Derivatives are those of the solve whose root is returned,
+    by the implicit function theorem."""
     def good(x, q):      # converged, on a forward root (as _status judges them)
         return ca.logic_and(_converged(residual(x, q)), ca.dot(x[0:3], x0_fn(q)[0:3]) > 0)
 

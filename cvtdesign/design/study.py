@@ -76,8 +76,9 @@ from cvtdesign.io.output import remove_stale_temps
 from cvtdesign.io.units import registry
 from cvtdesign.io.variant import parameter_value
 
-MAX_CASES = 10_000       # cases of one study (variant files × sweep points × starts): more is a typo (40,000
-                         # cases took minutes to check before any ran)
+MAX_CASES = 10_000       # cases of one study (variant files × sweep points × starts): more is a typo, and
+                         # checking them all before any runs would take minutes
+
 
 class Interrupted(KeyboardInterrupt):
     """Ctrl-C during a study: the message says how many cases are kept in the store."""

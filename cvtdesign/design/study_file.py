@@ -38,9 +38,10 @@ from cvtdesign.core.contact.laws import check_effects
 from cvtdesign.design.objectives import OBJECTIVES
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.fitted import read_fitted
+from cvtdesign.io.limits import check_envelope_limits
 from cvtdesign.io.schema import MAX_COUNT, EnvelopeSpec, Name, Num, Strict, VariantSpec, no_bool
 from cvtdesign.io.units import check_range, dimension_of, kind_name, to_si
-from cvtdesign.io.variant import check_envelope_limits, grid, load_spec, parameter_value, quantity, resolve
+from cvtdesign.io.variant import grid, load_spec, parameter_value, quantity, resolve
 from cvtdesign.io.yaml_file import read_spec
 
 DEFAULT_MIN_NORMAL_FRACTION = 0.05   # default min_normal_force: this fraction of each roller's base preload
@@ -241,11 +242,12 @@ def _at_bound(vspec, base_file, overrides: dict, where: str, raw):
 
 
 def _contents(obj):
-    """What a resolved layout is made of (numbers, names, nested), without its parameters and source, so
-    that two layouts compare equal when they are the same machine."""
+    """What a resolved layout is made of (numbers, names, nested), without its parameters, source and
+    mounting plate (which only `export` draws), so that two layouts compare equal when they are the same
+    machine."""
     if dataclasses.is_dataclass(obj):
         return [_contents(getattr(obj, f.name)) for f in dataclasses.fields(obj)
-                if f.name not in ("parameters", "spec", "file")]
+                if f.name not in ("parameters", "file", "frame")]
     if isinstance(obj, dict):
         return [(k, _contents(v)) for k, v in obj.items()]
     if isinstance(obj, (list, tuple)):

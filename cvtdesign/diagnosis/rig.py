@@ -20,9 +20,10 @@ from cvtdesign.core.effects import EFFECTS, check_names
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.model import compile_model, status_counts
 from cvtdesign.errors import InputError, suggest
+from cvtdesign.io.limits import check_loads, check_points
 from cvtdesign.io.schema import MAX_COUNT, Num, RangeSpec, Strict, no_bool
 from cvtdesign.io.units import to_si
-from cvtdesign.io.variant import check_loads, check_points, effect_value, grid, quantity
+from cvtdesign.io.variant import effect_value, grid, quantity
 from cvtdesign.io.yaml_file import read_spec
 
 Quantity = Num       # a plain number (SI) or a quantity; true/false are not numbers

@@ -15,17 +15,14 @@ so that no two overlap at the drawing's default size.
 """
 from __future__ import annotations
 
-import json
-import re
 from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.core.geometry import FRAME, pose, steering_angle
+from cvtdesign.core.geometry import FRAME, KIM_FRAME, pose, steering_angle
 from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.io.plots import figure_parts, place_labels, save
 
-KIM_FRAME = ("d1", "d2", "d3", "c1", "c2", "c3")
 SHAFT_NAMES = {1: "motor shaft 1", 2: "brake shaft 2"}
 SHAFT_COLOURS = {1: "tab:red", 2: "tab:green"}
 ROLE_COLOURS = {"drive": "tab:blue", "follower": "tab:cyan", "steering": "tab:orange"}
@@ -33,15 +30,6 @@ FORK_COLOUR = "purple"
 # orthographic views: (title, horizontal axis, vertical axis, axis pointing at the viewer, its sense)
 VIEWS = (("top view (from +z)", 0, 1, 2, 1.0), ("front view (from −y)", 0, 2, 1, -1.0),
          ("side view (from +x)", 1, 2, 0, 1.0))
-
-
-
-def frames_used(spec) -> list[str]:
-    """The names of Kim's frame vectors that the variant file writes in its rollers or forks ('d1', '-c2')."""
-    if spec is None:
-        return []
-    text = json.dumps([spec.model_dump(mode="json")[k] for k in ("rollers", "steering")])
-    return [k for k in KIM_FRAME if re.search(rf"(?<![\w.]){k}(?!\w)", text)]
 
 
 def roller_label(r: dict) -> str:
@@ -57,8 +45,7 @@ def layout_scene(layout, phi: float, gamma: float) -> dict:
     names; the commanded sphere axis u(γ) at γ [rad] (kinematics.shaft_frame) and the ideal law."""
     frame = shaft_frame(layout)
     R = 1000 * float(layout.sphere_radius)
-    forks = layout.spec.steering.forks if layout.spec is not None else []
-    fork_of = {n: k + 1 for k, f in enumerate(forks) for n in f.rollers}
+    fork_of = {n: k + 1 for k, f in enumerate(layout.forks) for n in f}
     rollers = []
     for r in layout.rollers:
         n, a = pose(r, phi)
@@ -70,15 +57,15 @@ def layout_scene(layout, phi: float, gamma: float) -> dict:
         rollers.append({"name": r.name, "role": r.role, "shaft": r.shaft, "radius": rad, "centre": centre,
                         "rim": rim, "normal": n, "axle": a, "fork": fork, "fork_index": fork_of.get(r.name)})
     drawn_forks = []
-    for k, f in enumerate(forks):
-        own = [r for r in rollers if r["name"] in f.rollers]
+    for k, f in enumerate(layout.forks):
+        own = [r for r in rollers if r["name"] in f]
         axis = own[0]["fork"]
         towards = np.mean([r["centre"] for r in own], axis=0)
         axis = axis if axis @ towards >= 0 else -axis
         reach = max(abs(r["centre"] @ axis) + r["radius"] for r in own)
-        drawn_forks.append({"index": k + 1, "rollers": list(f.rollers), "axis": axis, "reach": max(reach, 1.2 * R)})
+        drawn_forks.append({"index": k + 1, "rollers": list(f), "axis": axis, "reach": max(reach, 1.2 * R)})
     return {"R": R, "rollers": rollers, "forks": drawn_forks,
-            "frames": {k: FRAME[k] for k in frames_used(layout.spec)},
+            "frames": {k: FRAME[k] for k in layout.kim_vectors},
             "command": np.asarray(frame.axis(gamma), float).ravel(), "law": frame.law_text()}
 
 

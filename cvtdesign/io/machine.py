@@ -1,6 +1,6 @@
 """What this machine has for a run, read before a command starts one: the cores this process may use and the
 memory still free. Sizes a command would run beyond them (local Dask workers, envelope points) are refused
-in one InputError line that gives the limit (design.cluster, io.variant)."""
+in one InputError line that gives the limit (design.cluster, io.limits)."""
 from __future__ import annotations
 
 import os

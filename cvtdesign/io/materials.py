@@ -153,17 +153,17 @@ def fitted_calibrations(layout: Layout, scales: dict, machine: str, data: str, f
     return out
 
 
-def saved_library(path, layout: Layout, entries: list[dict]) -> str:
+def saved_library(path, spec: VariantSpec, entries: list[dict]) -> str:
     """The text of library file `path` with `entries` added: an existing library keeps its other entries (one
-    of the same pair is replaced); the variant's own definitions of the entries' materials are written with
-    them, so that a variant naming the file gets the same materials the calibration was fitted with."""
+    of the same pair is replaced); the variant `spec`'s own definitions of the entries' materials are written
+    with them, so that a variant naming the file gets the same materials the calibration was fitted with."""
     path = Path(path)
     old = read_spec(str(path), LibrarySpec, "materials, calibrations") if path.is_file() else LibrarySpec()
     data = old.model_dump(exclude_defaults=True, exclude_none=True)
     pairs = {(e["roller"], e["sphere"]) for e in entries}
     data["calibrations"] = [c for c in data.get("calibrations", []) if (c["roller"], c["sphere"]) not in pairs]
     data["calibrations"] += entries
-    own = layout.spec.materials if layout.spec is not None else {}
+    own = spec.materials
     for name in sorted({m for e in entries for m in (e["roller"], e["sphere"])} & set(own)):
         data.setdefault("materials", {})[name] = own[name].model_dump(exclude_defaults=True, exclude_none=True)
     return HEADER + yaml.safe_dump(data, sort_keys=False, allow_unicode=True, width=110)

@@ -18,10 +18,11 @@ from pydantic import BaseModel
 
 from cvtdesign.core import effects as fx
 from cvtdesign.core.contact.laws import LAWS
+from cvtdesign.io.limits import LOAD_MARGIN, MAX_GRID_POINTS, MAX_POINTS
 from cvtdesign.io.output import write_files
 from cvtdesign.io.schema import Spherical, VariantSpec, law_name, unit_text
 from cvtdesign.io.units import KINDS
-from cvtdesign.io.variant import LOAD_MARGIN, MAX_GRID_POINTS, MAX_POINTS, PLAUSIBLE
+from cvtdesign.io.variant import PLAUSIBLE
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"    # the repository's docs/ (run from a checkout)
 REFERENCE, EFFECTS_DOC = "variant-reference.md", "effects.md"
@@ -94,13 +95,6 @@ def sections(model=VariantSpec, prefix: str = "", extra: dict | None = None) -> 
         path = f"{prefix}{name}" + {"model": "", "dict": f".{KEY_NAMES.get(name, '<name>')}", "list": "[]"}[shape]
         out += sections(sub, path + ".", info.json_schema_extra or {})
     return out
-
-
-def schema_paths() -> list[str]:
-    """Every field path of a variant file ('rollers.<roller>.radius'), and those of a direction's
-    {polar, azimuth}."""
-    paths = [f"{prefix}{name}" for prefix, model, _ in sections() for name in model.model_fields]
-    return paths + [f"{{polar, azimuth}}.{name}" for name in Spherical.model_fields]
 
 
 def _number(v: float) -> str:

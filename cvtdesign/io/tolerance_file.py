@@ -134,7 +134,7 @@ def _forks(t: ToleranceSpec, where: str, layout: Layout) -> list[tuple[str, ...]
     role = isinstance(t.rollers, str) and t.rollers in ("all", *ROLES)
     forks = []
     for name in named:
-        fork = next((tuple(f.rollers) for f in layout.spec.steering.forks if name in f.rollers), None)
+        fork = next((f for f in layout.forks if name in f), None)
         if fork is None and not role:
             kind = next(r.role for r in layout.rollers if r.name == name)
             raise InputError(f"{where}.rollers: {name} is a {kind} roller, on no fork; expected steering rollers")

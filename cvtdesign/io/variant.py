@@ -14,7 +14,9 @@ mean '45 mm'?"). docs/variant-reference.md lists the ranges.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+import re
 from importlib import resources
 from pathlib import Path
 
@@ -24,10 +26,11 @@ import numpy as np
 from cvtdesign.core import effects as fx
 from cvtdesign.core.contact import laws
 from cvtdesign.core.checks import check_layout
-from cvtdesign.core.geometry import named_vector, spherical
-from cvtdesign.core.layout import Layout, Material, Roller
+from cvtdesign.core.geometry import KIM_FRAME, named_vector, spherical
+from cvtdesign.core.layout import Frame, Layout, Material, Roller
 from cvtdesign.errors import InputError, shorten, suggest
-from cvtdesign.io import machine, materials
+from cvtdesign.io import materials
+from cvtdesign.io.limits import MAX_GRID_POINTS, check_envelope_limits
 from cvtdesign.io.schema import RangeSpec, Spherical, VariantSpec
 from cvtdesign.io.units import (
     MAX_QUANTITY_TEXT,
@@ -117,7 +120,7 @@ def _positive(value, where, what="a positive value"):
 # plausible SI range of each dimensional field: (what, kind, lower, upper, lower exclusive, unit a plain number
 # probably meant); see VariantSpec
 PLAUSIBLE = {
-    # lengths below a tenth of a millimetre are no machine part (a 1e-6 mm roller gave 5947 MPa, unflagged)
+    # lengths below a tenth of a millimetre are no machine part (a 1e-6 mm roller would give 5947 MPa)
     "sphere_radius": ("sphere radius", "length", 1e-3, 2.0, False, "mm"),
     "roller_radius": ("roller radius", "length", 1e-4, 1.0, False, "mm"),
     "crown_radius": ("crown radius", "length", 1e-4, 1.0, False, "mm"),
@@ -137,16 +140,6 @@ PLAUSIBLE = {
     "frame_distance": ("plate distance", "length", 0.0, 10.0, True, "mm"),
     "frame_thickness": ("plate thickness", "length", 0.0, 1.0, True, "mm"),
 }
-MAX_GRID_POINTS = 100_000      # per envelope axis (γ, load): a 1e-9° step would otherwise allocate terabytes
-# operating points of one evaluation (γ × load × speed): about a minute of the compiled model; fewer where half
-# the machine's free memory holds fewer, at BYTES_PER_POINT for each of (4 + the rollers) (2.1 kB measured
-# for the box CVT's 8 rollers). 94,119 γ × 95,239 loads asked numpy for 67 GB.
-MAX_POINTS = 1_000_000
-BYTES_PER_POINT = 256
-# a load may be at most LOAD_MARGIN × all the traction the preloads allow (load_capacity): beyond it no contact
-# could carry it (the shipped variants keep no point ok beyond a quarter of it); the margin is for normal
-# forces that grow under load. The range of PLAUSIBLE["load"] holds for any variant; this one is the variant's.
-LOAD_MARGIN = 2.0
 _EFFECT_GUESS = {"length": "mm", "angle": "deg"}
 
 
@@ -202,45 +195,6 @@ def grid(r: RangeSpec, kind, where):
     return points
 
 
-def check_points(n: int, n_rollers: int, where: str, what: str = "operating points") -> None:
-    """At most MAX_POINTS operating points in one evaluation, and no more than half this machine's free
-    memory holds (BYTES_PER_POINT); else one InputError line giving the limit."""
-    free = machine.free_memory()
-    limit = MAX_POINTS if free is None else min(MAX_POINTS, free // (2 * BYTES_PER_POINT * (4 + n_rollers)))
-    if n > limit:
-        memory = "" if free is None else f", and what half of this machine's {free / 2**30:.1f} GB of free memory holds"
-        raise InputError(f"{where}: {n:.4g} {what}; expected at most {limit} (at most {MAX_POINTS} in one run"
-                         f"{memory}); a larger step")
-
-
-def load_capacity(layout: Layout) -> float | None:
-    """The largest load [N·m] a variant's envelope, protocol or duty cycle may ask for: LOAD_MARGIN × Σ μ_i
-    P_i max(R, r_i |ratio_i|) over the contacts, with μ_i the smaller friction coefficient of the roller's and
-    the sphere's material (times traction_saturation.mu_scale, if on and above 1), P_i the preload, R the
-    sphere's radius and r_i the roller's: all the traction the preloads allow, at the longer of the arms it
-    acts on (a shaft's torque is F·r). None when a value is symbolic (an optimiser's design parameter)."""
-    scale = layout.effect_parameters.get("traction_saturation", {}).get("mu_scale", 1.0) \
-        if "traction_saturation" in layout.effects else 1.0
-    terms = [(r.material.mu, layout.sphere_material.mu, r.preload, r.radius, r.ratio) for r in layout.rollers]
-    if not all(isinstance(v, (int, float)) for v in [layout.sphere_radius, scale, *(v for t in terms for v in t)]):
-        return None
-    R = layout.sphere_radius
-    return LOAD_MARGIN * max(1.0, scale) * sum(min(m1, m2) * P * max(R, r * abs(k)) for m1, m2, P, r, k in terms)
-
-
-def check_loads(fields, layout: Layout) -> None:
-    """Each (where, load [N·m]) of `fields` within ±load_capacity(layout), else one InputError line naming
-    the field (and N·mm, when the values look meant in it: '-1000..1000' was read as N·m, and 340 of 357
-    points failed)."""
-    cap = load_capacity(layout)
-    for where, value in fields:
-        if cap is not None and isinstance(value, (int, float)) and abs(value) > cap:
-            hint = "; were the loads meant in N·mm? (plain numbers are N·m)" if abs(value) / 1000 <= cap else ""
-            raise InputError(f"{where}: |τ| = {abs(value):.4g} N·m is more than this variant's contacts can carry; "
-                             f"expected at most {cap:.3g} N·m ({LOAD_MARGIN:g} × Σ μ·P·max(R, r) over its "
-                             f"contacts: all the traction its preloads allow){hint}")
-
-
 def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Layout:
     """Build the SI Layout. `overrides` maps parameter names to values (floats or CasADi symbols)."""
     names, overrides = Parameters(), overrides or {}
@@ -249,19 +203,15 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         names.record(k, v)
     mats = _materials(spec, where, names)
     R = quantity(spec.sphere.radius, "sphere_radius", f"{where}: sphere.radius", names, "a positive radius")
-    forks = _forks(spec, where, names)
+    forks, fork_of = _forks(spec, where, names)
     law, calibration = _contact_law(spec, where, names)
-    rollers = tuple(_with_creep_source(_roller(spec, rn, where, names, mats, forks, R), spec, where)
+    rollers = tuple(_with_creep_source(_roller(spec, rn, where, names, mats, fork_of, R), spec, where)
                     for rn in spec.rollers)
     for s in (1, 2):
         if not any(r.role == "drive" and r.shaft == s for r in rollers):
             raise InputError(f"{where}: rollers: no drive roller on shaft {s} (role: drive, shaft: {s})")
     laws.check_effects(spec.effects, f"{where}: effects", law)
     eparams = _effect_parameters(spec, where, names)
-    if spec.frame is not None:     # drawn by `cvtdesign export` only, checked here with the rest
-        vector(spec.frame.side, f"{where}: frame.side", names)
-        quantity(spec.frame.distance, "frame_distance", f"{where}: frame.distance", names, "a positive distance")
-        quantity(spec.frame.thickness, "frame_thickness", f"{where}: frame.thickness", names, "a positive thickness")
     c, env = spec.contact, spec.envelope
 
     def creep(value, key, field):
@@ -278,18 +228,11 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         gamma_grid=grid(env.gamma, "angle", f"{where}: envelope.gamma"),
         load_grid=grid(env.load, "torque", f"{where}: envelope.load"),
         motor_speed=quantity(env.motor_speed, "motor_speed", f"{where}: envelope.motor_speed", None, "a positive value"),
-        parameters=names, spec=spec, contact_law=law, calibration=calibration)
+        parameters=names, contact_law=law, calibration=calibration, forks=forks,
+        frame=None if spec.frame is None else _frame(spec.frame, f"{where}: frame", names),
+        kim_vectors=_kim_vectors(spec))
     check_envelope_limits(layout, f"{where}: envelope")
     return layout
-
-
-def check_envelope_limits(layout: Layout, where: str) -> None:
-    """The layout's envelope (or another of its γ and load grids, e.g. a study's) within what the machine
-    can evaluate (check_points) and the loads within what its contacts can carry (check_loads)."""
-    g, tau = layout.gamma_grid, layout.load_grid
-    check_points(g.size * tau.size, len(layout.rollers), where,
-                 f"operating points ({g.size} γ × {tau.size} loads)")
-    check_loads([(f"{where}.load.start", float(tau[0])), (f"{where}.load.stop", float(tau[-1]))], layout)
 
 
 def _contact_law(spec: VariantSpec, where: str, names: dict) -> tuple[str, dict]:
@@ -354,9 +297,9 @@ def _fork_ratio(f, w: str, names: dict) -> float:
     return ratio
 
 
-def _forks(spec: VariantSpec, where: str, names: dict) -> dict:
-    """Steering roller name -> (fork axis, gear ratio, index of the fork in steering.forks)."""
-    forks = {}
+def _forks(spec: VariantSpec, where: str, names: dict) -> tuple[tuple[tuple[str, ...], ...], dict]:
+    """Each fork's rollers, and steering roller name -> (fork axis, gear ratio, index of its fork)."""
+    forks, fork_of = [], {}
     for i, f in enumerate(spec.steering.forks):
         w = f"{where}: steering.forks[{i}]"
         axis = vector(f.axis, f"{w}.axis", names)
@@ -368,10 +311,24 @@ def _forks(spec: VariantSpec, where: str, names: dict) -> dict:
                 raise InputError(f"{w}.rollers: unknown roller '{rn}'{suggest(rn, spec.rollers)}")
             if spec.rollers[rn].role != "steering":
                 raise InputError(f"{w}.rollers: '{rn}' is a {spec.rollers[rn].role} roller; only steering rollers turn with φ")
-            if rn in forks:
+            if rn in fork_of:
                 raise InputError(f"{w}.rollers: '{rn}' is already on another fork")
-            forks[rn] = (axis, ratio, i)
-    return forks
+            fork_of[rn] = (axis, ratio, i)
+        forks.append(tuple(f.rollers))
+    return tuple(forks), fork_of
+
+
+def _frame(f, w: str, names: dict) -> Frame:
+    """The mounting plate `frame` in SI (drawn by `cvtdesign export` only, checked here with the rest)."""
+    return Frame(side=vector(f.side, f"{w}.side", names),
+                 distance=quantity(f.distance, "frame_distance", f"{w}.distance", names, "a positive distance"),
+                 thickness=quantity(f.thickness, "frame_thickness", f"{w}.thickness", names, "a positive thickness"))
+
+
+def _kim_vectors(spec: VariantSpec) -> tuple[str, ...]:
+    """The names of Kim's frame vectors that the variant file writes in its rollers or forks ('d1', '-c2')."""
+    text = json.dumps([spec.model_dump(mode="json")[k] for k in ("rollers", "steering")])
+    return tuple(k for k in KIM_FRAME if re.search(rf"(?<![\w.]){k}(?!\w)", text))
 
 
 def _own_or_default(spec: VariantSpec, rn: str, field: str, where: str):

@@ -276,3 +276,24 @@ def test_a_toy_contact_law_is_one_class(tmp_path, monkeypatch):
     np.testing.assert_allclose(b["alpha"], a["alpha"] / 2, rtol=0.05)
     assert laws.contact_law("toy_stiff").compliance(stiff, stiff.rollers[0]) == pytest.approx(
         laws.contact_law("kim").compliance(kim, kim.rollers[0]) / 2)
+
+
+def test_core_receives_no_schema_objects():
+    """core is handed SI values in its own dataclasses (core.layout), never the parsed variant file: no core
+    module imports io or pydantic, names a schema class (`...Spec`) or reads a `.spec`, and no class of core
+    has a field `spec` (Layout once carried the io.schema.VariantSpec down as `spec: object`)."""
+    bad = []
+    for m, tree in MODULES.items():
+        if layer(m) != "core":
+            continue
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                bad += [f"{m} line {node.lineno}: imports {n}" for n in imported(node)
+                        if n.startswith(("cvtdesign.io", "pydantic"))]
+            elif isinstance(node, ast.Name) and node.id.endswith("Spec") or isinstance(node, ast.Attribute) \
+                    and (node.attr == "spec" or node.attr.endswith("Spec")):
+                bad.append(f"{m} line {node.lineno}: names {ast.unparse(node)}")
+            elif isinstance(node, ast.ClassDef):
+                bad += [f"{m} line {f.lineno}: {node.name}.spec" for f in node.body
+                        if isinstance(f, ast.AnnAssign) and isinstance(f.target, ast.Name) and f.target.id == "spec"]
+    assert not bad, f"schema objects in core: {bad}"

@@ -292,7 +292,7 @@ def test_rasterise_is_a_z_buffer():
     ids, shade = np.arange(60) % 4, rng.uniform(0.4, 1, 60)
     colours = rng.uniform(0, 1, (4, 3))
     pixels = 64
-    image = picture.rasterise(tri, ids, shade, colours, pixels)
+    image = picture.raster(tri, ids, shade, colours, pixels)[0]
     # the same transform to pixels, then every centre tested against every triangle
     t = tri.copy()
     lo, hi = t[..., :2].reshape(-1, 2).min(axis=0), t[..., :2].reshape(-1, 2).max(axis=0)

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 import yaml
 
+from kim_closed_forms import kim_gamma_from_phi  # tests/validation is on sys.path (tests/conftest.py)
 from cvtdesign.cad import step
 from cvtdesign.cli import main
-from cvtdesign.core.geometry import ideal_gamma, kim_gamma_from_phi, pose
+from cvtdesign.core.geometry import ideal_gamma, pose
 from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.io.variant import load_variant
 

@@ -7,8 +7,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from kim_closed_forms import kim_gamma_from_phi  # tests/validation is on sys.path (tests/conftest.py)
 from cvtdesign.core import native
-from cvtdesign.core.geometry import ideal_gamma, kim_gamma_from_phi
+from cvtdesign.core.geometry import ideal_gamma
 from cvtdesign.core.model import CONTACT_OUTPUTS, POINT_OUTPUTS, STATUS, compile_model
 from cvtdesign.io.variant import load_variant
 

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from kim_closed_forms import kim_gamma_from_phi  # tests/validation is on sys.path (tests/conftest.py)
 from cvtdesign.core.geometry import steering_angle
 from cvtdesign.cli import main
-from cvtdesign.core.geometry import kim_gamma_from_phi
 from cvtdesign.io.layout_drawing import layout_scene
 from cvtdesign.io.variant import load_variant
 
@@ -139,7 +139,7 @@ def test_labels_name_each_roller_its_shaft_and_fork_and_sit_on_it(name, monkeypa
     assert text_problems(fig) == []
     layout = load_variant(ROOT / f"variants/{name}.yaml")
     scene = layout_scene(layout, steering_angle(layout, np.radians(45)), np.radians(45))
-    forks = {n: k + 1 for k, f in enumerate(layout.spec.steering.forks) for n in f.rollers}
+    forks = {n: k + 1 for k, f in enumerate(layout.forks) for n in f}
     for title, i, j, _, _ in layout_drawing.VIEWS:
         labels, ax = view_labels(fig, title)
         texts = {t.get_text().split("\n")[0]: t.get_text() for t in ax.texts}
@@ -170,10 +170,10 @@ def test_shafts_drawn_through_their_rollers_and_forks_out_through_theirs(existin
 def test_frame_vectors_only_where_the_file_names_them(monkeypatch, cli, tmp_path):
     """Kim's d1…c3 mean something only on a layout written in them: existing names d1 d2 c1 c2, box d1 d2;
     a rotated copy of unequal, written in numbers, gets none (they were drawn on it all the same)."""
-    assert layout_drawing.frames_used(load_variant(ROOT / "variants/existing.yaml").spec) == ["d1", "d2", "c1", "c2"]
-    assert layout_drawing.frames_used(load_variant(ROOT / "variants/box.yaml").spec) == ["d1", "d2"]
+    assert load_variant(ROOT / "variants/existing.yaml").kim_vectors == ("d1", "d2", "c1", "c2")
+    assert load_variant(ROOT / "variants/box.yaml").kim_vectors == ("d1", "d2")
     turned = dump(rotate(read("unequal"), axis_angle_matrix([1.0, 2.0, 3.0], 0.7)), tmp_path / "turned.yaml")
-    assert layout_drawing.frames_used(load_variant(turned).spec) == []
+    assert load_variant(turned).kim_vectors == ()
     fig, _ = drawn(monkeypatch, cli, tmp_path, turned)
     texts = {t.get_text() for t in fig.findobj(lambda a: hasattr(a, "get_text"))}
     assert not texts & set(layout_drawing.KIM_FRAME) and not any("frame vectors" in t for t in texts)

@@ -17,7 +17,6 @@ import numpy as np
 # (subroutine linrol, data cij) [3], repository eve70a/CONTACT, commit 0ecc556aed75519a9ea9971d0b30badb35824f13.
 # Rows: a/b = 0.1, 0.2, ..., 1.0 followed by b/a = 0.9, 0.8, ..., 0.1 (the a/b = 1 row appears once).
 # Columns: C11 (nu = 0, 0.25, 0.5), C22 (nu = 0, 0.25, 0.5), C23 (nu = 0, 0.25, 0.5).
-KALKER_NU = np.array([0.0, 0.25, 0.5])
 KALKER_A_OVER_B = np.concatenate([np.arange(1, 11) / 10.0, 1.0 / (np.arange(9, 0, -1) / 10.0)])
 KALKER_TABLE = np.array([
     [2.51, 3.31, 4.85, 2.51, 2.52, 2.53, .334, .473, .731],

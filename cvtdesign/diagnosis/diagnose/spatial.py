@@ -143,11 +143,6 @@ def autocorrelation_z(nb: Neighbours, z: np.ndarray) -> float:
     return float(prods.mean() / var * np.sqrt(prods.size))
 
 
-def structure(nb: Neighbours, z: np.ndarray) -> float:
-    """The largest spatial-autocorrelation z over the channels of a residual field (channels, points)."""
-    return max(autocorrelation_z(nb, zc) for zc in z)
-
-
 def neighbour_pairs(nb: Neighbours, ok: np.ndarray) -> int:
     """Neighbouring pairs of points where both are `ok`."""
     return int(np.sum(ok[nb.edges[:, 0]] & ok[nb.edges[:, 1]]))
