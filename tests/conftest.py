@@ -58,6 +58,18 @@ def write_yaml(path: Path, data: dict) -> Path:
     return path
 
 
+# module fixtures that take seconds to build (a study run, a tolerance study, a STEP export, a kalker run with
+# --points): a test that uses one is a slow check (-m slow), as the tests marked slow themselves are
+SLOW_FIXTURES = {"finished", "exported", "kalker_points"}
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if SLOW_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)
+
+
 @pytest.fixture(scope="session")
 def root() -> Path:
     """The repository root."""

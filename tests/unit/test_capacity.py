@@ -222,6 +222,7 @@ def test_an_optimum_under_min_capacity_carries_it_at_every_gamma(tmp_path, cli):
     assert len(cap) == 5 and all(c["tau_perp_max_Nm"] >= 6 - 1e-6 and c["tau_perp_min_Nm"] <= -6 + 1e-6 for c in cap)
 
 
+@pytest.mark.slow
 def test_a_capacity_no_design_reaches_is_named(tmp_path, cli):
     """The box's drive rollers fixed at 40 mm slip together at 0.8·μP·2r = 5.12 N·m at γ = 0 with the margin:
     5.5 N·m is out of reach whatever the steering pairs do, and optimise says which contact and where; with

@@ -62,6 +62,7 @@ def test_different_laws_are_refused_in_one_line(tmp_path, cli):
     assert [c.strip() for c in law_row.split("│")[2:-1]] == ["kim", "kalker"]
 
 
+@pytest.mark.slow
 def test_two_variants_of_one_name_get_distinct_columns(tmp_path, cli):
     """Two files both named 'same': the columns are 'same (a.yaml)' and 'same (b.yaml)', in the table, the JSON
     and the figure's legend."""
@@ -73,6 +74,7 @@ def test_two_variants_of_one_name_get_distinct_columns(tmp_path, cli):
     assert rows[0]["max_abs_alpha_deg"] != rows[1]["max_abs_alpha_deg"]
 
 
+@pytest.mark.slow
 def test_every_figure_has_its_interval(tmp_path, cli):
     """Each of compare's figures with a value has '<figure>_interval' [lo, hi] around it in the JSON and
     'value [lo, hi]' in the table (where the interval shows at the figure's digits); the calibration's σ is in

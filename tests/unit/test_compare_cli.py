@@ -79,6 +79,7 @@ def test_single_file_outside_the_repository_still_compares_with_existing(tmp_pat
     assert rows[1]["max_abs_alpha_deg"] == pytest.approx(10.761, abs=5e-4)
 
 
+@pytest.mark.slow
 def test_roller_defaults_supply_any_roller_field(make_variant, tmp_path):
     """A roller field given once in roller_defaults means the same as on every roller that omits it: the
     drive rollers' radius and material moved there give figures identical to the file that repeats them."""
@@ -112,6 +113,7 @@ def heavy(data, loads=("-20 N*m", "20 N*m", "2 N*m"), allowable="2.5 MPa", name=
     data["materials"]["urethane_84A"]["allowable_pressure"] = allowable
 
 
+@pytest.mark.slow
 def test_a_table_never_looks_better_than_the_run(make_variant, tmp_path, capsys):
     """A variant with 38 of 357 points ok printed a clean column (its failures in a footnote only), and a
     Hertz pressure over the allowable had no mark. Now a first row says 'under half' in its column, a figure

@@ -54,6 +54,7 @@ def test_rows_are_the_model_s_state(kalker_points):
     assert GC11.min() == pytest.approx(7.1946 * 5.64 / 3.1364, rel=5e-3) and GC11.max() == pytest.approx(GC11.min(), rel=1e-6)
 
 
+@pytest.mark.slow
 def test_points_that_are_not_ok_carry_their_status_and_no_numbers(tmp_path):
     """A load range past the physics (±6 N·m on Kim's CVT): the failed points keep their status and every number
     of theirs is empty."""

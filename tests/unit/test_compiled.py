@@ -121,6 +121,7 @@ def test_compiled_derivatives_match_interpreted(cache):
         np.testing.assert_allclose(a, b, rtol=1e-8, atol=1e-8 * np.abs(b).max())
 
 
+@pytest.mark.slow
 @needs_compiler
 def test_auto_compiles_in_a_detached_process_once_hot(cache, monkeypatch):
     """'auto': the first evaluation is interpreted and, once over HOT_SECONDS, starts a compile in another

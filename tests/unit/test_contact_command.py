@@ -99,6 +99,7 @@ def test_bad_variant_is_one_line(tmp_path, capsys):
     assert err.count("\n") == 1 and "bad.yaml" in err and "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_contact_figures_read_as_they_are(monkeypatch, tmp_path):
     """The x-axis label was cut off, the title ran into the panel titles, '5.70 × 3.57 mm' (semi-axes) read
     like the patch's size, and the four creep curves lay on top of each other. Now no text is cut or

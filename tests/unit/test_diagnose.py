@@ -247,6 +247,7 @@ def test_one_typo_row_leaves_the_verdict(layout, tmp_path):
     assert rep.verdict == "steering_lateral_creep"
 
 
+@pytest.mark.slow
 def test_where_the_base_model_fails_it_is_counted_and_left_out_of_the_gap(layout, tmp_path):
     """Rig data plus two rows measured in gross slip (γ 50°, τ⊥ −2.5 N·m and γ 60°, +2 N·m), where the base
     model has no physical solution. They were silent: no count anywhere, regions of 14.1° and −4.5° drawn
@@ -266,6 +267,7 @@ def test_where_the_base_model_fails_it_is_counted_and_left_out_of_the_gap(layout
     assert "the base model has no physical solution at 2 of 189 operating points (gross slip 2" in text
 
 
+@pytest.mark.slow
 def test_a_candidate_that_fits_one_channel_by_spoiling_another_is_not_accepted(layout, tmp_path):
     """A 1° offset of the axis encoder alone (outside the vocabulary): steering_offset fitted 0.5° and was
     'accepted' on the axis channel while the held-out RMS α went from 0.055° to 0.55°. A gain in one channel

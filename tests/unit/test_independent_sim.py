@@ -152,6 +152,7 @@ def test_out_of_vocabulary_effects_change_the_data_beyond_noise(effect):
         assert best > 1.5 and chi > 20
 
 
+@pytest.mark.slow
 def test_cases_catalogue():
     """Two strengths per in-vocabulary effect, two per out-of-vocabulary effect (creep_reference, an extra,
     has one), two nulls; every case is Kim's base plus what it withholds, its diagnosis base is Kim's two

@@ -41,6 +41,7 @@ def test_what_the_law_refuses(tmp_path, capsys, edit, message):
     assert err.count("\n") == 1 and message in err, err
 
 
+@pytest.mark.slow
 def test_calibration_and_the_creep_effects_scale_are_one_factor(tmp_path):
     """contact.calibration.drive = 2 and drive_longitudinal_creep.scale = 2 (the parameter diagnose fits
     under kalker) multiply the same compliances: identical α everywhere. (A factor given, even 1, replaces the
@@ -72,6 +73,7 @@ def test_spin_gives_an_axis_offset_at_zero_load(tmp_path):
     assert 0.03 < drive.max() < 0.1
 
 
+@pytest.mark.slow
 def test_calibrated_box_follows_kims_fit_in_the_linear_range(tmp_path):
     """Calibrated so that the compliances at 100 N are Kim's ε_D and ε_S, the box CVT (its pole rollers see
     little spin) slips like Kim's fitted model at small loads: dα/dτ⊥ at γ = 40° within 0.5 % (measured
@@ -137,6 +139,7 @@ def test_bad_calibration_report_is_one_line(tmp_path, capsys, content, message):
     assert err.count("\n") == 1 and message in err and "Traceback" not in err, err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["box_kalker", "existing_kalker"])
 def test_energy_balance_with_the_spin_moment(name):
     """The power the shafts put in, τ1ω1 + τ2ω2, is what the contacts dissipate: −Σ F·s (creep) − Σ Mz Ω·n

@@ -62,6 +62,7 @@ def test_non_perpendicular_shafts_have_no_slip_at_zero_load(tmp_path):
     assert np.allclose(r["omega_2"] / r["omega_1"], ideal, rtol=1e-9)
 
 
+@pytest.mark.slow
 def test_flipped_axle_gives_the_same_compare_table(tmp_path, capsys):
     """Shaft 2's roller declared with axle d2 instead of −d2 is the same machine (it reported max |α| 89.2°)."""
     flipped = tmp_path / "flipped.yaml"
@@ -127,6 +128,7 @@ def test_heavy_loads_are_physical_or_flagged(effects):
             assert np.hypot(raw["F_t"][k], raw["F_a"][k]) > raw["mu"][k] * raw["N"][k]
 
 
+@pytest.mark.slow
 def test_heavy_envelope_json_is_strict_and_counts_flags(tmp_path, capsys):
     heavy = tmp_path / "heavy.yaml"
     heavy.write_text(open(EXISTING).read().replace("load: {start: -1 N*m, stop: 1 N*m, step: 0.1 N*m}",

@@ -43,6 +43,7 @@ def refused(path, capsys) -> str:
     return err.strip()
 
 
+@pytest.mark.slow
 def test_three_rollers_120_apart_refused_naming_the_rollers_and_their_fix(tmp_path, capsys):
     path = three_steering_rollers(tmp_path)
     err = refused(path, capsys)

@@ -45,6 +45,7 @@ def comment_blocks(text: str) -> list[tuple[str, str]]:
     return blocks
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("template", SHIPPED)
 def test_compare_reads_it_with_the_templates_figures(template, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)

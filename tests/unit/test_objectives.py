@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 import yaml
 
 from cvtdesign.cli import main
@@ -34,6 +35,7 @@ def test_every_kind_is_in_the_schema(tmp_path, cli):
     assert all(k in err for k in OBJECTIVES)
 
 
+@pytest.mark.slow
 def test_a_pareto_objective_gives_the_front_and_its_knee(tmp_path, cli):
     """objective kind pareto (before: only inside the code): optimise computes the slip/loss front and writes
     its knee as the optimum, the front in the JSON (worst |α| rising as the loss falls)."""

@@ -128,6 +128,7 @@ def test_under_kalkers_law_the_answer_does_not_depend_on_how_the_layout_is_writt
         np.testing.assert_allclose(np.degrees(r["alpha"]), ref, atol=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("compile_policy", ["never", "always"])
 def test_a_second_root_near_the_friction_limit_is_not_reported_as_the_rig_s(compile_policy, monkeypatch):
     """existing_kalker.yaml at γ = −16°, τ⊥ = 2.5 N·m (past its envelope; contacts at 0.68 μN): the Newton solve

@@ -113,6 +113,7 @@ def test_controller_loop_example_in_the_docs_runs(cli, tmp_path, monkeypatch):
 
 
 
+@pytest.mark.slow
 def test_table_from_measured_data_uses_the_fitted_model(cli, tmp_path):
     """`resteer DATA.csv --variant V --table`: the commands of the model fitted to the rig's data (Kim's own
     effects, so the fitted scales are 1 within their σ and the commands within 0.01° of the nominal ones, but

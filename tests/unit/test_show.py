@@ -58,6 +58,7 @@ def test_show_each_shipped_variant(variant, compare_laws, cli, tmp_path):
         assert f" {1000 * r.radius:.4g} " in row and f" {r.role} " in row
 
 
+@pytest.mark.slow
 def test_laws_and_table_values(cli, tmp_path):
     laws = {}
     for name in ("existing", "unequal"):
@@ -130,6 +131,7 @@ def view_labels(fig, title: str) -> dict:
     return {t.get_text().split("\n")[0]: np.asarray(t.xy, float) for t in ax.texts if hasattr(t, "xy")}, ax
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["existing", "box", "unequal"])
 def test_labels_name_each_roller_its_shaft_and_fork_and_sit_on_it(name, monkeypatch, cli, tmp_path):
     """Kim's top view labelled 'shaft 1' beside D2 and 'fork (S2)' inside S1. Now each roller's label (its
@@ -180,6 +182,7 @@ def test_frame_vectors_only_where_the_file_names_them(monkeypatch, cli, tmp_path
     assert text_problems(fig) == []
 
 
+@pytest.mark.slow
 def test_default_gamma_shows_a_working_machine_and_files_are_named_after_the_file(cli, tmp_path):
     """The default γ was 0, where the brake shaft stands still; now 45° as export's. The drawing is named
     after the variant file (two files with the same `name:` no longer overwrite each other's drawing), with

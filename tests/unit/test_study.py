@@ -309,6 +309,7 @@ def test_other_study_in_store_is_refused(tmp_path, finished, no_cluster):
         run_study(other, store)
 
 
+@pytest.mark.slow
 def test_failed_case_status_is_recorded(tmp_path, shared, capsys):
     """An infeasible case (clearance impossible inside the bounds) is stored with IPOPT's status, and the
     command exits 1 (no case succeeded)."""
@@ -393,6 +394,7 @@ def test_optimum_variant_files_are_the_model_that_was_optimised(tmp_path, shared
     assert np.degrees(np.max(np.abs(alpha))) == pytest.approx(row["worst_alpha_deg"], rel=1e-6)
 
 
+@pytest.mark.slow
 def test_a_lost_scheduler_ends_the_run_with_one_line_and_keeps_what_finished(tmp_path, shared, capsys, monkeypatch):
     """Killing the scheduler mid-study printed distributed's traceback, stored 46 cases as
     'error: FutureCancelledError: …' (46 rows of the status table) and exited 0 with a 'best optimum' from

@@ -115,6 +115,7 @@ def test_the_drawing_is_compares_machine(content):
         assert got[k] == pytest.approx(want[k], rel=1e-9), k
 
 
+@pytest.mark.slow
 def test_derivatives_in_the_deviations_are_exact(content):
     """d(α, F/(μN))/dx at x = 0 (the implicit function theorem through the solve) against central
     differences of the envelope, h = 1e-9 rad: error below 1e-5 of the largest (measured: 4e-6). At γ = 0,

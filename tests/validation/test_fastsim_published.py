@@ -273,6 +273,7 @@ def test_spin(ratio):
 
 # --- discretisation ------------------------------------------------------------------------------------
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ratio", (1.0, 0.5))
 def test_grid_convergence(ratio):
     """Discretisation check of the defaults (nx, ny) = (400, 200) against (800, 400), on the longitudinal,

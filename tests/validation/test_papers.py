@@ -292,6 +292,7 @@ def reference_envelope(request):
     return name, out, solve(name, g, t)
 
 
+@pytest.mark.slow
 def test_reference_model_converged(reference_envelope):
     _, ref, _ = reference_envelope
     assert np.max(ref["residual"]) < 1e-10
