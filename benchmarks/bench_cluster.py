@@ -26,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.design.study import make_cases, run_case, run_study, study_content, warm_worker
+from cvtdesign.design.cases import make_cases, study_content
+from cvtdesign.design.study import run_case, run_study, warm_worker
 from cvtdesign.design.study_file import load_study
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,16 +1,14 @@
 """Batch studies on Dask: many optimisation cases at once, each written to the results store as it finishes.
 
-Cases: every base variant (`batch.variants`, default the study's `base`) × every combination of the swept
-fixed parameters (`batch.sweep`) × every multistart point (`multistart.starts`), plus, with
-`batch.pareto`, one ε-constraint Pareto chain per variant × sweep combination (a chain is sequential:
-each point warm-starts the next).
+Cases (design.cases): every base variant × sweep point × multistart point, plus Pareto chains (a chain is
+sequential: each point warm-starts the next).
 
 The store (design.store): one Parquet file per finished case, the designs as variant files and a
 manifest; re-running the same command skips the cases already there.
 
-What travels: the study's content, never a path (`StudyContent`, read and checked here and sent once to each
-worker): the study spec, and each variant file's text and contents with the calibration merged in
-(study_file.StudyVariant). A worker reads no input file and writes nothing; it returns the case's rows and
+What travels: the study's content, never a path (`StudyContent`, read and checked in design.cases and
+sent once to each worker): the study spec, and each variant file's text and contents with the calibration
+merged in (study_file.StudyVariant). A worker reads no input file and writes nothing; it returns the case's rows and
 its optimum's variant files as text. So a study runs unchanged on workers that share neither this working
 directory nor this filesystem; they need only the same version of cvtdesign (checked when they start).
 
@@ -33,13 +31,9 @@ the longest first.
 """
 from __future__ import annotations
 
-import hashlib
-import itertools
 import json
-import math
 import time
 from concurrent.futures import CancelledError
-from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
@@ -49,6 +43,7 @@ from dask.distributed import WorkerPlugin, as_completed
 from distributed.scheduler import KilledWorker
 
 from cvtdesign.design import cluster
+from cvtdesign.design.cases import StudyContent, check_study, make_cases, study_content
 from cvtdesign.design.problem import build_problem
 from cvtdesign.design.infeasibility import unmet_constraints
 from cvtdesign.design.report import variant_text
@@ -62,112 +57,13 @@ from cvtdesign.design.store import (
     store_lock,
     write_case,
 )
-from cvtdesign.design.study_file import (
-    StudySpec,
-    StudyVariant,
-    check_counts,
-    load_study,
-    next_to,
-    problem_inputs,
-    study_variant,
-)
+from cvtdesign.design.study_file import StudyVariant, load_study
 from cvtdesign.errors import InputError, RunError
 from cvtdesign.io.output import remove_stale_temps
 from cvtdesign.io.units import registry
-from cvtdesign.io.variant import parameter_value
-
-MAX_CASES = 10_000       # cases of one study (variant files × sweep points × starts): more is a typo, and
-                         # checking them all before any runs would take minutes
-
 
 class Interrupted(KeyboardInterrupt):
     """Ctrl-C during a study: the message says how many cases are kept in the store."""
-
-
-@dataclass(frozen=True)
-class StudyContent:
-    """A study as it travels to the workers, read and checked in this process: `path` the study file as
-    this process names it (in messages and provenance only: no worker opens it), `digest` its study_hash,
-    `spec` the study, `variants` each variant file of its cases by the path the cases name it by."""
-    path: str
-    digest: str
-    spec: StudySpec
-    variants: dict[str, StudyVariant]
-
-
-def study_hash(study_file: Path, spec, base: Path) -> str:
-    """Hash of the study file, of every variant file it names and of its calibration report (so an edited
-    variant or a new fit is a new study)."""
-    h = hashlib.sha256(Path(study_file).read_bytes())
-    for v in variant_files(study_file, spec, base):
-        h.update(v.read_bytes())
-    if spec.calibration:
-        h.update((Path(study_file).parent / spec.calibration).read_bytes())
-    return h.hexdigest()[:16]
-
-
-def variant_files(study_file, spec, base) -> list[Path]:
-    if not spec.batch.variants:
-        return [base]
-    files = [next_to(study_file, "batch.variants", v) for v in spec.batch.variants]
-    stems: dict = {}
-    for v, f in zip(spec.batch.variants, files):
-        if f.stem in stems and f.resolve() != stems[f.stem][1].resolve():
-            raise InputError(f"{study_file}: batch.variants: '{stems[f.stem][0]}' and '{v}' have the same name "
-                             f"'{f.stem}', which names their cases and result files; expected variant files with "
-                             "different names")
-        stems[f.stem] = (v, f)
-    return files
-
-
-def make_cases(study_file, spec=None, base: Path | None = None) -> list[dict]:
-    """The study's cases, each a small picklable dict with a stable id (spec, base: the loaded study)."""
-    if spec is None:
-        spec, base = load_study(study_file)
-    check_counts(str(study_file), spec)
-    for k, vals in spec.batch.sweep.items():
-        if not vals:
-            raise InputError(f"{study_file}: batch.sweep.{k}: no values; expected at least one (or leave it out)")
-    files = variant_files(study_file, spec, base)
-    front_only = objective(spec.objective.kind).eps_row     # the objective is the front: a chain per case, no starts
-    per_case = (0 if front_only else spec.multistart.starts) + (spec.batch.pareto or front_only)
-    total = len(files) * math.prod(len(v) for v in spec.batch.sweep.values()) * per_case
-    if total > MAX_CASES:
-        raise InputError(f"{study_file}: batch: {len(files)} variant files × the sweep × {spec.multistart.starts} starts "
-                         f"make {total} cases; expected at most {MAX_CASES}")
-    sweep = {k: [parameter_value(v, f"{study_file}: batch.sweep.{k}", {}) for v in vals] for k, vals in spec.batch.sweep.items()}
-    combos = [dict(zip(sweep, vals)) for vals in itertools.product(*sweep.values())] or [{}]
-    cases = []
-    for vf in files:
-        for fixed in combos:     # in names a variant file reads back: letters, digits, '_', '.', '+', '-'
-            tag = "_".join(f"{k}{v:.6g}" for k, v in fixed.items())
-            stem = vf.stem + (f"_{tag}" if tag else "")
-            for k in range(0 if front_only else max(spec.multistart.starts, 1)):
-                cases.append({"id": f"{stem}_start{k}", "kind": "start", "variant": str(vf), "fixed": fixed, "start": k})
-            if spec.batch.pareto or front_only:
-                cases.append({"id": f"{stem}_pareto", "kind": "pareto", "variant": str(vf), "fixed": fixed, "start": 0})
-    return cases
-
-
-def study_content(study_file, spec, base: Path, cases: list[dict]) -> StudyContent:
-    """What the workers get (StudyContent): every variant file of `cases` read once here
-    (study_file.study_variant: one InputError line for a bad one)."""
-    variants = {}
-    for c in cases:
-        if c["variant"] not in variants:
-            variants[c["variant"]] = study_variant(study_file, spec, Path(c["variant"]))
-    return StudyContent(str(study_file), study_hash(study_file, spec, base), spec, variants)
-
-
-def check_study(content: StudyContent, cases: list[dict]) -> None:
-    """Every distinct problem's inputs (variant file × sweep point), checked before any case is submitted,
-    from what the workers will get: one InputError line for the first bad one (study_file.problem_inputs)."""
-    seen = set()
-    for c in cases:
-        key = (c["variant"], json.dumps(c["fixed"], sort_keys=True))
-        if key not in seen:
-            seen.add(key)
-            problem_inputs(content.path, content.spec, content.variants[c["variant"]], c["fixed"])
 
 
 _PROBLEMS: dict = {}     # worker-local: built problems by (study, variant, sweep point), most recent last
