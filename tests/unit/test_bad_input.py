@@ -1,15 +1,16 @@
 """Bad variant files: one line naming the file and field, exit status 2, no traceback, nothing written."""
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
+
+from conftest import variant_path
 
 from cvtdesign.cli import main
 from cvtdesign.core.model import STATUS, compile_model
 from cvtdesign.io.variant import load_variant
 
-EXISTING = Path(__file__).resolve().parents[2] / "variants" / "existing.yaml"
+EXISTING = variant_path("existing")
 
 
 def edited(tmp_path, *pairs, name="bad.yaml"):

@@ -38,9 +38,10 @@ from pathlib import Path
 import pytest
 import yaml
 
+from conftest import ROOT
+
 from cvtdesign.cli import main
 
-ROOT = Path(__file__).resolve().parents[2]
 EXISTING = ROOT / "variants" / "existing.yaml"
 PLACEMENT = ROOT / "studies" / "box_placement.yaml"
 NAN, INF = float("nan"), float("inf")

@@ -13,6 +13,8 @@ import pytest
 
 from importlib.metadata import version
 
+from conftest import ROOT
+
 from cvtdesign.cad import checks, picture, plan, shapes, step
 from cvtdesign.cad.export import export_variant
 from cvtdesign.cad.kernel import kernel
@@ -21,7 +23,6 @@ from cvtdesign.core.geometry import pose
 from cvtdesign.core.model import compile_model
 from cvtdesign.io.variant import load_variant
 
-ROOT = Path(__file__).resolve().parents[2]
 BOX, EXISTING = ROOT / "variants/box.yaml", ROOT / "variants/existing.yaml"
 
 # written out by hand from the variant files: sphere, rollers (role + name), axles, forks, couplings
@@ -334,9 +335,6 @@ def test_model_path_does_not_import_cadquery():
 
 # ------------------------------------------------------------------ accepted means exportable (issue 25)
 
-TESTS = Path(__file__).resolve().parents[1]
-if str(TESTS) not in sys.path:
-    sys.path.insert(0, str(TESTS))
 import layout_transforms as lt  # noqa: E402
 from hypothesis import HealthCheck, Phase, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402

@@ -21,10 +21,11 @@ import pytest
 import yaml
 from dask.distributed import Client
 
+from conftest import ROOT
+
 from cvtdesign.cli import main
 from cvtdesign.design.store import read_store
 
-ROOT = Path(__file__).resolve().parents[2]
 # the `dask` command of this Python's environment (beside its interpreter), else the first on PATH
 DASK = shutil.which("dask", path=os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")]))
 START_TIMEOUT = 60.0     # seconds for the scheduler and both workers to come up on a loaded machine

@@ -6,9 +6,9 @@ benchmarks/bench_model.py, not here."""
 import re
 import subprocess
 import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+from conftest import ROOT
+
 NOT_LOADED = ("dask", "distributed", "cadquery", "OCP")     # packages, and pyplot
 SCRIPT = """
 import sys

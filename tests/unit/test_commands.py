@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import shipped_model, variant_path
+from conftest import ROOT, shipped_model, variant_path
 
 from cvtdesign.design.problem import build_problem
 from cvtdesign.design.solve import knee, pareto_front
@@ -105,7 +105,7 @@ def test_pareto_front_of_the_box_study(tmp_path):
     loss optimum's; every successful point meets its ε (IPOPT's 1e-8 relaxation) and the loss falls as ε
     grows (each point's feasible set contains the previous one's); the ends are the two single-objective
     optima's worst |α|."""
-    data = yaml.safe_load(variant_path("existing").parents[1].joinpath("studies", "box_pareto.yaml").read_text())
+    data = yaml.safe_load((ROOT / "studies" / "box_pareto.yaml").read_text())
     data["base"] = str(variant_path("box"))
     data["envelope"] = {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
                         "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}

@@ -8,14 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import shipped_model
+from conftest import ROOT, shipped_model
 
 from cvtdesign.cli import main
 from cvtdesign.core.metrics import envelope, ideal_model, metrics
 from cvtdesign.core.contact.laws import EPS_RIGID
 from cvtdesign.io.variant import load_variant
 
-ROOT = Path(__file__).resolve().parents[2]
 KEYS = {"name", "file", "max_abs_alpha_deg", "rms_alpha_deg", "max_abs_alpha_steering_deg",
         "max_abs_alpha_drive_deg", "ratio_error_pct_at_max_load", "min_efficiency",
         "max_traction_utilisation", "max_hertz_pressure_MPa"}

@@ -3,10 +3,11 @@ every variant's curves and the ideal CVT's reference, one colour scale for the e
 marked; drawn by the plotting process (io.plots.Background), which never leaves a half-written file."""
 import time
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
+
+from conftest import ROOT
 
 from cvtdesign.core.metrics import envelope
 from cvtdesign.core.model import compile_model
@@ -14,7 +15,6 @@ from cvtdesign.io.plots import Background, compare_figure
 from cvtdesign.io.plots.compare import COMPARE_ROWS
 from cvtdesign.io.variant import load_variant
 
-ROOT = Path(__file__).resolve().parents[2]
 LOADS = (-1.0, -0.5, 0.5, 1.0)
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -101,9 +101,6 @@ def test_closing_the_plotting_process_leaves_no_half_written_file(results, tmp_p
 
 # ------------------------------------------------------------------ a figure that scales (issue 28)
 
-import sys  # noqa: E402
-
-sys.path.insert(0, str(ROOT / "tests"))
 from figure_checks import captured, text_problems  # noqa: E402
 
 from cvtdesign.cli import main  # noqa: E402

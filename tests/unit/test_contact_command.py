@@ -1,11 +1,10 @@
 """`cvtdesign contact`: every roller's Hertz patch against an independent Hertz solution, Kalker's creep
 constants, and creep–force curves with linear theory's slope that saturate at μN."""
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import variant_data, write_yaml
+from conftest import ROOT, variant_data, write_yaml
 from figure_checks import captured, text_problems
 from hertz_reference import hertz_axes
 from matplotlib.colors import to_hex
@@ -106,7 +105,7 @@ def test_contact_figures_read_as_they_are(monkeypatch, tmp_path):
     (Kim's two drive rollers, his two steering rollers) are one curve named together, each contact in a
     colour, line style and marker of its own."""
     figures = captured(monkeypatch, plots)
-    variant = Path(__file__).resolve().parents[2] / "variants" / "unequal.yaml"
+    variant = ROOT / "variants" / "unequal.yaml"
     assert main(["contact", str(variant), "--plots", str(tmp_path)]) == 0
     curves, patches = figures
     assert text_problems(curves) == [] and text_problems(patches) == []

@@ -2,11 +2,12 @@
 candidate removes is `unexplained`; the historical replays of the README; resteering."""
 import dataclasses
 import json
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+
+from conftest import ROOT
 
 from cvtdesign.diagnosis import diagnose
 from cvtdesign.diagnosis import measured
@@ -19,7 +20,6 @@ from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.core.model import compile_model
 from cvtdesign.io.variant import load_variant
 
-ROOT = Path(__file__).resolve().parents[2]
 EXISTING = ROOT / "variants" / "existing.yaml"
 KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
 

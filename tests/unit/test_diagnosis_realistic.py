@@ -3,10 +3,11 @@ down, creep drifting during the test, a box with a steering offset, heavy noise,
 ×10. The data come from the virtual rig and from the independently written simulator; the verdict, the noise,
 the regions and the report's words are checked against what the simulators put in."""
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
+
+from conftest import ROOT
 
 from cvtdesign.cli import main
 from cvtdesign.core.kinematics import shaft_frame
@@ -19,7 +20,6 @@ from cvtdesign.diagnosis.diagnose.predictor import Predictor
 from cvtdesign.diagnosis.diagnose.sequence import approach
 from cvtdesign.io.variant import load_variant
 
-ROOT = Path(__file__).resolve().parents[2]
 EXISTING = ROOT / "variants" / "existing.yaml"
 BOX = ROOT / "variants" / "box.yaml"
 KIM = ("drive_longitudinal_creep", "steering_lateral_creep")

@@ -4,12 +4,13 @@ pages quote."""
 import json
 import re
 import typing
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 from pydantic import BaseModel
+
+from conftest import ROOT
 
 from cvtdesign.cli import main
 from cvtdesign.core.effects import EFFECTS
@@ -20,7 +21,7 @@ from cvtdesign.io.measured_csv import read_measured
 from cvtdesign.io.schema import VariantSpec, unit_text
 from cvtdesign.io.variant import PLAUSIBLE, load_variant, shipped_variant
 
-DOCS = Path(__file__).resolve().parents[2] / "docs"
+DOCS = ROOT / "docs"
 OWN = ["variant-reference.md", "effects.md", "measured-data.md", "adding-an-effect.md", "writing-a-variant.md"]
 
 

@@ -34,8 +34,6 @@ from __future__ import annotations
 import copy
 import functools
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -43,15 +41,11 @@ import yaml
 from hypothesis import HealthCheck, Phase, example, given, settings
 from hypothesis import strategies as st
 
-TESTS = Path(__file__).resolve().parents[1]
-if str(TESTS) not in sys.path:
-    sys.path.insert(0, str(TESTS))
+import layout_transforms as lt
 
-import layout_transforms as lt  # noqa: E402
-
-from cvtdesign.core import metrics as ev  # noqa: E402
-from cvtdesign.core.geometry import pose, rigid_constraints  # noqa: E402
-from cvtdesign.core.model import compile_model  # noqa: E402
+from cvtdesign.core import metrics as ev
+from cvtdesign.core.geometry import pose, rigid_constraints
+from cvtdesign.core.model import compile_model
 
 SHIPPED = ("existing", "box", "unequal")
 # the same layouts under contact law kalker (every direction compliant, spin through C23): the model tests

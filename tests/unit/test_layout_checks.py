@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import shipped_layout
+from conftest import ROOT, shipped_layout
 
 from cvtdesign.core.checks import N_RIM, check_overlaps, check_preload_equilibrium, overlapping_rollers
 from cvtdesign.cli import main
@@ -21,7 +21,7 @@ from cvtdesign.core.geometry import FRAME, pose, steering_angle_guess, steering_
 from cvtdesign.errors import InputError
 from cvtdesign.io.variant import load_spec, load_variant, resolve
 
-VARIANTS = Path(__file__).resolve().parents[2] / "variants"
+VARIANTS = ROOT / "variants"
 R_MM = 63.5                      # sphere radius of existing.yaml
 ON_SPHERE = f"{R_MM / np.sqrt(2):.12f} mm"   # a coordinate of a contact point R·d2 = R·(−1, 1, 0)/√2
 

@@ -8,13 +8,14 @@ import numpy as np
 import pytest
 import yaml
 
+from conftest import ROOT
+
 from cvtdesign.cad import step
 from cvtdesign.cli import main
 from cvtdesign.core.geometry import ideal_gamma, kim_gamma_from_phi, pose
 from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.io.variant import load_variant
 
-ROOT = Path(__file__).resolve().parents[2]
 EXISTING = (ROOT / "variants/existing.yaml").read_text(encoding="utf-8")
 
 

@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from conftest import ROOT
+
 from cvtdesign.cli import main
 from cvtdesign.design.objectives import OBJECTIVES
 from cvtdesign.design.solve import knee
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def pareto_study(folder: Path, kind="pareto") -> Path:

@@ -1,22 +1,16 @@
 """Operating points given by steering angle instead of γ, and by brake torque τ2 instead of τ⊥, with the
 model interpreted and compiled."""
-import sys
-from pathlib import Path
-
 import casadi as ca
 import numpy as np
 import pytest
+
+import layout_transforms as lt
+from conftest import ROOT
 
 from cvtdesign.core import native
 from cvtdesign.core.geometry import ideal_gamma, kim_gamma_from_phi
 from cvtdesign.core.model import CONTACT_OUTPUTS, POINT_OUTPUTS, STATUS, compile_model
 from cvtdesign.io.variant import load_variant
-
-ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT / "tests") not in sys.path:
-    sys.path.insert(0, str(ROOT / "tests"))
-
-import layout_transforms as lt  # noqa: E402
 
 
 @pytest.fixture(scope="module", params=["never", "always"])

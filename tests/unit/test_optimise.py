@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 import yaml
 
+from conftest import ROOT
+
 from cvtdesign.cli import main
 from cvtdesign.core.model import STATUS, compile_model
 from cvtdesign.design.problem import build_problem
@@ -14,8 +16,6 @@ from cvtdesign.design.solution import check_envelope
 from cvtdesign.design.solve import solve_from, starts
 from cvtdesign.errors import InputError
 from cvtdesign.io.variant import load_spec, load_variant, resolve
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def study(tmp_path, **fields):

@@ -13,6 +13,8 @@ import yaml
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+from conftest import ROOT  # noqa: E402
+
 from cvtdesign.io import output  # noqa: E402
 from cvtdesign.cli import main  # noqa: E402
 from cvtdesign.io.output import OutputError, staged, write_file, write_files  # noqa: E402
@@ -20,7 +22,6 @@ from cvtdesign.io.plots import save  # noqa: E402
 from cvtdesign.design.store import read_case, write_case  # noqa: E402
 from cvtdesign.io.units import InputError  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[2]
 BOX, EXISTING = ROOT / "variants/box.yaml", ROOT / "variants/existing.yaml"
 
 

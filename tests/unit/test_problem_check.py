@@ -1,11 +1,12 @@
 """The envelope check of an optimum (Problem.check) evaluates the study's model, which takes the design as
 an input, instead of compiling a numeric model per design: it must give what the numeric model of that
 design gives, point for point, failing points included."""
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+
+from conftest import ROOT
 
 from cvtdesign.core.model import compile_model
 from cvtdesign.design.problem import build_problem
@@ -13,7 +14,6 @@ from cvtdesign.design.solution import check_envelope
 from cvtdesign.design.solve import solve_from, starts
 from cvtdesign.io.variant import resolve
 
-ROOT = Path(__file__).resolve().parents[2]
 COARSE = {"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "20 deg"}}
 
 

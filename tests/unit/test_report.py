@@ -14,6 +14,8 @@ import pandas as pd
 import pytest
 import yaml
 
+from conftest import ROOT
+
 from cvtdesign.cli import main
 from cvtdesign.cli.compare import COLUMNS
 from cvtdesign.cli.compare_report import MEANINGS
@@ -25,7 +27,6 @@ from cvtdesign.diagnosis import rig
 from cvtdesign.io.report import Note, Table, html_report
 from cvtdesign.io.variant import load_variant
 
-ROOT = Path(__file__).resolve().parents[2]
 BOX = ROOT / "variants" / "box.yaml"
 EXISTING = ROOT / "variants" / "existing.yaml"
 BROWSER = next((shutil.which(b) for b in ("chromium", "chromium-browser", "google-chrome") if shutil.which(b)), None)

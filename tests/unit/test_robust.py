@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import yaml
 
+from conftest import ROOT
+
 from cvtdesign.design.problem import build_problem
 from cvtdesign.design.study_file import load_study
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def study(folder: Path, worst_case=True, **extra) -> Path:

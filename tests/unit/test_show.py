@@ -2,23 +2,18 @@
 import contextlib
 import io
 import re
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+
+from conftest import ROOT
+from layout_transforms import axis_angle_matrix, dump, read, rotate
 
 from cvtdesign.core.geometry import steering_angle
 from cvtdesign.cli import main
 from cvtdesign.core.geometry import kim_gamma_from_phi
 from cvtdesign.io.layout_drawing import layout_scene
 from cvtdesign.io.variant import load_variant
-
-ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT / "tests") not in sys.path:
-    sys.path.insert(0, str(ROOT / "tests"))
-
-from layout_transforms import axis_angle_matrix, dump, read, rotate
 
 VARIANTS = sorted((ROOT / "variants").glob("*.yaml"))
 PNG = b"\x89PNG\r\n\x1a\n"

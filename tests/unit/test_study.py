@@ -24,6 +24,8 @@ import yaml
 from dask.distributed import Client
 from filelock import FileLock
 
+from conftest import ROOT
+
 from cvtdesign.design import cluster
 from cvtdesign.design import store as store_mod
 from cvtdesign.design import study as study_mod
@@ -34,7 +36,6 @@ from cvtdesign.core.model import compile_model
 from cvtdesign.errors import InputError
 from cvtdesign.io.variant import load_variant
 
-ROOT = Path(__file__).resolve().parents[2]
 CONNECT = cluster.connect
 
 

@@ -14,6 +14,8 @@ import numpy as np
 import pytest
 import yaml
 
+from conftest import ROOT
+
 from cvtdesign.diagnosis import measured
 from cvtdesign.diagnosis import rig
 from cvtdesign.cli import main
@@ -21,7 +23,6 @@ from cvtdesign.errors import InputError
 from cvtdesign.io.units import to_si
 from cvtdesign.io.variant import load_variant, quantity
 
-ROOT = Path(__file__).resolve().parents[2]
 EXISTING = ROOT / "variants" / "existing.yaml"
 BOX = ROOT / "variants" / "box.yaml"
 UNEQUAL = ROOT / "variants" / "unequal.yaml"
