@@ -1,14 +1,11 @@
 """Bad variant files: one line naming the file and field, exit status 2, no traceback, nothing written."""
 import re
 
-import numpy as np
 import pytest
 
 from conftest import variant_path
 
 from cvtdesign.cli import main
-from cvtdesign.core.model import STATUS, compile_model
-from cvtdesign.io.variant import load_variant
 
 EXISTING = variant_path("existing")
 
@@ -74,15 +71,3 @@ def test_not_yaml(tmp_path, capsys):
 def test_missing_file(tmp_path, capsys):
     assert main(["compare", str(tmp_path / "nope.yaml")]) == 2
     assert "cannot read file" in capsys.readouterr().err
-
-
-def test_gross_slip_is_reported_not_returned():
-    """With traction saturation and too little friction the contact cannot carry 1 N·m: no number comes back."""
-    m = compile_model(load_variant(EXISTING), effects=["drive_longitudinal_creep", "steering_lateral_creep",
-                                                       "traction_saturation"])
-    theta = np.array(m.param_values)
-    theta[m.param_names.index("traction_saturation.mu_scale")] = 0.2   # μN = 16 N at the preload
-    r = m.evaluate(np.radians([30.0, 30.0]), [0.1, 1.0], theta=theta)
-    assert r["status"].tolist() == [STATUS.index("ok"), STATUS.index("gross_slip")]
-    assert m.roller_names[r["failed_contact"][1]] == "D2"     # the brake roller carries the largest |F| − μN
-    assert np.isfinite(r["alpha"][0]) and np.isnan(r["alpha"][1]) and np.isnan(r["N"][:, 1]).all()

@@ -61,13 +61,6 @@ def test_resteer_ratio_the_loaded_model_cannot_reach(cli, tmp_path):
     assert rep["achieved"]["nominal"]["achieved"][1] is None and rep["achieved"]["nominal"]["error_pct"][1] is None
 
 
-def test_resteer_bad_truth_set_is_one_line(cli, tmp_path):
-    rc, _, err = cli("resteer", "--variant", EXISTING, "--truth-set", "steering_offset.offset=1 deg",
-                     "--json", tmp_path / "r.json")
-    assert rc == 2 and err.count("\n") == 1 and "--truth-set" in err
-    assert not (tmp_path / "r.json").exists()
-
-
 # --- Pareto front and knee --------------------------------------------------------------------------------
 
 def front(points, failed=()):

@@ -68,14 +68,6 @@ def test_points_that_are_not_ok_carry_their_status_and_no_numbers(tmp_path):
     assert bad[EXPECTED[6:]].isna().all().all() and p[p.status == "ok"][EXPECTED[6:]].notna().all().all()
 
 
-@pytest.mark.parametrize("name", ["p.txt", "p"])
-def test_an_unknown_format_is_one_line(tmp_path, capsys, name):
-    assert main(["compare", str(ROOT / "variants/box.yaml"), "--out", str(tmp_path), "--points", str(tmp_path / name)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "--points" in err and ".csv or .parquet" in err
-    assert not (tmp_path / name).exists()
-
-
 def test_worst_efficiency_is_taken_where_power_is_delivered(kalker_points):
     """Under Kalker's law zero-load points lose power (spin) and deliver none: their efficiency, 0, printed
     'worst efficiency 0.000' for both kalker variants. It is now taken over the points that deliver power, and

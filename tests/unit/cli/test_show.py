@@ -89,19 +89,6 @@ def test_rotated_copy_prints_the_same_law(cli, tmp_path):
     assert (tmp_path / "b" / "unequal_layout_gamma20.png").read_bytes()[:8] == PNG
 
 
-def test_bad_file_is_one_line_and_writes_nothing(cli, make_variant, tmp_path):
-    bad = make_variant("existing", lambda d: d["rollers"]["D1"].update(radius="forty mm"), file="bad")
-    code, out, err = cli("show", bad, "--out", tmp_path / "out")
-    assert code == 2 and out == ""
-    assert len(err.splitlines()) == 1 and err.startswith(f"cvtdesign: error: {bad}: rollers.D1.radius")
-    assert "Traceback" not in err and not (tmp_path / "out").exists()
-
-
-def test_gamma_outside_the_envelope_is_refused(cli, tmp_path):
-    code, _, err = cli("show", ROOT / "variants/existing.yaml", "--gamma", 95, "--out", tmp_path / "out")
-    assert code == 2 and len(err.splitlines()) == 1 and "--gamma" in err and not (tmp_path / "out").exists()
-
-
 # ------------------------------------------------------------------ a drawing a design review can use (issue 28)
 
 from figure_checks import captured, text_problems  # noqa: E402

@@ -127,6 +127,18 @@ def test_heavy_loads_are_physical_or_flagged(effects):
             assert np.hypot(raw["F_t"][k], raw["F_a"][k]) > raw["mu"][k] * raw["N"][k]
 
 
+def test_gross_slip_is_reported_not_returned():
+    """With traction saturation and too little friction the contact cannot carry 1 N·m: no number comes back."""
+    m = compile_model(load_variant(EXISTING), effects=["drive_longitudinal_creep", "steering_lateral_creep",
+                                                       "traction_saturation"])
+    theta = np.array(m.param_values)
+    theta[m.param_names.index("traction_saturation.mu_scale")] = 0.2   # μN = 16 N at the preload
+    r = m.evaluate(np.radians([30.0, 30.0]), [0.1, 1.0], theta=theta)
+    assert r["status"].tolist() == [STATUS.index("ok"), STATUS.index("gross_slip")]
+    assert m.roller_names[r["failed_contact"][1]] == "D2"     # the brake roller carries the largest |F| − μN
+    assert np.isfinite(r["alpha"][0]) and np.isnan(r["alpha"][1]) and np.isnan(r["N"][:, 1]).all()
+
+
 def test_heavy_envelope_json_is_strict_and_counts_flags(tmp_path, capsys):
     heavy = tmp_path / "heavy.yaml"
     heavy.write_text(open(EXISTING).read().replace("load: {start: -1 N*m, stop: 1 N*m, step: 0.1 N*m}",

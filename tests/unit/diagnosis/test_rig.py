@@ -92,26 +92,6 @@ def test_protocol_file_and_settings(layout, tmp_path):
     assert np.all(np.abs(shift) > np.radians(0.5))
 
 
-BAD_RIG = {
-    "unknown effect": (["--effects", "steering_lateral_crep"], r"--effects: unknown effect 'steering_lateral_crep' \(did you mean 'steering_lateral_creep'\?\)"),
-    "unknown parameter": (["--set", "steering_lateral_creep.scal=2"], r"--set: effect steering_lateral_creep has no parameter 'scal'"),
-    "effect not on": (["--set", "steering_offset.offset=1 deg"], r"--set: steering_offset.offset is set but steering_offset is not among the effects"),
-    "bad unit": (["--effects", "steering_offset", "--set", "steering_offset.offset=1 N"], r"--set: steering_offset.offset: expected an angle like '10 deg', got '1 N'"),
-    "bad noise": (["--noise", "sped=0.1"], r"--noise: expected name=value with names speed, torque, axis, got 'sped=0.1' \(did you mean 'speed'\?\)"),
-}
-
-
-@pytest.mark.parametrize("case", BAD_RIG)
-def test_rig_bad_input(case, tmp_path, capsys):
-    args, pattern = BAD_RIG[case]
-    out = tmp_path / "d.csv"
-    assert main(["rig", str(EXISTING), "--out", str(out), *args]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "Traceback" not in err
-    assert re.search(pattern, err), err
-    assert not out.exists()
-
-
 # ------------------------------------------------------------------------------- bad measured data
 
 GOOD = ("gamma_cmd_deg,omega_1,omega_2,tau_1,tau_2\n"
