@@ -19,9 +19,11 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ROOT / "variants"
 SHIPPED = ("existing", "box", "unequal")
-VALIDATION = ROOT / "tests" / "validation"
-if str(VALIDATION) not in sys.path:      # Kim's closed forms and the reference model live there
-    sys.path.insert(0, str(VALIDATION))
+# the tests' helper modules, importable from every folder: tests/ (figure_checks, layout_transforms) and
+# tests/validation (Kim's closed forms, the reference model, FASTSIM)
+for _helpers in (ROOT / "tests", ROOT / "tests" / "validation"):
+    if str(_helpers) not in sys.path:
+        sys.path.insert(0, str(_helpers))
 
 
 def variant_path(name: str) -> Path:

@@ -21,8 +21,9 @@ effect's parameter names to their (symbolic) values. Adding an effect means addi
 parameters with their bounds, its hooks, how the diagnosis's self-check withholds it (`SelfCheck`), whether it
 acts at zero load, and the name of its parameter in the independent simulator (which writes every effect a
 second time, in its own form, by design: cvtdesign.verification.independent_sim); nothing else changes, and
-tests/unit/test_effects_complete.py fails when an entry lacks any of these. Each creep law is written for slip velocity s and tangential force F
-on the sphere, s + c·F = 0 (dissipative), with c = ε·V for Kim's creep constant ε [1/N] and rolling speed V.
+test_every_effect_entry_is_complete (tests/unit/test_architecture.py) fails when an entry lacks any of these.
+Each creep law is written for slip velocity s and tangential force F on the sphere, s + c·F = 0 (dissipative),
+with c = ε·V for Kim's creep constant ε [1/N] and rolling speed V.
 
 References: Kim et al., "Causes of microslip in a continuously variable transmission" (eqs 19-32, fitted
 ε_S and ε_D); Brokowski et al., "Toward improved CVTs: theoretical and experimental results" (Gillespie's

@@ -4,7 +4,7 @@ CasADi's `newton` rootfinder cannot be code-generated. Its `fast_newton` can, bu
 step, so where the line search matters it ends elsewhere: on existing_kalker.yaml's envelope it turns 3 of
 the 4 points that do not converge into gross slip. `newton_solver` builds the iteration of `newton`
 (casadi/solvers/newton.cpp, CasADi 3.6–3.8) from plain CasADi nodes, so the compiled model gives the same
-numbers as the interpreted one (tests/unit/test_compiled.py). One iteration:
+numbers as the interpreted one (tests/unit/core/test_compiled.py). One iteration:
  1. F and its Jacobian J at x; stop if ‖F‖∞ ≤ abstol;
  2. dx = J⁻¹F by sparse Householder QR; stop if ‖dx‖∞ ≤ abstol_step;
  3. α = 1, ½, ¼, …: take x − α dx at the first α with ‖F(x − α dx)‖∞ ≤ (1 − α/2)‖F(x)‖∞; stop with x

@@ -12,7 +12,7 @@ both roles rest on one calibration and 0 otherwise. Effect parameters fitted to 
 How. Each figure is an extreme or a mean over the envelope (core.metrics.extremes): its derivative in θ is
 that of the output at the point (and contact) where it is taken, dα/dθ through the model's Newton solve by the
 implicit function theorem; RMS α takes every point's. To first order σ_f² = gᵀ Σ g, and the interval is
-f ± Z σ_f (95 %, Z = 1.96). tests/unit/test_uncertainty.py checks it against sampling θ from N(1, Σ); the
+f ± Z σ_f (95 %, Z = 1.96). tests/unit/core/test_uncertainty.py checks it against sampling θ from N(1, Σ); the
 docs say up to which σ the first order holds.
 
 Contacts with the theory alone (uncalibrated) have no stated σ: their figures get no interval (their

@@ -3,7 +3,7 @@ schema of variant files (io.schema: every field, its type, default and descripti
 (io.variant.PLAUSIBLE) and the effect vocabulary (core.effects.EFFECTS).
 
 After changing any of them, run `python -m cvtdesign.io.reference` from the repository: it rewrites both
-files (tests/unit/test_docs.py fails until it has run).
+files (tests/unit/io/test_docs.py fails until it has run).
 """
 from __future__ import annotations
 
