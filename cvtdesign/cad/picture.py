@@ -229,7 +229,7 @@ def framed_svg(raw: str, caption: str, ann: dict) -> str:
         ([ann["note"]] if ann["note"] else [])
     height = top + SVG_SIZE + 30 + 16 * len(lines)
     bx, by = 30, top + SVG_SIZE + 5
-    out = [f'<?xml version="1.0" encoding="UTF-8" standalone="no"?>',
+    out = ['<?xml version="1.0" encoding="UTF-8" standalone="no"?>',
            f'<svg xmlns="http://www.w3.org/2000/svg" width="{SVG_SIZE}" height="{height}" '
            f'viewBox="0 0 {SVG_SIZE} {height}" font-family="sans-serif">',
            f'<text x="{SVG_SIZE / 2}" y="24" text-anchor="middle" font-size="14">{escape(caption)}</text>',

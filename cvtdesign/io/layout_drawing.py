@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.core.geometry import FRAME, KIM_FRAME, pose, steering_angle
+from cvtdesign.core.geometry import FRAME, pose, steering_angle
 from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.io.plots import figure_parts, place_labels, save
 

@@ -9,7 +9,7 @@ import pytest
 from conftest import ROOT
 from layout_transforms import axis_angle_matrix, dump, read, rotate
 from kim_closed_forms import kim_gamma_from_phi  # tests/validation is on sys.path (tests/conftest.py)
-from cvtdesign.core.geometry import steering_angle
+from cvtdesign.core.geometry import KIM_FRAME, steering_angle
 from cvtdesign.cli import main
 from cvtdesign.io.layout_drawing import layout_scene
 from cvtdesign.io.variant import load_variant
@@ -159,7 +159,7 @@ def test_frame_vectors_only_where_the_file_names_them(monkeypatch, cli, tmp_path
     assert load_variant(turned).kim_vectors == ()
     fig, _ = drawn(monkeypatch, cli, tmp_path, turned)
     texts = {t.get_text() for t in fig.findobj(lambda a: hasattr(a, "get_text"))}
-    assert not texts & set(layout_drawing.KIM_FRAME) and not any("frame vectors" in t for t in texts)
+    assert not texts & set(KIM_FRAME) and not any("frame vectors" in t for t in texts)
     assert text_problems(fig) == []
 
 

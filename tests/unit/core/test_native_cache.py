@@ -16,7 +16,7 @@ import casadi as ca
 import pytest
 import yaml
 
-from conftest import VARIANTS, variant_data
+from conftest import variant_data
 from cvtdesign.cli import main
 from cvtdesign.core import native
 

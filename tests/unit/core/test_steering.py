@@ -10,7 +10,7 @@ import pytest
 from scipy.special import ellipe
 
 from conftest import shipped_model, variant_data, variant_path, write_yaml
-from cvtdesign.core.metrics import envelope, metrics
+from cvtdesign.core.metrics import envelope
 from cvtdesign.core.model import compile_model
 from cvtdesign.core.steering import sliding_lever
 

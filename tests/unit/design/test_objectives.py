@@ -11,7 +11,6 @@ import yaml
 
 from conftest import ROOT
 
-from cvtdesign.cli import main
 from cvtdesign.design.objectives import OBJECTIVES
 from cvtdesign.design.solve import knee
 

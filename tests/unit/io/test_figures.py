@@ -1,7 +1,5 @@
 """The figures a design review pastes as they are (issue 28): the Pareto front and the resteering plot,
 judged by matplotlib's own measure of their text (tests/figure_checks.py)."""
-from pathlib import Path
-
 import numpy as np
 from figure_checks import captured, text_problems
 

@@ -10,7 +10,6 @@ import yaml
 import pytest
 
 from conftest import variant_data, write_yaml
-from cvtdesign.cli import main
 from cvtdesign.core.contact.patch import calibrated_compliance, theory_patch
 from cvtdesign.core.metrics import envelope, metrics
 from cvtdesign.core.model import compile_model
