@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 from rich.console import Console
 
-from cvtdesign.cli.printing import json_text, number, progress_bar, show
+from cvtdesign.cli.printing import json_text, progress_bar, show
 from cvtdesign.core import basis
 from cvtdesign.core.capacity import LIMITS, capacity, smallest_capacity
 from cvtdesign.core.metrics import allowable_pressures
@@ -20,6 +20,7 @@ from cvtdesign.io import plots
 from cvtdesign.io.limits import load_capacity
 from cvtdesign.io.output import make_folder, named_after, write_file
 from cvtdesign.io.report import Note, Table
+from cvtdesign.io.units import number
 from cvtdesign.io.variant import load_variant
 
 LIMIT_WORDS = {"gross_slip": "gross slip", "lost_contact": "lost contact", "pressure": "pressure"}

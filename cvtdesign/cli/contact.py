@@ -14,11 +14,12 @@ from pathlib import Path
 
 from rich.console import Console
 
-from cvtdesign.cli.printing import engineering, json_text, number, show
+from cvtdesign.cli.printing import json_text, show
 from cvtdesign.core.contact.patch import calibrated_compliance, curves, theory_patch
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_file
 from cvtdesign.io.report import Note, Table
+from cvtdesign.io.units import engineering, number
 from cvtdesign.io.variant import load_variant
 
 

@@ -9,7 +9,6 @@ import re
 
 import numpy as np
 
-from cvtdesign.cli.printing import degrees, engineering, number
 from cvtdesign.core.effects import EFFECTS
 from cvtdesign.core.model import STATUS
 from cvtdesign.diagnosis.diagnose import Report
@@ -17,6 +16,7 @@ from cvtdesign.diagnosis.diagnose.explain import FORM_WORDS
 from cvtdesign.diagnosis.diagnose.spatial import AUTO_Z
 from cvtdesign.diagnosis.diagnose.verdict import GAP, RESIDUE
 from cvtdesign.io.report import Note, Table
+from cvtdesign.io.units import degrees, engineering, number
 
 CHANNEL_WORDS = {"alpha": "α", "tau_par": "τ∥", "axis": "γ_axis"}
 CHANNEL_KIND = {"alpha": "deg", "tau_par": "torque", "axis": "deg"}

@@ -8,8 +8,7 @@ from rich.console import Console
 
 from cvtdesign.cli import optimise_report
 from cvtdesign.cli.export import export_steps
-from cvtdesign.cli.printing import ENGINEERING, degrees, engineering, json_text, kind_of, number, progress_bar, \
-    report_text, show
+from cvtdesign.cli.printing import json_text, kind_of, progress_bar, report_text, show
 from cvtdesign.design import solve
 from cvtdesign.design.objectives import objective
 from cvtdesign.design.study_file import load_study
@@ -17,6 +16,7 @@ from cvtdesign.errors import InputError
 from cvtdesign.io.output import make_folder, write_files
 from cvtdesign.io.schema import MAX_COUNT
 from cvtdesign.io.report import Note, Table
+from cvtdesign.io.units import ENGINEERING, degrees, engineering, number
 from cvtdesign.io.variant import load_spec, parameter_value
 
 # the kind of each constraint family's rows (design.report.constraint_report), and the factor from the

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import math
 import shlex
 from importlib.metadata import version
 
@@ -15,43 +14,6 @@ from rich.text import Text
 
 from cvtdesign.io.report import Note, Table, html_report
 from cvtdesign.io.units import KINDS, dimension_of, dimensions
-
-# the unit every printed quantity of a kind (units.KINDS, and power) is shown in, and its factor from SI
-ENGINEERING = {
-    "length": ("mm", 1e3), "force": ("N", 1.0), "torque": ("N·m", 1.0), "angle": ("°", 180 / math.pi),
-    "pressure": ("MPa", 1e-6), "power": ("W", 1.0), "compliance": ("1/N", 1.0), "stiffness": ("N/mm", 1e-3),
-    "speed": ("rad/s", 1.0), "dimensionless": ("", 1.0),
-}
-
-
-def number(value, digits: int = 4) -> str:
-    """`value` to `digits` significant digits, positional between 1e-4 and 1e7 (31.94, 0.0992, 143.5,
-    12350), else with an exponent (1.2e-07); '—' for None or NaN."""
-    if value is None or (isinstance(value, (float, np.floating)) and math.isnan(value)):
-        return "—"
-    value = float(value)
-    if value == 0 or not math.isfinite(value):
-        return "0" if value == 0 else f"{value}"
-    if 1e-4 <= abs(value) < 1e7:
-        return np.format_float_positional(value, precision=digits, unique=False, fractional=False, trim="-")
-    return f"{value:.{digits}g}".replace("e-0", "e-").replace("e+0", "e+")
-
-
-def engineering(value_si, kind: str, digits: int = 4) -> str:
-    """An SI value of a kind (units.KINDS or 'power') in its engineering unit, with the unit (ENGINEERING):
-    engineering(0.0319401, 'length') = '31.94 mm', engineering(0.0541, 'angle') = '3.1°' (angles in rad),
-    engineering(6e6, 'pressure') = '6 MPa'; '—' for None or NaN."""
-    unit, factor = ENGINEERING[kind]
-    text = number(None if value_si is None else float(value_si) * factor, digits)
-    if text == "—" or not unit:
-        return text
-    return f"{text}°" if unit == "°" else f"{text} {unit}"
-
-
-def degrees(value_deg, digits: int = 4) -> str:
-    """An angle already in degrees (worst_alpha_deg, an objective in degrees): '3.1°'."""
-    return engineering(None if value_deg is None else math.radians(value_deg), "angle", digits)
-
 
 def kind_of(*raws) -> str:
     """The kind (a units.KINDS key) of a quantity from how a file writes it: the first of `raws` with a unit

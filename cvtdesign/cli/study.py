@@ -10,12 +10,13 @@ from rich.console import Console
 from cvtdesign.cli.export import export_steps
 from cvtdesign.cli.optimise import SHOW
 from cvtdesign.design.objectives import objective
-from cvtdesign.cli.printing import degrees, engineering, kind_of, progress_bar, show
+from cvtdesign.cli.printing import kind_of, progress_bar, show
 from cvtdesign.design import study
 from cvtdesign.design.solve import knee
 from cvtdesign.design.study_file import load_study
 from cvtdesign.io import plots
 from cvtdesign.io.report import Note, Table
+from cvtdesign.io.units import degrees, engineering
 from cvtdesign.io.variant import load_spec
 
 

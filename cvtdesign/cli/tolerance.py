@@ -9,7 +9,7 @@ import numpy as np
 from rich.console import Console
 
 from cvtdesign.cli.compare import COLUMNS
-from cvtdesign.cli.printing import engineering, json_text, progress_bar, show
+from cvtdesign.cli.printing import json_text, progress_bar, show
 from cvtdesign.core.tolerances import KINDS
 from cvtdesign.design.tolerance import (
     FIGURES,
@@ -25,6 +25,7 @@ from cvtdesign.design.tolerance_stats import effects, first_order, slopes, summa
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_file
 from cvtdesign.io.report import Note, Table
+from cvtdesign.io.units import engineering
 
 LABELS = {key: label.rstrip(" ¹²³") for key, label, _ in COLUMNS}     # compare's footnotes are compare's
 FORMATS = {key: fmt for key, _, fmt in COLUMNS}

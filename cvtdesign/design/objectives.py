@@ -28,6 +28,7 @@ class Objective:
     epigraph: bool = False      # minimised as t with −t ≤ α_k ≤ t at every envelope point
     eps_row: bool = False       # adds worst |α| ≤ ε, ε an input of the NLP (the Pareto problem)
     case_column: str | None = None   # the study store's column that holds it too (None: only 'objective')
+    robust: bool = False        # a robust study's worst case over the calibration's region is built for it
 
     @property
     def axis(self) -> str:
@@ -66,7 +67,7 @@ class PowerLoss(Objective):
 
 
 OBJECTIVES = {o.kind: o for o in (
-    WorstAlpha("worst_alpha", "worst |α|", "°", epigraph=True, case_column="worst_alpha_deg"),
+    WorstAlpha("worst_alpha", "worst |α|", "°", epigraph=True, case_column="worst_alpha_deg", robust=True),
     RmsAlpha("rms_alpha", "RMS α", "°"),
     PowerLoss("power_loss", "mean power loss", "W", case_column="power_loss_W"),
     PowerLoss("pareto", "mean power loss at the knee", "W", epigraph=True, eps_row=True,

@@ -352,9 +352,10 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
         if not 0 < spec.robust.confidence < 1:
             raise InputError(f"{where}: robust.confidence: expected a probability between 0 and 1 (e.g. 0.95), "
                              f"got {spec.robust.confidence:g}")
-        if spec.objective.kind != "worst_alpha":
+        if not OBJECTIVES[spec.objective.kind].robust:
+            kinds = ", ".join(k for k, o in OBJECTIVES.items() if o.robust)
             raise InputError(f"{where}: robust: the worst case over the region is built for objective kind "
-                             f"worst_alpha; expected that kind with robust (got {spec.objective.kind})")
+                             f"{kinds}; expected that kind with robust (got {spec.objective.kind})")
 
 
 def duty_cycle(spec: StudySpec, gammas: np.ndarray, loads: np.ndarray, where: str) -> tuple:

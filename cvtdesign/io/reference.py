@@ -21,7 +21,7 @@ from cvtdesign.core.contact.laws import LAWS
 from cvtdesign.io.limits import LOAD_MARGIN, MAX_GRID_POINTS, MAX_POINTS
 from cvtdesign.io.output import write_files
 from cvtdesign.io.schema import Spherical, VariantSpec, law_name, unit_text
-from cvtdesign.io.units import KINDS
+from cvtdesign.io.units import KINDS, number, typed
 from cvtdesign.io.variant import PLAUSIBLE
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"    # the repository's docs/ (run from a checkout)
@@ -97,29 +97,12 @@ def sections(model=VariantSpec, prefix: str = "", extra: dict | None = None) -> 
     return out
 
 
-def _number(v: float) -> str:
-    return f"{v:g}".replace("e+0", "e").replace("e+", "e").replace("e-0", "e-")
-
-
-def si_text(value: float, kind: str) -> str:
-    """A value in the unit a designer reads it in: m, N, MPa/GPa, deg."""
-    si = KINDS[kind][0]
-    if value == 0:
-        return "0"
-    if kind == "pressure":
-        unit, k = next(((u, k) for u, k in (("GPa", 1e9), ("MPa", 1e6), ("kPa", 1e3)) if abs(value) >= k), ("Pa", 1))
-        return f"{_number(value / k)} {unit}"
-    if kind == "angle":
-        return f"{_number(round(math.degrees(value), 6))} deg"
-    return f"{_number(value)} {si}".strip()
-
-
 def range_text(key: str, step: bool = False) -> str:
     """The plausible range of PLAUSIBLE[key] ('0 < value ≤ 1 m; a plain number out of it: try mm')."""
     what, kind, lo, hi, lo_open, guess = PLAUSIBLE[key]
     if step:
         return f"> 0, at most {MAX_GRID_POINTS} points"
-    text = f"{si_text(lo, kind)} {'<' if lo_open else '≤'} value ≤ {si_text(hi, kind)}"
+    text = f"{'0' if lo == 0 else typed(lo, kind)} {'<' if lo_open else '≤'} value ≤ {typed(hi, kind)}"
     return text + (f"; a plain number outside: *did you mean '… {guess}'?*" if guess else "")
 
 
@@ -257,12 +240,11 @@ def _hooks() -> dict[str, str]:
 
 
 def _bound(value: float, kind: str) -> str:
-    text = si_text(value, kind)
-    if kind == "angle":
-        text = f"{_number(value)} rad ({text})"
-    if kind == "length" and value:
-        text += f" ({_number(value * 1e3)} mm)"
-    return text
+    """A bound in SI (what a plain number means) and, where that differs, as a file would write it (io.units.typed)."""
+    if value == 0:
+        return "0"
+    si, shown = f"{number(value, 6)} {KINDS[kind][0]}".strip(), typed(value, kind)
+    return si if shown.replace(" ", "") == si.replace(" ", "") else f"{si} ({shown})"
 
 
 def param_row(effect: str, name: str, p: fx.Param) -> str:

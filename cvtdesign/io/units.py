@@ -28,6 +28,7 @@ import re
 import sys
 
 import casadi as ca
+import numpy as np
 
 from cvtdesign.errors import InputError, shorten
 
@@ -323,7 +324,45 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
     return si
 
 
-# display unit of each kind for the messages of check_range: (unit name, factor from SI)
+# the unit every printed quantity of a kind (units.KINDS, and power) is shown in, and its factor from SI
+ENGINEERING = {
+    "length": ("mm", 1e3), "force": ("N", 1.0), "torque": ("N·m", 1.0), "angle": ("°", 180 / math.pi),
+    "pressure": ("MPa", 1e-6), "power": ("W", 1.0), "compliance": ("1/N", 1.0), "stiffness": ("N/mm", 1e-3),
+    "speed": ("rad/s", 1.0), "dimensionless": ("", 1.0),
+}
+
+
+def number(value, digits: int = 4) -> str:
+    """`value` to `digits` significant digits, positional between 1e-4 and 1e7 (31.94, 0.0992, 143.5,
+    12350), else with an exponent (1.2e-07); '—' for None or NaN."""
+    if value is None or (isinstance(value, (float, np.floating)) and math.isnan(value)):
+        return "—"
+    value = float(value)
+    if value == 0 or not math.isfinite(value):
+        return "0" if value == 0 else f"{value}"
+    if 1e-4 <= abs(value) < 1e7:
+        return np.format_float_positional(value, precision=digits, unique=False, fractional=False, trim="-")
+    return f"{value:.{digits}g}".replace("e-0", "e-").replace("e+0", "e+")
+
+
+def engineering(value_si, kind: str, digits: int = 4) -> str:
+    """An SI value of a kind (KINDS or 'power') in its engineering unit, with the unit (ENGINEERING):
+    engineering(0.0319401, 'length') = '31.94 mm', engineering(0.0541, 'angle') = '3.1°' (angles in rad),
+    engineering(6e6, 'pressure') = '6 MPa'; '—' for None or NaN. What tables, reports and notes show; a
+    value as a file would write it (a bound in a message) is `typed`."""
+    unit, factor = ENGINEERING[kind]
+    text = number(None if value_si is None else float(value_si) * factor, digits)
+    if text == "—" or not unit:
+        return text
+    return f"{text}°" if unit == "°" else f"{text} {unit}"
+
+
+def degrees(value_deg, digits: int = 4) -> str:
+    """An angle already in degrees (worst_alpha_deg, an objective in degrees): '3.1°'."""
+    return engineering(None if value_deg is None else math.radians(value_deg), "angle", digits)
+
+
+# how a value of each kind is written in SI (the meaning of a plain number in a file)
 _SHOW = {"length": ("m", 1.0), "force": ("N", 1.0), "compliance": ("1/N", 1.0), "stiffness": ("N/m", 1.0),
          "pressure": ("Pa", 1.0), "angle": ("rad", 1.0), "torque": ("N·m", 1.0), "speed": ("rad/s", 1.0),
          "dimensionless": ("", 1.0)}
@@ -334,8 +373,9 @@ def _show(value, kind, units=None) -> str:
     return f"{value * k:.6g}" + (f" {name}" if name else "")
 
 
-def _show_bound(value, kind) -> str:
-    """A bound in the unit a designer reads it in: mm below 1 m, MPa/GPa, degrees."""
+def typed(value, kind) -> str:
+    """A value as a file would write it, in the unit a designer types (mm below 1 m, kPa/MPa/GPa, deg): the
+    bounds in messages and in the reference pages. Tables and reports show quantities with `engineering`."""
     if kind == "length" and abs(value) < 1:
         return _show(value, kind, ("mm", 1e3))
     if kind == "pressure" and abs(value) >= 1e3:
@@ -359,9 +399,9 @@ def check_range(value, raw, where: str, what: str, kind: str, lo=None, hi=None, 
     if not (below or above):
         return value
     if below:
-        need = f"more than {_show_bound(lo, kind)}" if lo_open else f"at least {_show_bound(lo, kind)}"
+        need = f"more than {typed(lo, kind)}" if lo_open else f"at least {typed(lo, kind)}"
     else:
-        need = f"less than {_show_bound(hi, kind)}" if hi_open else f"at most {_show_bound(hi, kind)}"
+        need = f"less than {typed(hi, kind)}" if hi_open else f"at most {typed(hi, kind)}"
     hint = ""
     if guess and is_plain_number(raw):
         alt = to_si(f"{float(raw) if not isinstance(raw, str) else raw.strip()} {guess}", kind, where)

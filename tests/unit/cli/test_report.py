@@ -20,11 +20,12 @@ from cvtdesign.cli import main
 from cvtdesign.cli.compare import COLUMNS
 from cvtdesign.cli.compare_report import MEANINGS
 from cvtdesign.cli.diagnosis_text import value_pm
-from cvtdesign.cli.printing import degrees, engineering, kind_of, number
+from cvtdesign.cli.printing import kind_of
 from cvtdesign.cli.study import best_optima, optima_table, pareto_blocks
 from cvtdesign.core.effects import EFFECTS
 from cvtdesign.diagnosis import rig
 from cvtdesign.io.report import Note, Table, html_report
+from cvtdesign.io.units import degrees, engineering, number
 from cvtdesign.io.variant import load_variant
 
 BOX = ROOT / "variants" / "box.yaml"

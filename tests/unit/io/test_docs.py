@@ -72,7 +72,7 @@ def test_every_plausible_range_is_documented_on_its_field():
     fields = {(info.json_schema_extra or {}).get("plausible") for m in all_models() for info in m.model_fields.values()}
     assert set(PLAUSIBLE) <= fields, f"ranges no field documents: {set(PLAUSIBLE) - fields}"
     text = (DOCS / "variant-reference.md").read_text(encoding="utf-8")
-    assert "| `sphere.radius` | number or quantity | m; e.g. 40 mm | **required** | 0.001 m ≤ value ≤ 2 m" in text
+    assert "| `sphere.radius` | number or quantity | m; e.g. 40 mm | **required** | 1 mm ≤ value ≤ 2 m" in text
     assert "100 kPa ≤ value ≤ 1200 GPa" in text and "did you mean '45 mm'?" in text
 
 
