@@ -72,9 +72,9 @@ class SelfCheck:
 @dataclass(frozen=True)
 class Effect:
     """One effect of the vocabulary (module docstring). `calibrates`: 'drive' or 'steering' when the effect's
-    `scale` parameter is the calibration of that side's creep (Kim's fitted creep model is the effects that calibrate);
-    `at_zero_load`: whether it acts when no load is transmitted (the papers' zero-load checks leave these
-    out); `independent`: its parameter's name in the independent simulator."""
+    `scale` parameter is the calibration of that side's creep (Kim's fitted creep model is the effects that
+    calibrate); `at_zero_load`: whether it acts when no load is transmitted (the papers' zero-load checks
+    leave these out); `independent`: its parameter's name in the independent simulator."""
     name: str
     doc: str
     params: dict
