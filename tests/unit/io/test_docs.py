@@ -136,3 +136,22 @@ def test_docs_name_only_docs_that_exist(name):
     text = (DOCS / name).read_text(encoding="utf-8")
     for ref in set(re.findall(r"docs/([\w-]+\.md)", text)):
         assert (DOCS / ref).exists(), f"docs/{name} names docs/{ref}, which does not exist"
+
+
+@pytest.mark.slow
+def test_readme_compare_table_is_what_compare_prints(tmp_path, monkeypatch):
+    """The README's table of the three shipped variants is the table `compare` prints for them, cell by cell
+    (two interval ends had gone stale: 0.41 for 0.40, 93.81 for 93.80)."""
+    from cvtdesign.cli.compare import COLUMNS, figure_cell
+    monkeypatch.chdir(ROOT)
+    js = tmp_path / "c.json"
+    files = [f"variants/{n}.yaml" for n in ("existing", "box", "unequal")]
+    assert main(["compare", *files, "--out", str(tmp_path / "p"), "--json", str(js)]) == 0
+    rows = {r["name"]: r for r in json.loads(js.read_text())["variants"]}
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    table = text[text.index("| figure (95 % interval from the calibration) | existing | box | unequal |"):]
+    lines = [ln for ln in table.splitlines()[2:] if ln.startswith("|")][:9]
+    assert len(lines) == 9
+    for line, (key, _, fmt) in zip(lines, COLUMNS):
+        cells = [c.strip() for c in line.strip("|").split("|")][-3:]
+        assert cells == [figure_cell(rows[n], key, fmt) for n in ("existing", "box", "unequal")], (key, line)
