@@ -20,6 +20,7 @@ from cvtdesign.diagnosis.measured import Measured
 
 CHANNELS = ("alpha", "tau_par", "axis")        # [deg], [N m], [deg]
 UNITS = {"alpha": "deg", "tau_par": "N*m", "axis": "deg"}
+OUTPUTS = ["alpha", "tau_1", "tau_2", "gamma_axis", "omega_2", "status"]   # the model's outputs they are made of
 
 
 class Predictor:
@@ -35,9 +36,9 @@ class Predictor:
         n = len(r)
         phi0, _ = self.model.steering_guess(g)
         th = ca.MX.sym("theta", len(self.names))
-        F = self.model.point.map(n, "thread", 2)
-        out = dict(zip(self.model.point.name_out(), F(g, r["omega_1"].to_numpy(), r["tau_perp"].to_numpy(), 0.0,
-                                                     phi0, th, np.zeros(0))))
+        point = self.model.point_function(OUTPUTS)       # only what the channels need, solved and differentiated
+        out = dict(zip(OUTPUTS, point.map(n, "thread", 2)(g, r["omega_1"].to_numpy(), r["tau_perp"].to_numpy(), 0.0,
+                                                          phi0, th, np.zeros(0))))
         _, tau_par = self.model.frame.load_split(g, out["tau_1"].T, out["tau_2"].T)
         y = ca.vertcat(out["alpha"].T, tau_par, out["gamma_axis"].T, out["omega_2"].T, out["tau_1"].T, out["tau_2"].T)
         self.n = n
