@@ -3,7 +3,6 @@ file (named, coloured parts; see `plan` for what each part is), an SVG line draw
 geometric checks of the written file (`checks.check_step`)."""
 from __future__ import annotations
 
-import multiprocessing
 import time
 from pathlib import Path
 
@@ -21,46 +20,17 @@ from cvtdesign.io.output import make_folder, staged
 from cvtdesign.io.variant import load_variant
 
 
-def _answer(conn, fn, args):
-    """In the forked process: send (True, fn(*args)), or (False, the exception it raised)."""
-    try:
-        answer = (True, fn(*args))
-    except Exception as e:      # raised again by the parent (`_Forked.result`)
-        answer = (False, e)
-    try:
-        conn.send(answer)
-    except Exception as e:      # an answer that cannot be pickled
-        conn.send((False, RuntimeError(f"{type(e).__name__}: {e}")))
-
-
-class _Forked:
-    """fn(*args) run in a forked copy of this process, which has cadquery and the shapes already, on the
-    other core while this one goes on (OpenCascade holds the GIL, so a thread would not run beside it)."""
-
-    def __init__(self, fn, *args):
-        ctx = multiprocessing.get_context("fork")
-        self.conn, child = ctx.Pipe(duplex=False)
-        self.proc = ctx.Process(target=_answer, args=(child, fn, args), daemon=True)
-        self.proc.start()
-        child.close()
-
-    def result(self):
-        """What fn returned; what it raised is raised here, as one line (RunError) unless it is bad input."""
-        try:
-            ok, value = self.conn.recv()
-        except EOFError:
-            raise RunError("the drawing process ended unexpectedly") from None
-        if not ok:
-            if isinstance(value, InputError):
-                raise value
-            raise RunError(f"drawing the SVG failed: {type(value).__name__}: {value}") from value
+def _svg_result(svg: plots.Forked) -> str:
+    """The SVG the forked process drew; what it raised is raised here, as one line (RunError) unless it is bad
+    input."""
+    ok, value = svg.answer()
+    if ok:
         return value
-
-    def close(self):
-        if self.proc.is_alive():
-            self.proc.terminate()
-        self.proc.join()
-        self.conn.close()
+    if isinstance(value, InputError):
+        raise value
+    if value is None:
+        raise RunError("the drawing process ended unexpectedly")
+    raise RunError(f"drawing the SVG failed: {plots.describe(value)}")
 
 
 def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, check: bool = False) -> dict:
@@ -91,7 +61,9 @@ def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, c
         stem = layout.name if isinstance(layout_or_path, Layout) else Path(layout_or_path).stem
         paths = [out / f"{stem}.{ext}" for ext in ("step", "svg", "png")]
         with staged(paths, kind="CAD file") as tmps:     # the three files appear together or not at all
-            svg = _Forked(svg_text, p, shapes)
+            # a forked copy of this process, with cadquery and the shapes already, draws the SVG on the other
+            # core (OpenCascade holds the GIL, so a thread would not run beside this one)
+            svg = plots.Forked(call=(svg_text, (p, shapes)))
             drawn = False
             try:
                 image, part, extent = raster(*view_mesh(p, shapes), [part.colour for part in p.parts])
@@ -100,7 +72,7 @@ def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, c
                              notes)
                 drawn = True
                 write_step(assembly(p, shapes), tmps[0], step_header(p, paths[0].name))
-                tmps[1].write_text(framed_svg(svg.result(), picture_caption(p), notes))
+                tmps[1].write_text(framed_svg(_svg_result(svg), picture_caption(p), notes))
             finally:
                 svg.close()
                 # the painter writes through a temporary file of its own: let it finish, on a failure too,

@@ -1,4 +1,6 @@
-"""The plotting process: a forked process with matplotlib imported that draws one figure while its parent computes."""
+"""Forked processes that work while their parent computes: `Forked` runs one function sent to it and answers
+with what it returned or raised; `Background` is the plotting process, a Forked that imports matplotlib at once
+and draws one figure. (cad.export also forks one to draw the SVG beside the STEP export.)"""
 from __future__ import annotations
 
 import gc
@@ -10,45 +12,54 @@ from cvtdesign.io.output import OutputError
 from cvtdesign.io.plots.base import figure_parts
 
 
-def worker(conn, parent_end):
-    """Plotting process: imports matplotlib at once (while the parent computes), then draws what it is
-    sent, (a figure function of this package, args), and answers None or an error text. Interrupted (Background.close),
-    it stops quietly: output.write_file has removed the file it was writing.
+def worker(conn, parent_end, warm=None, call=None):
+    """The forked process: runs `warm()` at once (while the parent computes), then `call` (fn, args) if given
+    (its arguments are the parent's objects, copied by the fork: nothing is pickled), else the one (fn, args)
+    it is sent, and answers (True, fn(*args)) or (False, the exception it raised, or its text 'Type: message' when
+    it cannot be pickled). Interrupted (Forked.close), it stops quietly: output.write_file has removed a file it was
+    writing.
 
-    It draws one figure and ends, so Python's cyclic garbage collector stays off: its passes would walk
+    It runs one call and ends, so Python's cyclic garbage collector stays off: its passes would walk
     matplotlib's objects and the parent's (about a seventh of the process's time) for cycles that the end of
     the process frees anyway; the memory it uses stays the same."""
     gc.disable()
     parent_end.close()      # its copy of the parent's end: without it, a parent that dies would not be noticed
     failed = None
     try:
-        figure_parts()
+        if warm is not None:
+            warm()
     except KeyboardInterrupt:
         return
     except Exception as e:  # noqa: BLE001 — reported to the parent with its request, unless interrupted
         if _interrupted(e):
             return
-        failed = f"{type(e).__name__}: {e}"
+        failed = e
     try:
-        figure, args = conn.recv()
-        if failed:
-            conn.send(failed)
-            return
-        figure(*args)
-        conn.send(None)
+        fn, args = call if call is not None else conn.recv()
+        answer = (False, failed) if failed else (True, fn(*args))
     except (EOFError, BrokenPipeError, KeyboardInterrupt):
         return
-    except OutputError as e:  # raised again by the parent (Background.wait): one line, exit status 2
-        conn.send(e)
-    except Exception as e:  # noqa: BLE001 — reported by the parent as one line, unless interrupted
-        if not _interrupted(e):
-            conn.send(f"{type(e).__name__}: {e}")
+    except Exception as e:  # noqa: BLE001 — raised again or reported by the parent, unless interrupted
+        if _interrupted(e):
+            return
+        answer = (False, e)
+    try:
+        conn.send(answer)
+    except (EOFError, BrokenPipeError):
+        return
+    except Exception as e:  # noqa: BLE001 — an answer that cannot be pickled
+        conn.send((False, describe(answer[1]) if not answer[0] else f"{type(e).__name__}: {e}"))
+
+
+def describe(error) -> str:
+    """An answer's error as one line: 'Type: message' (an error the process could only describe is its text)."""
+    return error if isinstance(error, str) else f"{type(error).__name__}: {error}"
 
 
 def _interrupted(e: BaseException) -> bool:
-    """Whether `e` comes of Background.close's interrupt: a KeyboardInterrupt inside C code (an extension
-    module being imported, say) surfaces as another exception caused by it, and its traceback on stderr would
-    follow the parent's one-line error."""
+    """Whether `e` comes of Forked.close's interrupt: a KeyboardInterrupt inside C code (an extension module
+    being imported, say) surfaces as another exception caused by it, and its traceback on stderr would follow
+    the parent's one-line error."""
     while e is not None:
         if isinstance(e, KeyboardInterrupt):
             return True
@@ -56,34 +67,32 @@ def _interrupted(e: BaseException) -> bool:
     return False
 
 
-class Background:
-    """Run a figure function of this package in a forked process that has matplotlib ready.
+class Forked:
+    """A forked copy of this process (it has what this one imported and built) that runs one function on the
+    other core: start it early with the call (`call`: (fn, args), whose arguments the fork copies) or `send`
+    it the call later, `answer` gives (ok, value or exception), `close` ends it if it still runs, without
+    leaving a half-written file. `warm`: what it runs at once, before the call."""
 
-    Start it before the computation; `draw` hands over the data; `wait` returns the error text or None
-    (a file that could not be written is raised as the OutputError it was); `close` ends the process if it
-    still runs, without leaving a half-written file."""
-
-    def __init__(self):
+    def __init__(self, warm=None, call=None):
         ctx = multiprocessing.get_context("fork")
         self.conn, child = ctx.Pipe()
-        self.proc = ctx.Process(target=worker, args=(child, self.conn), daemon=True)
+        self.proc = ctx.Process(target=worker, args=(child, self.conn, warm, call), daemon=True)
         self.proc.start()
         child.close()
 
-    def draw(self, figure, *args):
-        """Have the process call figure(*args) (a figure function of this package, sent by reference)."""
-        self.conn.send((figure, args))
+    def send(self, fn, *args):
+        """Have the process call fn(*args) (a module-level function, sent by reference)."""
+        self.conn.send((fn, args))
 
-    def wait(self):
+    def answer(self) -> tuple:
+        """(True, what the call returned) or (False, what it raised, or its text; None: the process ended
+        without answering); the process is closed after."""
         try:
-            answer = self.conn.recv()
+            return self.conn.recv()
         except EOFError:
-            return "the plotting process ended unexpectedly"
+            return False, None
         finally:
             self.close()
-        if isinstance(answer, OutputError):
-            raise answer
-        return answer
 
     def close(self):
         """After an answer the process ends by itself; otherwise (the parent failed) it is interrupted, so a
@@ -96,3 +105,23 @@ class Background:
             self.proc.terminate()
             self.proc.join()
         self.conn.close()
+
+
+class Background(Forked):
+    """The plotting process: a Forked with matplotlib imported at once, that draws one figure function of this
+    package. `draw` hands over the data; `wait` returns None or the error's text (a file that could not be
+    written is raised as the OutputError it was)."""
+
+    def __init__(self):
+        super().__init__(warm=figure_parts)
+
+    def draw(self, figure, *args):
+        self.send(figure, *args)
+
+    def wait(self):
+        ok, value = self.answer()
+        if ok:
+            return None
+        if isinstance(value, OutputError):
+            raise value
+        return "the plotting process ended unexpectedly" if value is None else describe(value)

@@ -48,8 +48,9 @@ def test_an_interrupt_during_matplotlibs_import_ends_the_plotting_process_quietl
             spare, _ = multiprocessing.Pipe()
             monkeypatch.setattr(process, "figure_parts", fail)
             here.send((plots.compare_figure, ()))
-            plots.worker(there, spare)        # in this process: it returns instead of ending one
-            assert (here.recv() if here.poll(1) else "nothing") == answer
+            plots.worker(there, spare, process.figure_parts)   # in this process: it returns instead of ending one
+            got = here.recv() if here.poll(1) else None
+            assert ("nothing" if got is None else plots.describe(got[1])) == answer
     finally:
         gc.enable()                           # the worker turns the cycle collector off
     assert "Traceback" not in capsys.readouterr().err
