@@ -182,6 +182,15 @@ def test_explicit_frame_side():
     np.testing.assert_allclose(lt.rotate(data, Q)["frame"]["side"], Q @ [0, 0, -1], atol=1e-15)
 
 
+def same_dot_products(data: dict, changed: dict) -> tuple:
+    """The two layouts, after checking that every dot product of their normals and axles (at φ = 0) agrees."""
+    L0, L1 = lt.layout_of(data), lt.layout_of(changed)
+    vs0 = [v for r in L0.rollers for v in pose(r, 0.0)]
+    vs1 = [v for r in L1.rollers for v in pose(r, 0.0)]
+    np.testing.assert_allclose(gram(vs1), gram(vs0), atol=1e-12)
+    return L0, L1
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", SHIPPED)
 @GEOMETRY
@@ -192,10 +201,7 @@ def test_rotate(name, q, phi):
     Q = lt.quaternion_matrix(q)
     data = base(name)
     rot = lt.rotate(data, Q)
-    L0, L1 = lt.layout_of(data), lt.layout_of(rot)
-    vs0 = [v for r in L0.rollers for v in pose(r, 0.0)]
-    vs1 = [v for r in L1.rollers for v in pose(r, 0.0)]
-    np.testing.assert_allclose(gram(vs1), gram(vs0), atol=1e-12)
+    L0, L1 = same_dot_products(data, rot)
     for r0, r1 in zip(L0.rollers, L1.rollers):
         assert (r0.name, r0.role, r0.shaft, r0.fork_ratio) == (r1.name, r1.role, r1.shaft, r1.fork_ratio)
         for v0, v1 in zip(pose(r0, phi), pose(r1, phi)):
@@ -215,10 +221,7 @@ def test_mirror(name, q, v, phi):
     P = reflection(q, v)
     data = base(name)
     mir = lt.mirror(data, P)
-    L0, L1 = lt.layout_of(data), lt.layout_of(mir)
-    vs0 = [v for r in L0.rollers for v in pose(r, 0.0)]
-    vs1 = [v for r in L1.rollers for v in pose(r, 0.0)]
-    np.testing.assert_allclose(gram(vs1), gram(vs0), atol=1e-12)
+    L0, L1 = same_dot_products(data, mir)
     for r0, r1 in zip(L0.rollers, L1.rollers):
         assert r1.fork_ratio == -r0.fork_ratio
         for v0, v1 in zip(pose(r0, phi), pose(r1, phi)):
