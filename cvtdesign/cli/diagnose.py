@@ -11,9 +11,9 @@ from rich.console import Console
 from cvtdesign.cli.arguments import effects_arg
 from cvtdesign.cli.diagnosis_text import report_blocks
 from cvtdesign.cli.printing import json_text, progress_bar, report_text, show
+from cvtdesign.core.effects import CALIBRATION
 from cvtdesign.diagnosis import diagnose
 from cvtdesign.diagnosis import measured
-from cvtdesign.core.effects import CALIBRATION
 from cvtdesign.diagnosis.diagnose import Report, model_efficiency, residuals
 from cvtdesign.errors import InputError
 from cvtdesign.io import materials, plots
@@ -63,8 +63,6 @@ def run(args):
         console.print(f"calibration written to {args.save_calibration} (a variant uses it with "
                       f"material_library: [{Path(args.save_calibration).name}]){other_fits(rep)}", markup=False)
     return 0
-
-
 
 
 def saved_calibration(args, layout, rep: Report) -> str:

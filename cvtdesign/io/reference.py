@@ -21,7 +21,7 @@ from cvtdesign.core.contact.laws import LAWS
 from cvtdesign.io.limits import LOAD_MARGIN, MAX_GRID_POINTS, MAX_POINTS
 from cvtdesign.io.output import write_files
 from cvtdesign.io.schema import Spherical, VariantSpec, law_name, unit_text
-from cvtdesign.io.units import KINDS, number, typed
+from cvtdesign.io.units import KINDS, si_text, typed
 from cvtdesign.io.variant import PLAUSIBLE
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"    # the repository's docs/ (run from a checkout)
@@ -243,7 +243,7 @@ def _bound(value: float, kind: str) -> str:
     """A bound in SI (what a plain number means) and, where that differs, as a file would write it (io.units.typed)."""
     if value == 0:
         return "0"
-    si, shown = f"{number(value, 6)} {KINDS[kind][0]}".strip(), typed(value, kind)
+    si, shown = si_text(value, kind), typed(value, kind)
     return si if shown.replace(" ", "") == si.replace(" ", "") else f"{si} ({shown})"
 
 

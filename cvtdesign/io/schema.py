@@ -204,8 +204,8 @@ class ContactSpec(Strict):
     normal force, its creepages normalised by Kalker's coefficients (C11, C22, C23), and the force and spin
     moment of Kalker's simplified theory (FASTSIM) for creep and spin together (core.contact.surface), scaled
     by `calibration`."""
-    law: LawName = spec_field("the contact law: kim (fitted creep constants) or kalker (Hertz + "
-                                           "Kalker + FASTSIM at every contact)", IDEAL)
+    law: LawName = spec_field("the contact law: kim (fitted creep constants) or kalker (Hertz + Kalker + "
+                              "FASTSIM at every contact)", IDEAL)
     calibration: CalibrationSpec = spec_field("factors on the Kalker compliances (law kalker only): drive, steering",
                                               CalibrationSpec())
     creep_drive: Num | None = spec_field("creep constant ε_D of drive and follower rollers: slip ratio per "

@@ -362,14 +362,10 @@ def degrees(value_deg, digits: int = 4) -> str:
     return engineering(None if value_deg is None else math.radians(value_deg), "angle", digits)
 
 
-# how a value of each kind is written in SI (the meaning of a plain number in a file)
-_SHOW = {"length": ("m", 1.0), "force": ("N", 1.0), "compliance": ("1/N", 1.0), "stiffness": ("N/m", 1.0),
-         "pressure": ("Pa", 1.0), "angle": ("rad", 1.0), "torque": ("N·m", 1.0), "speed": ("rad/s", 1.0),
-         "dimensionless": ("", 1.0)}
-
-
-def _show(value, kind, units=None) -> str:
-    name, k = units or _SHOW[kind]
+def si_text(value, kind, units=None) -> str:
+    """A value as a plain number in a file means it: in its kind's SI unit (KINDS; N·m written with '·'), to 6
+    significant digits; `units` (name, factor from SI) shows it in another."""
+    name, k = units or (KINDS[kind][0].replace("*", "·"), 1.0)
     return f"{value * k:.6g}" + (f" {name}" if name else "")
 
 
@@ -377,13 +373,13 @@ def typed(value, kind) -> str:
     """A value as a file would write it, in the unit a designer types (mm below 1 m, kPa/MPa/GPa, deg): the
     bounds in messages and in the reference pages. Tables and reports show quantities with `engineering`."""
     if kind == "length" and abs(value) < 1:
-        return _show(value, kind, ("mm", 1e3))
+        return si_text(value, kind, ("mm", 1e3))
     if kind == "pressure" and abs(value) >= 1e3:
         unit = next((u for u in (("GPa", 1e-9), ("MPa", 1e-6), ("kPa", 1e-3)) if abs(value) * u[1] >= 1))
-        return _show(value, kind, unit)
+        return si_text(value, kind, unit)
     if kind == "angle":
-        return _show(value, kind, ("deg", 180 / math.pi))
-    return _show(value, kind)
+        return si_text(value, kind, ("deg", 180 / math.pi))
+    return si_text(value, kind)
 
 
 def check_range(value, raw, where: str, what: str, kind: str, lo=None, hi=None, lo_open=False, hi_open=False,
@@ -412,5 +408,5 @@ def check_range(value, raw, where: str, what: str, kind: str, lo=None, hi=None, 
     elif isinstance(raw, str) and raw.strip().startswith("="):
         hint = "; expressions are evaluated in SI (m, N, Pa, rad)"
     written = isinstance(raw, str) and not is_plain_number(raw) and not raw.strip().startswith("=")
-    shown = f"'{shorten(raw.strip())}'" if written else _show(value, kind)     # as written, if it has a unit
+    shown = f"'{shorten(raw.strip())}'" if written else si_text(value, kind)     # as written, if it has a unit
     raise InputError(f"{where}: {shown} is not a plausible {what} (expected {need}){hint}")
