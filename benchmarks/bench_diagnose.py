@@ -1,7 +1,7 @@
 """Speed of the diagnosis as ratios to baselines measured in the same run, with the goals of the diagnosis
 issue.
 
-1. The whole diagnosis of a 187-row dataset (Kim's protocol on variants/existing.yaml, steering lateral creep
+1. The whole diagnosis of a 187-row dataset (Kim's protocol on variants/existing_kim.yaml, steering lateral creep
    withheld from a drive-creep-only base, against the 7 other effects of the vocabulary: noise, base fit,
    7 candidates × (full fit + 5 cross-validation fits), the greedy second round), reading its CSV included,
    as a multiple of a fixed numpy computation (`reference`: what this machine does in a given time, whatever
@@ -140,7 +140,7 @@ def main():
     parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds; each figure is the best (default 3)")
     parser.add_argument("--large", action="store_true", help="also the 100k-row diagnosis (one round)")
     args = parser.parse_args()
-    L = load_variant(ROOT / "variants/existing.yaml")
+    L = load_variant(ROOT / "variants/existing_kim.yaml")
     print(f"load average {os.getloadavg()[0]:.1f} at the start; best of {args.rounds} interleaved rounds")
     whole_diagnosis(L, args.rounds)
     exact_jacobian(L)

@@ -1,9 +1,9 @@
 """Speed of `cvtdesign export`, printed next to baselines run in the same process or run, as ratios.
 
-1. Cold start: `cvtdesign export variants/box.yaml` (STEP + SVG + PNG, as the README shows it) in a new
+1. Cold start: `cvtdesign export variants/box_kim.yaml` (STEP + SVG + PNG, as the README shows it) in a new
    process against `python -c "import cadquery"`, what merely loading cadquery costs on this machine now;
    the two are run in turn, and each figure is the best of the rounds. Goal (issue 12): at most COLD_GOAL ×.
-2. Warm (cadquery loaded): `export_variant` for box.yaml and existing.yaml against the bare assembly of
+2. Warm (cadquery loaded): `export_variant` for box_kim.yaml and existing_kim.yaml against the bare assembly of
    the same layout (the sphere and plain cylinders of the rollers' radius and width at their poses, no
    crowns, bores, axles, forks, couplings, screen or drawings, written to STEP), and the `--check` time.
 
@@ -29,7 +29,7 @@ from cvtdesign.io.variant import load_variant
 from timing import best_of
 
 ROOT = Path(__file__).resolve().parents[1]
-COLD_GOAL = 2.5            # [×] cold export of box.yaml against `import cadquery`, at most
+COLD_GOAL = 2.5            # [×] cold export of box_kim.yaml against `import cadquery`, at most
 
 
 def bare_assembly(path, out):
@@ -59,12 +59,12 @@ def cold_start(tmp, rounds):
     t_cq, t_exp, inside = [], [], []
     for _ in range(rounds):
         t_cq.append(run([sys.executable, "-c", "import cadquery"])[0])
-        t, out = run([sys.executable, "-m", "cvtdesign", "export", "variants/box.yaml", "--out", tmp])
+        t, out = run([sys.executable, "-m", "cvtdesign", "export", "variants/box_kim.yaml", "--out", tmp])
         t_exp.append(t)
         inside.append(float(re.search(r" in ([\d.]+) s;", out).group(1)))
     ratio = min(t_exp) / min(t_cq)
     print(f"cold start (new processes, best of {rounds} rounds, each round both in turn)")
-    print(f"  cvtdesign export variants/box.yaml       {min(t_exp):6.2f} s   (of which export_variant, cadquery's "
+    print(f"  cvtdesign export variants/box_kim.yaml       {min(t_exp):6.2f} s   (of which export_variant, cadquery's "
           f"import included, {min(inside):.2f} s)")
     print(f"  python -c 'import cadquery' (baseline)   {min(t_cq):6.2f} s   ratio {ratio:.2f} ×")
     verdict = "met" if ratio <= COLD_GOAL else "not met"
@@ -74,7 +74,7 @@ def cold_start(tmp, rounds):
 def warm(tmp):
     kernel()
     print("warm (cadquery loaded), best of 3")
-    for name in ("box", "existing"):
+    for name in ("box_kim", "existing_kim"):
         path = ROOT / "variants" / f"{name}.yaml"
         t_bare, _ = best_of(lambda: bare_assembly(path, tmp), 3)
         t_exp, res = best_of(lambda: export_variant(path, tmp), 3)

@@ -1,14 +1,14 @@
 """Speed of the compiled model, printed as figures and as ratios to baselines run in the same process.
 
-1. box.yaml over a 161 × 201 envelope (γ and τ⊥ over the variant's ranges): the model compiled to C (what
+1. box_kim.yaml over a 161 × 201 envelope (γ and τ⊥ over the variant's ranges): the model compiled to C (what
    `evaluate` runs once the library is in the cache), and interpreted, against a numpy baseline run in the
    same process: np.linalg.solve on a stack of 3 well-conditioned random 24 × 24 systems a point (a Newton
    solve of the box's 24 unknowns takes about that much linear algebra). Goal: the compiled model within
    1.5 × the baseline. Also the one-off compile and the load of the cached library on a later run.
-2. The `kalker` contact law against Kim's (`kim`) on the same layout and grid: box_kalker.yaml against box.yaml
+2. The `kalker` contact law against Kim's (`kim`) on the same layout and grid: box.yaml against box_kim.yaml
    over box's envelope at 61 × 61 points, both compiled, interleaved. Goal: a kalker point at most 3 × a kim
    point. Printed as `kalker/kim compiled cost ratio: X`.
-3. `cvtdesign compare variants/box.yaml` from a cold start (a new process), against `python -c "import
+3. `cvtdesign compare variants/box_kim.yaml` from a cold start (a new process), against `python -c "import
    casadi"` as the baseline of what merely starting Python with CasADi costs on this machine now; then one
    unprofiled run's timeline of both processes, and the floor the figure sets: the baseline's start-up plus
    what the plotting process alone needs (importing matplotlib, drawing the figure).
@@ -36,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def grid_benchmark(repeats: int = 5, goal: float = 1.5):
-    L = load_variant(ROOT / "variants/box.yaml")
+    L = load_variant(ROOT / "variants/box_kim.yaml")
     G, T = np.meshgrid(np.linspace(L.gamma_grid.min(), L.gamma_grid.max(), 161),
                        np.linspace(L.load_grid.min(), L.load_grid.max(), 201), indexing="ij")
     n = G.size
@@ -66,7 +66,7 @@ def grid_benchmark(repeats: int = 5, goal: float = 1.5):
     same = np.array_equal(a["status"], c["status"]) and np.allclose(a["alpha"], c["alpha"], rtol=1e-10, atol=1e-14, equal_nan=True)
     ratio = best["compiled"] / best["numpy"]
     us = {k: v / n * 1e6 for k, v in best.items()}
-    print(f"box.yaml, {G.shape[0]} × {G.shape[1]} = {n} operating points (best of {repeats}, interleaved; "
+    print(f"box_kim.yaml, {G.shape[0]} × {G.shape[1]} = {n} operating points (best of {repeats}, interleaved; "
           f"load average {load:.2f} before, {os.getloadavg()[0]:.2f} after)")
     print(f"  numpy baseline, 3 × 24×24 solves a point     {us['numpy']:6.2f} µs/point")
     print(f"  model, compiled (evaluate)                   {us['compiled']:6.2f} µs/point   {ratio:4.2f} × the baseline   "
@@ -83,7 +83,7 @@ def law_benchmark(repeats: int = 5, goal: float = 3.0):
     G, T, models = None, None, {}
     with tempfile.TemporaryDirectory() as cache:
         os.environ["CVTDESIGN_CACHE"], os.environ["CVTDESIGN_COMPILE"] = cache, "always"
-        for law, name in (("kim", "box"), ("kalker", "box_kalker")):
+        for law, name in (("kim", "box_kim"), ("kalker", "box")):
             L = load_variant(ROOT / f"variants/{name}.yaml")
             G, T = np.meshgrid(np.linspace(L.gamma_grid.min(), L.gamma_grid.max(), 61),
                                np.linspace(L.load_grid.min(), L.load_grid.max(), 61), indexing="ij")
@@ -140,7 +140,7 @@ def hooked(name, *args, **kw):        # wraps the functions of interest as cli.p
 importlib.import_module = hooked
 from cvtdesign.cli import main
 mark("cvtdesign.cli imported (the arguments' parser)")
-sys.argv = ["cvtdesign", "compare", "variants/box.yaml", "--out", out]     # as the `cvtdesign` script runs it
+sys.argv = ["cvtdesign", "compare", "variants/box_kim.yaml", "--out", out]     # as the `cvtdesign` script runs it
 main()
 mark("command returns")
 cpu = resource.getrusage(resource.RUSAGE_SELF)
@@ -169,7 +169,7 @@ sent = []
 class Painter:                       # takes the figure's data instead of drawing it
     draw = lambda self, name, data, path: sent.append(data)
     wait = lambda self: None
-run(type("Args", (), {"variants": ["variants/box.yaml"], "out": sys.argv[2], "json": None, "report": None,
+run(type("Args", (), {"variants": ["variants/box_kim.yaml"], "out": sys.argv[2], "json": None, "report": None,
                       "painter": Painter()})())
 with open(sys.argv[1], "wb") as f:
     pickle.dump(sent[0], f)
@@ -212,10 +212,10 @@ def drawing_floor(out: str, w_base: float, rounds: int = 3) -> None:
 
 
 def cold_start_benchmark(rounds: int = 5, goal: float = 4.0):
-    """Cold `cvtdesign compare variants/box.yaml` (a new process) against `python -c "import casadi"`, run in
+    """Cold `cvtdesign compare variants/box_kim.yaml` (a new process) against `python -c "import casadi"`, run in
     turn `rounds` times, best of each; then one run's timeline and the floor the figure sets."""
     out = tempfile.mkdtemp(prefix="cvtdesign_bench_")
-    cmd = [str(Path(sys.executable).parent / "cvtdesign"), "compare", "variants/box.yaml", "--out", out]
+    cmd = [str(Path(sys.executable).parent / "cvtdesign"), "compare", "variants/box_kim.yaml", "--out", out]
     base = [sys.executable, "-c", "import casadi"]
 
     def timed(c):
@@ -231,7 +231,7 @@ def cold_start_benchmark(rounds: int = 5, goal: float = 4.0):
     ratio = w_cmp / w_base
     print(f"cold start (best of {rounds}, interleaved; load average {load:.2f} before, {os.getloadavg()[0]:.2f} after)")
     print(f"  python -c 'import casadi' (baseline)  {w_base:6.2f} s   CPU {c_base:5.2f} s")
-    print(f"  cvtdesign compare variants/box.yaml   {w_cmp:6.2f} s   CPU {c_cmp:5.2f} s (both processes)")
+    print(f"  cvtdesign compare variants/box_kim.yaml   {w_cmp:6.2f} s   CPU {c_cmp:5.2f} s (both processes)")
     print(f"  ratio {ratio:.1f} × the baseline   goal ≤ {goal:g} ×: {'met' if ratio <= goal else 'not met'}   "
           f"(CPU time: {c_cmp / c_base:.1f} ×; on a busy machine the wall-time ratio tends to it)")
     cold_timeline(out)

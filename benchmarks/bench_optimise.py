@@ -1,7 +1,7 @@
 """Optimisation speed, printed side by side in one run: the goals of issue 12 are IPOPT's first solve on a
 fresh problem ≥ 10× faster than SLSQP with finite differences, and its later solves ≥ 20×.
 
-The box placement-and-radii study (studies/box_placement.yaml: 3 design variables and the epigraph variable
+The box placement-and-radii study (studies/box_placement_kim.yaml: 3 design variables and the epigraph variable
 t, every constraint row at every point of the 17 × 21 envelope), solved from the base design by
  - IPOPT, exact derivatives, over a working set of envelope rows (`solve_from`: the rows near their bound at
    the largest |load| first, every row evaluated after each solve, violated rows added, solved again);
@@ -95,7 +95,7 @@ def floor(pr, sol) -> float:
 def ipopt_vs_slsqp():
     load0 = os.getloadavg()
     t_warm, _ = timed(warm_worker)
-    t_build, pr = timed(lambda: build_problem(ROOT / "studies/box_placement.yaml"))
+    t_build, pr = timed(lambda: build_problem(ROOT / "studies/box_placement_kim.yaml"))
     z0 = starts(pr)[0]
     x0 = np.append(z0, float(pr.start_t(z0)) * 1.05 + 1e-3)
     # IPOPT's working set takes t0 from the largest |load| only: the same start if the worst |α| is there

@@ -1,12 +1,12 @@
 """Where cost grows: the model's and the optimiser's cost against the size of what they are given.
 
-1. points: box.yaml evaluated over n = 100 … 32 361 operating points (γ × τ⊥ over the variant's ranges),
+1. points: box_kim.yaml evaluated over n = 100 … 32 361 operating points (γ × τ⊥ over the variant's ranges),
    compiled to C and interpreted (CVTDESIGN_COMPILE=always / never, one model each, as bench_model.py).
-2. rollers: box.yaml's four drive and follower rollers with 2, 4, 8 or 12 steering rollers of 10 mm radius
+2. rollers: box_kim.yaml's four drive and follower rollers with 2, 4, 8 or 12 steering rollers of 10 mm radius
    on the z-fork planes (azimuth 135° and −45°) at several polar angles, generated in a temporary folder,
-   and existing.yaml (4 rollers): unknowns, the one-off compile to C, and µs/point on the 17 × 21 envelope.
+   and existing_kim.yaml (4 rollers): unknowns, the one-off compile to C, and µs/point on the 17 × 21 envelope.
 3. rows and design variables: one IPOPT solve (`solve_from`, working set, from the base design) of the box
-   placement study (studies/box_placement.yaml) with its envelope coarsened and refined (rows ∝ points),
+   placement study (studies/box_placement_kim.yaml) with its envelope coarsened and refined (rows ∝ points),
    and with 1 to 4 of its parameters free.
 Growth laws are least-squares fits of log(cost) against log(size). Best of REPEATS, the machine being shared
 and noisy; the load average is printed.
@@ -70,7 +70,7 @@ def us_per_point(models, G, T):
 
 
 def points_axis():
-    L = load_variant(ROOT / "variants/box.yaml")
+    L = load_variant(ROOT / "variants/box_kim.yaml")
     models, _ = timed_models(L)
     sizes, rows = [], []
     for ng, nl in ((10, 10), (25, 40), (100, 100), (161, 201)):
@@ -78,7 +78,7 @@ def points_axis():
         us = us_per_point(models, G, T)
         sizes.append(G.size)
         rows.append((G.size, us["compiled"], us["interpreted"]))
-    print(f"\n### Points (box.yaml, best of {REPEATS})\n")
+    print(f"\n### Points (box_kim.yaml, best of {REPEATS})\n")
     print("| points | compiled µs/point | compiled total | interpreted µs/point | interpreted total |")
     print("| ---: | ---: | ---: | ---: | ---: |")
     for n, c, i in rows:
@@ -92,9 +92,9 @@ def points_axis():
 
 
 def steering_layout(n_steer: int, folder: Path) -> Path:
-    """box.yaml with its steering rollers replaced by n_steer rollers of STEER_RADIUS on the z-fork planes,
+    """box_kim.yaml with its steering rollers replaced by n_steer rollers of STEER_RADIUS on the z-fork planes,
     one fork a hemisphere (2: one fork holding two antipodal rollers, so that the preloads balance)."""
-    data = yaml.safe_load((ROOT / "variants/box.yaml").read_text())
+    data = yaml.safe_load((ROOT / "variants/box_kim.yaml").read_text())
     template = data["rollers"]["N1"]
     rollers = {k: v for k, v in data["rollers"].items() if v["role"] != "steering"}
     forks = []
@@ -117,7 +117,7 @@ def steering_layout(n_steer: int, folder: Path) -> Path:
 
 
 def rollers_axis(folder: Path):
-    layouts = [("existing.yaml", ROOT / "variants/existing.yaml")]
+    layouts = [("existing_kim.yaml", ROOT / "variants/existing_kim.yaml")]
     layouts += [(f"box, 4 + {n} steering", steering_layout(n, folder)) for n in (2, 4, 8, 12)]
     rows = []
     for label, path in layouts:
@@ -153,8 +153,8 @@ def solve_time(study: Path):
 
 
 def study_file(folder: Path, name: str, design: list, g_step: float, l_step: float) -> Path:
-    data = yaml.safe_load((ROOT / "studies/box_placement.yaml").read_text())
-    data["base"] = str(ROOT / "variants/box.yaml")
+    data = yaml.safe_load((ROOT / "studies/box_placement_kim.yaml").read_text())
+    data["base"] = str(ROOT / "variants/box_kim.yaml")
     bounds = {"preload": {"lower": "60 N", "upper": "140 N"}}
     data["design"] = {k: data["design"].get(k) or bounds[k] for k in design}
     data["envelope"] = {"gamma": {"start": "-80 deg", "stop": "80 deg", "step": f"{g_step} deg"},

@@ -18,7 +18,7 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ROOT / "variants"
-SHIPPED = ("existing", "box", "unequal")
+SHIPPED = ("existing_kim", "box_kim", "unequal_kim")
 # the tests' helper modules, importable from every folder: tests/ (figure_checks, layout_transforms) and
 # tests/validation (Kim's closed forms, the reference model, FASTSIM)
 for _helpers in (ROOT / "tests", ROOT / "tests" / "validation"):
@@ -86,23 +86,23 @@ def variants() -> dict:
 
 @pytest.fixture(scope="session")
 def existing_layout():
-    return shipped_layout("existing")
+    return shipped_layout("existing_kim")
 
 
 @pytest.fixture(scope="session")
 def box_layout():
-    return shipped_layout("box")
+    return shipped_layout("box_kim")
 
 
 @pytest.fixture(scope="session")
 def unequal_layout():
-    return shipped_layout("unequal")
+    return shipped_layout("unequal_kim")
 
 
 @pytest.fixture(scope="session")
 def existing_model():
-    """variants/existing.yaml compiled with its own effects (Kim's two creeps)."""
-    return shipped_model("existing")
+    """variants/existing_kim.yaml compiled with its own effects (Kim's two creeps)."""
+    return shipped_model("existing_kim")
 
 
 @pytest.fixture
@@ -122,7 +122,7 @@ def cli(capsys):
 def make_variant(tmp_path):
     """make(name, edit=None, file=None) → path of the shipped variant `name`, changed by edit(data) (which edits
     the dict in place; its return value is ignored), written to tmp_path/<file or name>.yaml."""
-    def make(name: str = "existing", edit=None, file: str | None = None) -> Path:
+    def make(name: str = "existing_kim", edit=None, file: str | None = None) -> Path:
         data = variant_data(name)
         if edit is not None:
             edit(data)

@@ -20,7 +20,8 @@ from cvtdesign.io.output import make_folder, named_after, write_file
 from cvtdesign.io.points import check_points_path, contact_points, write_points
 from cvtdesign.io.report import Note, Table
 from cvtdesign.errors import InputError
-from cvtdesign.io.variant import load_variant, shipped_variant
+from cvtdesign.io.variant import load_variant
+from cvtdesign.io.shipped import shipped_variant
 
 
 COLUMNS = [

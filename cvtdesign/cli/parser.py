@@ -14,6 +14,7 @@ from importlib.metadata import version
 
 from cvtdesign.errors import InputError, RunError
 from cvtdesign.io.output import check_folder, check_target
+from cvtdesign.io.shipped import SHIPPED
 
 
 class _Parser(argparse.ArgumentParser):
@@ -68,7 +69,7 @@ def build_parser():
 
 def _add_new(p):
     p.add_argument("name", help="the variant's name (letters, digits, '_', '.', '+', '-'); the file is NAME.yaml")
-    p.add_argument("--template", choices=("existing", "box", "unequal"),
+    p.add_argument("--template", choices=SHIPPED,
                    help="layout to start from (default: existing, Kim's two-steering-roller CVT; box with --steering)")
     p.add_argument("--steering", type=int, metavar="N",
                    help="N steering rollers (2, 3 or 4) at the poles on forks about the pole axis, with the box "
@@ -161,7 +162,7 @@ def _add_diagnose(p):
 
 
 def _add_selfcheck(p):
-    p.add_argument("--variant", help="variant of the rig matrix (default: variants/existing.yaml)")
+    p.add_argument("--variant", help="variant of the rig matrix (default: variants/existing_kim.yaml)")
     p.add_argument("--matrices", help="comma-separated: rig (the project's own model makes the data), independent "
                                       "(an independently written simulator of Kim's CVT); default: both")
     p.add_argument("--quick", action="store_true", help="a reduced matrix (one value and noise level per effect)")

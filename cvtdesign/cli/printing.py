@@ -50,7 +50,7 @@ def show(console, blocks: list):
 
 
 def command_line(args) -> str:
-    """The command as typed ('cvtdesign compare variants/box.yaml --report r.html'), from args.argv (the
+    """The command as typed ('cvtdesign compare variants/box_kim.yaml --report r.html'), from args.argv (the
     arguments main parsed)."""
     return shlex.join(["cvtdesign", *getattr(args, "argv", [args.command])])
 

@@ -14,8 +14,17 @@ import numpy as np
 class Material:
     E: object          # Young's modulus [Pa]
     nu: object         # Poisson's ratio [-]
-    mu: object         # friction coefficient [-]
     p_allow: object    # allowable Hertz peak pressure [Pa] (None: not checked)
+
+
+@dataclass(frozen=True)
+class Friction:
+    """The friction coefficient of a contact's pair of materials (friction belongs to the pair, not to one
+    material): nominal μ, its range and where it comes from (io.materials.pair_friction)."""
+    mu: object                    # nominal friction coefficient [-]
+    low: float                    # the range's ends [-]
+    high: float
+    source: str                   # in words, with its provenance
 
 
 @dataclass(frozen=True)
@@ -51,6 +60,7 @@ class Roller:
     fork_ratio: float = 0.0        # the fork turns by fork_ratio·φ about fork_axis (its gear ratio); 0 if fixed
     fork: int | None = None        # index of its fork in the variant's steering.forks, None if fixed
     creep: CreepSource = CreepSource("theory", "theory only")   # where its creep compliance comes from
+    friction: Friction = Friction(0.8, 0.8, 0.8, "not stated")  # of the roller's material on the sphere's
 
 
 @dataclass(frozen=True)

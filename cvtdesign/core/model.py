@@ -391,7 +391,7 @@ def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX
 
     Where the contact law can have several roots (laws.*.several_roots), the direct root stands unless it
     failed or some contact uses more than UTIL_CHECK of its friction: a second root needs the law to bend,
-    which it does near saturation (existing_kalker.yaml at γ = −16°, τ⊥ = 2.5 N·m, contacts at 0.68 μN: the
+    which it does near saturation (existing.yaml at γ = −16°, τ⊥ = 2.5 N·m, contacts at 0.68 μN: the
     direct solve reaches α = 18.49°, loading from rest 18.35°; inside the shipped envelopes no contact passes
     0.38 μN, and the shipped kalker variants and an asymmetric box have no second root below 0.5 μN over
     γ ±88°, τ⊥ ±4 N·m). There the point is also solved as a rig reaches it, the load applied from rest in
@@ -401,7 +401,7 @@ def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX
     they reach, and its α can jump by 0.6° between loads one ulp apart.
 
     Under Kim's law the roots inside the envelopes are unique, and the stepped solve only replaces a direct
-    one that fails or turns backwards (existing.yaml at (−80°, 2.1 N·m) is `reversed` from the ideal
+    one that fails or turns backwards (existing_kim.yaml at (−80°, 2.1 N·m) is `reversed` from the ideal
     kinematics and ω2 = −20.2 rad/s from rest). Derivatives are those of the solve whose root is returned,
     by the implicit function theorem."""
     def good(x, q):      # converged, on a forward root (as _status judges them)

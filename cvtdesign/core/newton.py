@@ -1,7 +1,7 @@
 """CasADi's Newton rootfinder (with its line search) written out as a graph that can be compiled to C.
 
 CasADi's `newton` rootfinder cannot be code-generated. Its `fast_newton` can, but it always takes the full
-step, so where the line search matters it ends elsewhere: on existing_kalker.yaml's envelope it turns 3 of
+step, so where the line search matters it ends elsewhere: on existing.yaml's envelope it turns 3 of
 the 4 points that do not converge into gross slip. `newton_solver` builds the iteration of `newton`
 (casadi/solvers/newton.cpp, CasADi 3.6–3.8) from plain CasADi nodes, so the compiled model gives the same
 numbers as the interpreted one (tests/unit/core/test_compiled.py). One iteration:

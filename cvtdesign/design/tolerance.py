@@ -32,8 +32,8 @@ Rigid directions. A direction tolerance (axle, contact, fork) means something on
 compliant across it. Each is probed before anything is sampled: turned by PROBE (its contact moved by PROBE·R)
 at the envelope point nearest γ = 0, τ⊥ = 0. Where the contacts then fight with more than RIGID_FORCE × the
 smallest preload, or the point stops holding, the study is refused in one line. Under Kim's law the drive
-rollers are rigid across their rolling direction: 1e-5° of box.yaml's axle A makes its contacts fight with
-131 N against a 100 N preload (existing.yaml's: 87 N).
+rollers are rigid across their rolling direction: 1e-5° of box_kim.yaml's axle A makes its contacts fight with
+131 N against a 100 N preload (existing_kim.yaml's: 87 N).
 """
 from __future__ import annotations
 

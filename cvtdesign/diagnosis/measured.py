@@ -59,10 +59,9 @@ def load_measured(path, layout, drop_bad: bool = False) -> Measured:
 
 def shaft_capacity(layout) -> dict:
     """{tau_1, tau_2}: the torque [N m] each shaft's rollers can pass through their contacts at their preloads,
-    Σ |ρ_i| r_i μ_i P_i (μ_i the larger of the roller's and the sphere's friction coefficients): what a
+    Σ |ρ_i| r_i μ_i P_i (μ_i the friction coefficient of the roller's pair of materials): what a
     measured torque is checked against (a tenfold margin covers normal forces that grow under load)."""
-    mu_sphere = float(layout.sphere_material.mu)
-    return {f"tau_{s}": sum(abs(float(r.ratio)) * float(r.radius) * max(float(r.material.mu), mu_sphere) * float(r.preload)
+    return {f"tau_{s}": sum(abs(float(r.ratio)) * float(r.radius) * float(r.friction.mu) * float(r.preload)
                             for r in layout.rollers if r.shaft == s) for s in (1, 2)}
 
 

@@ -36,16 +36,16 @@ def check_points(n: int, n_rollers: int, where: str, what: str = "operating poin
 
 def load_capacity(layout: Layout) -> float | None:
     """The largest load [N·m] a variant's envelope, protocol or duty cycle may ask for: LOAD_MARGIN × Σ μ_i
-    P_i max(R, r_i |ratio_i|) over the contacts, with μ_i the smaller friction coefficient of the roller's and
-    the sphere's material (times the effects' friction factor, core.effects.friction_factor, if above 1), P_i
+    P_i max(R, r_i |ratio_i|) over the contacts, with μ_i the friction coefficient of the roller's material on
+    the sphere's (its pair's, io.materials.pair_friction; times the effects' friction factor, core.effects.friction_factor, if above 1), P_i
     the preload, R the sphere's radius and r_i the roller's: all the traction the preloads allow, at the longer
     of the arms it acts on (a shaft's torque is F·r). None when a value is symbolic (an optimiser's design parameter)."""
     scale = friction_factor(layout.effects, layout.effect_parameters)
-    terms = [(r.material.mu, layout.sphere_material.mu, r.preload, r.radius, r.ratio) for r in layout.rollers]
+    terms = [(r.friction.mu, r.preload, r.radius, r.ratio) for r in layout.rollers]
     if not all(isinstance(v, (int, float)) for v in [layout.sphere_radius, scale, *(v for t in terms for v in t)]):
         return None
     R = layout.sphere_radius
-    return LOAD_MARGIN * max(1.0, scale) * sum(min(m1, m2) * P * max(R, r * abs(k)) for m1, m2, P, r, k in terms)
+    return LOAD_MARGIN * max(1.0, scale) * sum(m * P * max(R, r * abs(k)) for m, P, r, k in terms)
 
 
 def check_loads(fields, layout: Layout) -> None:

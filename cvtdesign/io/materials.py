@@ -23,7 +23,7 @@ from pydantic import Field
 from cvtdesign.core.contact.patch import calibrated_compliance, creep_modulus_for
 from cvtdesign.core.layout import CreepSource, Layout
 from cvtdesign.errors import InputError
-from cvtdesign.io.schema import MaterialSpec, Num, Strict, VariantSpec, spec_field
+from cvtdesign.io.schema import MaterialSpec, Num, PairSpec, Strict, VariantSpec, spec_field
 from cvtdesign.io.units import to_si
 from cvtdesign.io.yaml_file import read_spec
 
@@ -45,12 +45,13 @@ class CalibrationSpec(Strict):
 class LibrarySpec(Strict):
     """A materials library file."""
     materials: dict[str, MaterialSpec] = Field(default_factory=dict)
+    pairs: list[PairSpec] = Field(default_factory=list)
     calibrations: list[CalibrationSpec] = Field(default_factory=list)
 
 
 @functools.cache
 def _read(path: str, mtime: float) -> LibrarySpec:
-    return read_spec(path, LibrarySpec, "materials, calibrations")
+    return read_spec(path, LibrarySpec, "materials, pairs, calibrations")
 
 
 def library(variant_file: str, spec: VariantSpec) -> list[tuple[str, LibrarySpec]]:
@@ -95,6 +96,50 @@ def library_calibration(variant_file: str, spec: VariantSpec, roller_material: s
 
 def _elastic(m: MaterialSpec) -> tuple:
     return (to_si(m.youngs_modulus, "pressure", "E"), to_si(m.poisson_ratio, "dimensionless", "ν"))
+
+
+def pair_friction(variant_file: str, spec: VariantSpec, roller: str, roller_material: str,
+                  sphere_material: str) -> dict:
+    """The friction of a roller material on a sphere material: the variant's own `pairs` entry for the two,
+    else the first library's; a pair no file lists is one InputError line naming it (friction belongs to the
+    pair: no rule makes it from the two materials). Returns μ and its range as written, where they are and
+    their source in words ({mu, low, high, where, source})."""
+    pair = {roller_material, sphere_material}
+    own = [(f"{variant_file}: pairs.{i}", p) for i, p in enumerate(spec.pairs)]
+    found = [(f"{origin}: pairs.{i}", p) for origin, lib in library(variant_file, spec)
+             for i, p in enumerate(lib.pairs)]
+    for at, p in own + found:
+        if len(p.materials) != 2 or len(p.range) != 2:
+            which = "materials" if len(p.materials) != 2 else "range"
+            raise InputError(f"{at}.{which}: expected two values, got {len(getattr(p, which))}")
+        if set(p.materials) == pair:
+            return {"mu": p.friction, "low": p.range[0], "high": p.range[1], "where": at,
+                    "source": f"{roller_material} on {sphere_material}: μ {p.friction} ({p.range[0]}–{p.range[1]}; "
+                              f"{p.source}; {at})"}
+    raise InputError(f"{variant_file}: rollers.{roller}: no friction known for {roller_material} on {sphere_material}; "
+                     f"expected a `pairs` entry for the two in the variant or its material_library: {{materials: "
+                     f"[{roller_material}, {sphere_material}], friction: μ, range: [low, high], source: ...}} "
+                     "(docs/materials.md, 'Friction')")
+
+
+def check_fitted_pair(variant_file: str, spec: VariantSpec, roller: str, role: str, roller_material: str,
+                      sphere_material: str) -> None:
+    """A fitted creep constant belongs to the pair of materials it was fitted for (contact.fitted_on): a
+    roller of another pair is one InputError line, and so is a constant that does not say its pair."""
+    side = "drive" if role != "steering" else "steering"
+    if getattr(spec.contact, f"creep_{side}") is None:
+        return
+    pair = getattr(spec.contact.fitted_on, side)
+    w = f"{variant_file}: contact.fitted_on.{side}"
+    if pair is None:
+        raise InputError(f"{w}: creep_{side} is given without the materials it was fitted for; expected "
+                         f"[roller material, sphere material] (a constant fitted on one pair says nothing of another)")
+    if len(pair) != 2:
+        raise InputError(f"{w}: expected two material names [roller, sphere], got {len(pair)}")
+    if tuple(pair) != (roller_material, sphere_material):
+        raise InputError(f"{variant_file}: rollers.{roller}: {roller_material} on {sphere_material}, but "
+                         f"contact.creep_{side} was fitted for {pair[0]} on {pair[1]}; expected the constants "
+                         f"removed (the materials library then calibrates the pair) or refitted for these materials")
 
 
 def contact_calibration(variant_file: str, spec: VariantSpec, role: str, roller_material: str,

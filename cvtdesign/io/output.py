@@ -107,7 +107,7 @@ def named_after(inputs, suffix: str) -> str:
     """An output's file name after the input files it is made of, so that runs on other inputs do not
     overwrite it: '<stem><suffix>' for one file ('box.png'), the stems in sorted order joined by '+' for
     several ('box+existing+unequal.png', whatever order they were given in); past NAME_MAX characters the
-    first two stems, how many more, and a checksum of all the stems ('box+box_kalker+3_more-5f1c2a.png')."""
+    first two stems, how many more, and a checksum of all the stems ('box+box+3_more-5f1c2a.png')."""
     stems = sorted(Path(f).stem for f in inputs)
     joined = "+".join(stems)
     if len(joined) > NAME_MAX:

@@ -211,8 +211,8 @@ def reference_markdown() -> str:
         out += [field_row(prefix, n, info, inherited) for n, info in model.model_fields.items()]
         if prefix == "envelope.load.":
             out += ["", (f"The load is also refused beyond what the variant's contacts can carry: {LOAD_MARGIN:g} × "
-                         "Σ μ·P·max(R, r) over the contacts (μ the smaller friction coefficient of the roller's and "
-                         "the sphere's material, P the preload, R the sphere's radius, r the roller's; 40.6 N·m for "
+                         "Σ μ·P·max(R, r) over the contacts (μ the friction coefficient of the roller's material on "
+                         "the sphere's, its pair's in the materials library, P the preload, R the sphere's radius, r the roller's; 40.6 N·m for "
                          "Kim's CVT), with a hint when the values look meant in N·mm. The envelope may have at most "
                          f"{MAX_POINTS:,} operating points (γ × load), fewer where half the machine's free memory "
                          "holds fewer.")]
@@ -272,7 +272,7 @@ effect_parameters:
   rolling_resistance: {offset: 0.2 mm}
 ```
 
-or on the command line, `cvtdesign rig variants/existing.yaml --effects rolling_resistance --set
+or on the command line, `cvtdesign rig variants/existing_kim.yaml --effects rolling_resistance --set
 'rolling_resistance.offset=0.2 mm' --out /tmp/rig.csv`. Values are written as in variant files (a plain
 number is SI; `0.2 mm`, `0.5 deg` carry units) and must lie within the bounds below, which are also the
 bounds the diagnosis fits within. A parameter that is not given takes its default.

@@ -10,7 +10,7 @@ from typing import Annotated, Literal, Union
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 from pydantic_core import PydanticCustomError, PydanticUndefined
 
-from cvtdesign.core.contact.laws import IDEAL, LAWS
+from cvtdesign.core.contact.laws import DEFAULT, LAWS
 from cvtdesign.core.effects import KIM_MODEL
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.units import KINDS
@@ -88,12 +88,25 @@ class MaterialSpec(Strict):
     youngs_modulus: Num = spec_field("Young's modulus E (urethane 82A ≈ 10.7 MPa)", kind="pressure",
                                      plausible="youngs_modulus")
     poisson_ratio: Num = spec_field("Poisson's ratio ν, 0 ≤ ν < 0.5 (urethane ≈ 0.48)", kind="dimensionless")
-    friction: Num = spec_field("friction coefficient μ; a contact uses the smaller μ of its two materials",
-                               0.8, kind="dimensionless", plausible="friction")
+    friction: Num | None = spec_field("not a material's: friction belongs to a pair of materials (`pairs`); "
+                                      "refused here, with where to write it", None, kind="dimensionless")
     allowable_pressure: Num | None = spec_field(
         "allowable Hertz peak pressure, a constraint of `cvtdesign optimise` (omitted: not checked)", None,
         kind="pressure", plausible="allowable_pressure")
+    youngs_modulus_std: Num | None = spec_field(
+        "relative 1σ of youngs_modulus, e.g. '25 %' (omitted: 25 %, the spread of a modulus read from a Shore A "
+        "hardness; an interval says it was assumed)", None, kind="dimensionless")
     description: str = spec_field("what the material is (free text)", "")
+
+
+class PairSpec(Strict):
+    """The friction of one pair of materials: friction belongs to the pair, not to either material."""
+    materials: list[str] = spec_field("the two materials by name, in any order: [roller's, sphere's]")
+    friction: Num = spec_field("nominal friction coefficient μ of the pair, dry", kind="dimensionless",
+                               plausible="friction")
+    range: list[Num] = spec_field("the range μ is known to within, [low, high] (an interval takes it as a "
+                                  "uniform spread)", kind="dimensionless")
+    source: str = spec_field("where μ and its range come from (free text)")
 
 
 class SphereSpec(Strict):
@@ -197,15 +210,21 @@ class UncertaintySpec(Strict):
     steering: Num | None = spec_field("of the steering contacts", None, kind="dimensionless")
 
 
+class FittedOnSpec(Strict):
+    """The pair of materials each fitted creep constant was fitted for: a constant belongs to its pair."""
+    drive: list[str] | None = spec_field("creep_drive's [roller material, sphere material]", None)
+    steering: list[str] | None = spec_field("creep_steering's [roller material, sphere material]", None)
+
+
 class ContactSpec(Strict):
-    """The contact law. `kim` (the default): Kim et al.'s fitted creep constants ε_D and ε_S ('Causes of
-    microslip in a continuously variable transmission'), omitted ones from Hertz + Kalker at the preload, with
-    the effects of the vocabulary on top. `kalker`: at every contact the Hertz patch at its force-balanced
-    normal force, its creepages normalised by Kalker's coefficients (C11, C22, C23), and the force and spin
-    moment of Kalker's simplified theory (FASTSIM) for creep and spin together (core.contact.surface), scaled
-    by `calibration`."""
-    law: LawName = spec_field("the contact law: kim (fitted creep constants) or kalker (Hertz + Kalker + "
-                              "FASTSIM at every contact)", IDEAL)
+    """The contact law. `kalker` (the default, the most complete physics): at every contact the Hertz patch at
+    its force-balanced normal force, its creepages normalised by Kalker's coefficients (C11, C22, C23), and the
+    force and spin moment of Kalker's simplified theory (FASTSIM) for creep and spin together
+    (core.contact.surface), calibrated by the materials library or scaled by `calibration`. `kim`: Kim et al.'s
+    fitted creep constants ε_D and ε_S ('Causes of microslip in a continuously variable transmission'), with
+    the effects of the vocabulary on top and no spin moment, to reproduce that paper's figures."""
+    law: LawName = spec_field("the contact law: kalker (Hertz + Kalker + FASTSIM at every contact, the default) "
+                              "or kim (Kim et al.'s fitted creep constants, no spin)", DEFAULT)
     calibration: CalibrationSpec = spec_field("factors on the Kalker compliances (law kalker only): drive, steering",
                                               CalibrationSpec())
     creep_drive: Num | None = spec_field("creep constant ε_D of drive and follower rollers: slip ratio per "
@@ -220,6 +239,9 @@ class ContactSpec(Strict):
     uncertainty: UncertaintySpec = spec_field(
         "relative 1σ of the compliance the constants above give: drive, steering (omitted: none stated; a "
         "library calibration carries its own)", UncertaintySpec())
+    fitted_on: FittedOnSpec = spec_field(
+        "the materials creep_drive and creep_steering were fitted for, each [roller, sphere]; needed with them: a "
+        "roller of other materials is refused (the constants belong to their pair)", FittedOnSpec())
 
 
 class RangeSpec(Strict):
@@ -283,6 +305,12 @@ class VariantSpec(Strict):
         "the variant's own materials by name; each: youngs_modulus, poisson_ratio, friction, allowable_pressure, "
         "description. A material it names but does not define comes from the materials library "
         "(docs/materials.md)", {})
+    pairs: list[PairSpec] = spec_field(
+        "the friction of pairs of materials: each materials [roller's, sphere's], friction, range, source; they "
+        "take precedence over the materials library's pairs", [])
+    preload_std: Num | None = spec_field(
+        "relative 1σ of every roller's preload as built, e.g. '5 %' (omitted: 20 %, assumed: no paper states "
+        "Kim et al.'s preload; an interval says it was assumed)", None, kind="dimensionless")
     material_library: list[str] = spec_field(
         "files of the user's own materials and calibrations (the library's format), relative to this file; "
         "they add to the shipped library and take precedence over it", [])

@@ -21,7 +21,7 @@ from cvtdesign.errors import InputError
 from cvtdesign.io.output import write_file
 from cvtdesign.io.reference import nested_model
 from cvtdesign.io.schema import Name, Spherical, VariantSpec
-from cvtdesign.io.variant import SHIPPED, shipped_variant
+from cvtdesign.io.shipped import SHIPPED, shipped_variant
 from cvtdesign.io.yaml_file import load_yaml
 
 WIDTH = 110     # columns of the comment lines

@@ -17,8 +17,6 @@ import dataclasses
 import json
 import math
 import re
-from importlib import resources
-from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -27,7 +25,7 @@ from cvtdesign.core import effects as fx
 from cvtdesign.core.contact import laws
 from cvtdesign.core.checks import check_layout
 from cvtdesign.core.geometry import KIM_FRAME, named_vector, spherical
-from cvtdesign.core.layout import Frame, Layout, Material, Roller
+from cvtdesign.core.layout import Frame, Friction, Layout, Material, Roller
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io import materials
 from cvtdesign.io.limits import MAX_GRID_POINTS, check_envelope_limits
@@ -42,14 +40,6 @@ from cvtdesign.io.units import (
     to_si,
 )
 from cvtdesign.io.yaml_file import read_spec
-
-SHIPPED = ("existing", "box", "unequal")     # the variants that come with the package (cvtdesign/variants/)
-
-
-def shipped_variant(name: str) -> Path:
-    """The path of a shipped variant file ('existing': Kim's two-steering-roller CVT, 'box', 'unequal')."""
-    return Path(str(resources.files("cvtdesign") / "variants" / f"{name}.yaml"))
-
 
 def vector(spec, where, names, point=False):
     """A unit direction from a frame name, {polar, azimuth} or a list of three numbers or '= expressions'
@@ -205,7 +195,8 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
     R = quantity(spec.sphere.radius, "sphere_radius", f"{where}: sphere.radius", names, "a positive radius")
     forks, fork_of = _forks(spec, where, names)
     law, calibration = _contact_law(spec, where, names)
-    rollers = tuple(_with_creep_source(_roller(spec, rn, where, names, mats, fork_of, R), spec, where)
+    sphere_material = _material(mats, spec.sphere.material, f"{where}: sphere.material")
+    rollers = tuple(_with_creep_source(_roller(spec, rn, where, names, mats, fork_of, R), spec, where, names)
                     for rn in spec.rollers)
     for s in (1, 2):
         if not any(r.role == "drive" and r.shaft == s for r in rollers):
@@ -219,7 +210,7 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
 
     layout = Layout(
         name=spec.name, file=where, sphere_radius=R,
-        sphere_material=_material(mats, spec.sphere.material, f"{where}: sphere.material"), rollers=rollers,
+        sphere_material=sphere_material, rollers=rollers,
         creep_drive=creep(c.creep_drive, "creep", "creep_drive"),
         creep_steering=creep(c.creep_steering, "creep", "creep_steering"),
         creep_reference_force=creep(c.creep_reference_force, "creep_reference_force", "creep_reference_force"),
@@ -261,19 +252,30 @@ def _materials(spec: VariantSpec, where: str, names: dict) -> dict:
         mats[k] = Material(
             E=quantity(m.youngs_modulus, "youngs_modulus", f"{w}.youngs_modulus", names, "a positive value"),
             nu=to_si(m.poisson_ratio, "dimensionless", f"{w}.poisson_ratio", names),
-            mu=quantity(m.friction, "friction", f"{w}.friction", names, "a positive value"),
             p_allow=None if m.allowable_pressure is None else quantity(
                 m.allowable_pressure, "allowable_pressure", f"{w}.allowable_pressure", names, "a positive pressure"))
+        if m.friction is not None:
+            raise InputError(f"{w}.friction: friction belongs to a pair of materials, not to one; expected it under "
+                             f"pairs: [{{materials: [{k}, OTHER], friction: μ, range: [low, high], source: ...}}] "
+                             "(docs/materials.md, 'Friction')")
         if isinstance(mats[k].nu, float) and not 0 <= mats[k].nu < 0.5:
             raise InputError(f"{w}.poisson_ratio: expected 0 <= ν < 0.5, got {mats[k].nu:g}")
     return mats
 
 
-def _with_creep_source(roller: Roller, spec: VariantSpec, where: str) -> Roller:
-    """The roller with where its creep compliance comes from (io.materials.contact_calibration)."""
+def _with_creep_source(roller: Roller, spec: VariantSpec, where: str, names: dict) -> Roller:
+    """The roller with where its creep compliance comes from (io.materials.contact_calibration) and its pair's
+    friction (io.materials.pair_friction)."""
     material, _ = _own_or_default(spec, roller.name, "material", where)
-    return dataclasses.replace(roller, creep=materials.contact_calibration(
-        where, spec, roller.role, material, spec.sphere.material))
+    materials.check_fitted_pair(where, spec, roller.name, roller.role, material, spec.sphere.material)
+    f = materials.pair_friction(where, spec, roller.name, material, spec.sphere.material)
+    mu, lo, hi = (quantity(f[k], "friction", f"{f['where']}.{n}", names, "a positive value")
+                  for k, n in (("mu", "friction"), ("low", "range[0]"), ("high", "range[1]")))
+    if not lo <= mu <= hi:
+        raise InputError(f"{f['where']}.range: expected low <= friction <= high, got {lo:g} <= {mu:g} <= {hi:g}")
+    return dataclasses.replace(roller, friction=Friction(mu, lo, hi, f["source"]),
+                               creep=materials.contact_calibration(where, spec, roller.role, material,
+                                                                   spec.sphere.material))
 
 
 def _material(mats: dict, name: str, where: str) -> Material:

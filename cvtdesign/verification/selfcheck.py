@@ -30,7 +30,8 @@ from cvtdesign.diagnosis import diagnose, measured, rig
 from cvtdesign.verification import independent_rig
 from cvtdesign.diagnosis.rig import kim_protocol
 from cvtdesign.errors import InputError
-from cvtdesign.io.variant import load_variant, shipped_variant
+from cvtdesign.io.variant import load_variant
+from cvtdesign.io.shipped import shipped_variant
 
 EXISTING = str(shipped_variant("existing"))   # Kim's CVT
 # each effect's values, weak value and pairs are in its entry (core.effects.SelfCheck), read when the cases

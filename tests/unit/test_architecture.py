@@ -207,7 +207,7 @@ def test_every_effect_entry_is_complete():
 
 def _toy_variant(tmp_path, **changes) -> Path:
     import yaml
-    data = yaml.safe_load((ROOT / "variants" / "existing.yaml").read_text())
+    data = yaml.safe_load((ROOT / "variants" / "existing_kim.yaml").read_text())
     data.update(changes)
     path = tmp_path / "toy.yaml"
     path.write_text(yaml.safe_dump(data, sort_keys=False))
@@ -267,8 +267,10 @@ def test_a_toy_contact_law_is_one_class(tmp_path, monkeypatch):
     monkeypatch.setitem(laws.LAWS, "toy_stiff", StiffLaw())
     monkeypatch.setenv("CVTDESIGN_COMPILE", "never")
     kim = load_variant(_toy_variant(tmp_path))
+    kim_pairs = {"drive": ["urethane_82A", "bowling_ball"], "steering": ["urethane_84A", "bowling_ball"]}
     stiff = load_variant(_toy_variant(tmp_path, contact={"law": "toy_stiff", "creep_drive": "0.0038 1/N",
-                                                         "creep_steering": "0.0049 1/N", "creep_reference_force": "100 N"}))
+                                                         "creep_steering": "0.0049 1/N", "creep_reference_force": "100 N",
+                                                         "fitted_on": kim_pairs}))
     assert stiff.contact_law == "toy_stiff"
     g = np.radians([-30.0, 20.0])
     a, b = compile_model(kim).evaluate(g, 0.5), compile_model(stiff).evaluate(g, 0.5)

@@ -11,7 +11,7 @@ rolling, Hertzian elliptical patch, one material on both bodies, Coulomb frictio
 (84/164 extrapolated) the values hold to 1.8e-3 at the worst (a pure-longitudinal point) and 5e-4 elsewhere.
 The same build reproduces CONTACT's own `fastsim.inp` reference output to every printed digit.
 
-The points: at each ok point of `compare variants/existing_kalker.yaml variants/box_kalker.yaml --points`,
+The points: at each ok point of `compare variants/existing.yaml variants/box.yaml --points`,
 among the contacts that roll (spin creepage φa < 1000), the one that spins most, the most loaded one, the
 most loaded steering roller, and the point an independent review named (D2 at γ = 0°, τ⊥ = −0.6 N·m), or the
 largest creepage. Inputs are in Kalker-normalised creepages (core.contact.fastsim): ξ̂ = G a b C11 ξ/(μN),
@@ -24,18 +24,18 @@ SOURCE = "CONTACT exact theory (eve70a/CONTACT d431cdb), grids 84/44 extrapolate
 
 # (variant, γ_cmd [°], τ⊥ [N·m], roller, a/b, ν, ξ̂, η̂, φ̂, (Fx/(μN), Fy/(μN), Mz/(μN a)))
 POINTS = (
-    ("box_kalker", 0, -0.1, "B", 1.597618, 0.479369, 7.438298e-01, -3.970496e+00, 2.305332e+01,
+    ("box", 0, -0.1, "B", 1.597618, 0.479369, 7.438298e-01, -3.970496e+00, 2.305332e+01,
      (-0.017916, 0.000251, -0.484412)),
-    ("box_kalker", -80, 1.0, "A", 1.597618, 0.479369, 1.926581e-01, 3.424445e-01, -4.505466e-01,
+    ("box", -80, 1.0, "A", 1.597618, 0.479369, 1.926581e-01, 3.424445e-01, -4.505466e-01,
      (-0.147431, 0.134725, 0.181994)),
-    ("box_kalker", 0, -1.0, "N2", 1.564337, 0.479275, 2.878317e-13, 1.290013e-01, -5.652325e-04,
+    ("box", 0, -1.0, "N2", 1.564337, 0.479275, 2.878317e-13, 1.290013e-01, -5.652325e-04,
      (-0.000000, -0.123309, 0.044107)),
-    ("existing_kalker", 0, 0.0, "D2", 1.597618, 0.479369, 5.755669e-09, -1.530121e+01, 9.157778e+01,
+    ("existing", 0, 0.0, "D2", 1.597618, 0.479369, 5.755669e-09, -1.530121e+01, 9.157778e+01,
      (0.000000, 0.061042, -0.483773)),
-    ("existing_kalker", 0, 1.0, "D2", 1.597618, 0.479369, 6.662906e-01, -9.760826e-01, 1.056287e+00,
+    ("existing", 0, 1.0, "D2", 1.597618, 0.479369, 6.662906e-01, -9.760826e-01, 1.056287e+00,
      (-0.348104, -0.200068, -0.329200)),
-    ("existing_kalker", 10, -1.0, "S2", 1.564337, 0.479275, 1.741349e-11, -3.143625e-01, -5.785394e-02,
+    ("existing", 10, -1.0, "S2", 1.564337, 0.479275, 1.741349e-11, -3.143625e-01, -5.785394e-02,
      (-0.000000, 0.338640, -0.072721)),
-    ("existing_kalker", 0, -0.6, "D2", 1.597618, 0.479369, 7.260133e-01, -1.922363e+00, 1.950175e+00,
+    ("existing", 0, -0.6, "D2", 1.597618, 0.479369, 7.260133e-01, -1.922363e+00, 1.950175e+00,
      (-0.219213, -0.125284, -0.436087)),
 )

@@ -4,9 +4,9 @@ Kim et al., "Causes of microslip in a continuously variable transmission", sec. 
 
 In the manner of PyBaMM's hand-written "basic" models that are cross-checked against the composed ones:
 the equations of the existing CVT's four contacts are written out by hand here, with Kim's vectors, in
-numpy, and solved point by point with scipy.optimize.root. Only the effects of variants/existing.yaml are
+numpy, and solved point by point with scipy.optimize.root. Only the effects of variants/existing_kim.yaml are
 included: drive_longitudinal_creep (Kim ε_D) and steering_lateral_creep (Kim ε_S). The drive rollers may
-have different radii r_1, r_2 (variants/unequal.yaml), which Kim's layout allows.
+have different radii r_1, r_2 (variants/unequal_kim.yaml), which Kim's layout allows.
 
 Contacts (outward normal n, axle a, rolling direction t = n × a):
     D1 (shaft 1, radius r_1): n = d2, a = −d1          D2 (shaft 2, radius r_2): n = d1, a = −d2

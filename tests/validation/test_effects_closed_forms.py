@@ -27,11 +27,11 @@ from cvtdesign.core.model import compile_model
 from cvtdesign.io.variant import load_variant
 
 GAMMAS = np.radians(np.arange(-80.0, 81.0, 10.0))
-R_SPHERE, R_DRIVE, R_STEER = 0.0635, 0.040, 0.038        # existing.yaml [m]
-EPS_D, EPS_S, N_REF = 0.0038, 0.0049, 100.0              # Kim's ε_D, ε_S [1/N] at N_REF [N] (existing.yaml)
-STEERING, DRIVE = [2, 3], [0, 1]                         # contact indices of existing.yaml: D1, D2, S1, S2
+R_SPHERE, R_DRIVE, R_STEER = 0.0635, 0.040, 0.038        # existing_kim.yaml [m]
+EPS_D, EPS_S, N_REF = 0.0038, 0.0049, 100.0              # Kim's ε_D, ε_S [1/N] at N_REF [N] (existing_kim.yaml)
+STEERING, DRIVE = [2, 3], [0, 1]                         # contact indices of existing_kim.yaml: D1, D2, S1, S2
 RADII = np.array([R_DRIVE, R_DRIVE, R_STEER, R_STEER])
-PRELOAD = 100.0                                          # [N] every roller of existing.yaml
+PRELOAD = 100.0                                          # [N] every roller of existing_kim.yaml
 # the model's documented compliance floor of every direction (EPS_RIGID = 1e-9 1/N times the reference speed
 # V_ref = ω1 r_D1, here 10 rad/s × 40 mm): creepage/F = ε + FLOOR·V_REF/V, written here by hand
 FLOOR, V_REF = 1e-9, 10.0 * R_DRIVE
@@ -44,7 +44,7 @@ def report(msg):
 def evaluate(effects, gammas, loads, **params):
     """The existing CVT with `effects`, parameters {"effect.param": value} overriding the defaults; every
     point must be physical (ok)."""
-    m = shipped_model("existing", tuple(effects))
+    m = shipped_model("existing_kim", tuple(effects))
     theta = np.array(m.param_values)
     for k, v in params.items():
         theta[m.param_names.index(k)] = v
@@ -67,7 +67,7 @@ def rolling_speeds(r):
 
 
 def test_existing_layout_is_the_one_typed_here():
-    lay = shipped_layout("existing")
+    lay = shipped_layout("existing_kim")
     assert [r.name for r in lay.rollers] == ["D1", "D2", "S1", "S2"]
     assert [float(r.radius) for r in lay.rollers] == pytest.approx([R_DRIVE, R_DRIVE, R_STEER, R_STEER])
     assert (lay.sphere_radius, lay.creep_drive, lay.creep_steering, lay.creep_reference_force) == pytest.approx(
@@ -198,15 +198,16 @@ def kalker_c22(a_over_b, nu):
 
 
 def test_hertz_kalker_creep_when_the_variant_gives_no_constants(make_variant):
-    """existing.yaml without `contact` (no Kim constants), its ball's material renamed so that the materials
+    """existing_kim.yaml without `contact` (no Kim constants), its ball's material renamed so that the materials
     library has no calibration for it (theory only): the steering rollers' ε_S is Hertz + Kalker,
     1/(G a b C22) at the preload, and the model's steering slip is Kim's eqs 19-24 with that ε_S (to the
     6e-6; measured 6.2e-7). That ε_S is 0.28× Kim's fitted one, so a model that kept Kim's would fail."""
     def edit(d):
-        d.pop("contact")
+        d["contact"] = {"law": "kim"}           # Kim's linear law, without his fitted constants
         d["materials"]["resin"] = d["materials"].pop("bowling_ball")
         d["sphere"]["material"] = "resin"
-    lay = load_variant(make_variant("existing", edit, file="no_constants"))
+        d["pairs"] = [{**p, "materials": [p["materials"][0], "resin"]} for p in d["pairs"]]
+    lay = load_variant(make_variant("existing_kim", edit, file="no_constants"))
     assert lay.creep_drive is None and lay.creep_steering is None
     assert all(r.creep.uncalibrated for r in lay.rollers)
     E1, nu1, E2, nu2 = 12.3e6, 0.48, 2e9, 0.35                 # urethane 84A on the bowling ball

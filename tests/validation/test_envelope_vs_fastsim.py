@@ -4,7 +4,7 @@ Kalker, "A fast algorithm for the simplified theory of rolling contact", 1982).
 
 An independent review found Polach's closed form, the law before, up to 0.38 μN from FASTSIM here (0.33 μN on
 the box), at the drive rollers whose shafts turn slowly under a fast-spinning sphere (spin creepage φa up to
-11 on existing_kalker and 23 on box_kalker), with the wrong sign of the lateral force at D2, γ = 0°,
+11 on existing and 23 on box), with the wrong sign of the lateral force at D2, γ = 0°,
 τ⊥ = −0.6 N·m. Each row's creepages, normal force, patch and coefficients (calibration included) are fed to
 FASTSIM as they are; the forces are compared in μN, the spin moment in μNℓ (ℓ the pivoting lever).
 """
@@ -24,7 +24,7 @@ from cvtdesign.cli import main
 @pytest.fixture(scope="module")
 def rows(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("envelope")
-    files = [str(ROOT / f"variants/{n}.yaml") for n in ("existing_kalker", "box_kalker")]
+    files = [str(ROOT / f"variants/{n}.yaml") for n in ("existing", "box")]
     assert main(["compare", *files, "--out", str(tmp), "--points", str(tmp / "p.csv")]) == 0
     return pd.read_csv(tmp / "p.csv")
 
@@ -51,10 +51,10 @@ def fastsim_rows(g: pd.DataFrame) -> np.ndarray:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("variant", ["existing_kalker", "box_kalker"])
+@pytest.mark.parametrize("variant", ["existing", "box"])
 def test_the_law_is_fastsim_at_every_contact(rows, variant):
-    """Measured: existing_kalker 1428 contact-points, forces within 0.0046 μN (D2 at γ = 0°, zero load),
-    moments within 0.0014 μNℓ; box_kalker 2856, 0.0009 μN and 0.0003 μNℓ (the shaft-2 rollers at γ = 0 do not
+    """Measured: existing 1428 contact-points, forces within 0.0046 μN (D2 at γ = 0°, zero load),
+    moments within 0.0014 μNℓ; box 2856, 0.0009 μN and 0.0003 μNℓ (the shaft-2 rollers at γ = 0 do not
     roll: their spin creepage is of order 1e7 1/m·a, full sliding). The goal was 0.03 μN and 0.05 μNℓ;
     tolerances 0.01 and 0.01."""
     g = rows[(rows.variant == variant) & (rows.status == "ok")]
@@ -69,7 +69,7 @@ def test_the_law_is_fastsim_at_every_contact(rows, variant):
     print(f"\n{variant}: {len(g)} contact-points, max φa {spin.max():.0f}; max |F − FASTSIM| {d_force.max():.4f} μN "
           f"({g.roller.iloc[i]}, γ {g.gamma_cmd_deg.iloc[i]:.0f}°, τ⊥ {g.tau_perp_Nm.iloc[i]:.1f} N·m), max |Mz − FASTSIM| "
           f"{d_moment.max():.4f} μNℓ ({g.roller.iloc[j]}, γ {g.gamma_cmd_deg.iloc[j]:.0f}°)")
-    assert len(g) == 357 * (4 if variant == "existing_kalker" else 8)
+    assert len(g) == 357 * (4 if variant == "existing" else 8)
     assert d_force.max() < 0.01 and d_moment.max() < 0.01
 
 

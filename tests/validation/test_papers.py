@@ -6,7 +6,7 @@ linkage (eq 5) at zero load; steering-roller slip (eqs 19-24), drive-roller slip
 Brokowski et al., "Toward improved CVTs: theoretical and experimental results": Gillespie's creep/spin speed
 ratio (eqs 14-15), sideslip angle (eq 17) and efficiency (eq 22) with k from eq 19 (b from Hertz's theory
 written here with scipy, not the package's contact module). And a PyBaMM-style cross-check of Kim's layout
-(existing.yaml and unequal.yaml) against reference_existing.py.
+(existing_kim.yaml and unequal_kim.yaml) against reference_existing.py.
 
 The closed forms are in kim_closed_forms.py, with the corrections to the printed equations documented
 there. Each tolerance is the accuracy measured when it was set times a stated margin; measured numbers are
@@ -27,7 +27,7 @@ from cvtdesign.core.effects import EFFECTS
 
 # --- helpers -------------------------------------------------------------------------------------------
 
-VARIANTS = ("box", "existing", "unequal")
+VARIANTS = ("box_kim", "existing_kim", "unequal_kim")
 GAMMA_DEG = np.arange(-80.0, 81.0, 10.0)             # Kim sec. 4.2 test protocol
 GAMMAS = np.radians(GAMMA_DEG)
 LOADS = np.round(np.arange(-1.0, 1.0001, 0.1), 10)    # [N m], Kim sec. 4.2
@@ -106,12 +106,12 @@ def test_ideal_law_kim_eq8_at_zero_load(name, effects):
 def test_excluded_effects_do_act_at_zero_load(effect):
     """Why the three effects are left out of the zero-load test: each moves α by more than 1e-4 rad at τ⊥ = 0
     (existing CVT, default effects plus that one)."""
-    r = solve("existing", GAMMAS, 0.0, tuple(layout("existing").effects) + (effect,))
+    r = solve("existing_kim", GAMMAS, 0.0, tuple(layout("existing_kim").effects) + (effect,))
     report(f"{effect}: max |alpha| at zero load = {np.max(np.abs(r['alpha'])):.3g} rad")
     assert np.max(np.abs(r["alpha"])) > 1e-4
 
 
-@pytest.mark.parametrize("name", [n for n in VARIANTS if n in ("existing", "unequal")])
+@pytest.mark.parametrize("name", [n for n in VARIANTS if n in ("existing_kim", "unequal_kim")])
 def test_steering_angle_kim_eq5(name):
     """The solved steering angle φ of Kim's linkage gives γ = atan((√2 + tan φ)/(√2 − tan φ)) (Kim eq 5),
     compared modulo 180° (axis angles)."""
@@ -121,15 +121,15 @@ def test_steering_angle_kim_eq5(name):
 
 
 def test_box_steering_angle_equals_gamma():
-    """Box CVT (box.yaml): forks turning about the pole axis z give φ = γ (modulo 180°)."""
-    r = solve("box", GAMMAS, 0.0)
+    """Box CVT (box_kim.yaml): forks turning about the pole axis z give φ = γ (modulo 180°)."""
+    r = solve("box_kim", GAMMAS, 0.0)
     np.testing.assert_allclose(kim.wrap_half_pi(r["phi"] - GAMMAS), 0.0, atol=1e-9)
 
 
 # --- 2. Kim's closed forms at small load ---------------------------------------------------------------
 
 def _existing_constants():
-    lay = layout("existing")
+    lay = layout("existing_kim")
     return lay.creep_steering, lay.creep_drive, drive_radii(lay)[0]
 
 
@@ -138,7 +138,7 @@ def test_steering_roller_slip_kim_eqs19_24(tau):
     """α_steering of the model with only steering_lateral_creep = Kim's α_SR (eqs 19-24, with corrections
     (a)-(d) of kim_closed_forms.steering_slip_angle) to TOL_EQ19_24, all γ in −80..80°."""
     eps_s, _, r_d = _existing_constants()
-    r = solve("existing", GAMMAS, tau, EXISTING_ONLY_STEERING)
+    r = solve("existing_kim", GAMMAS, tau, EXISTING_ONLY_STEERING)
     a_sr = kim.steering_slip_angle(tau, GAMMAS, eps_s, r_d)
     err = rel_err(r["alpha_steering"], a_sr)
     report(f"tau={tau}: alpha_SR (eqs 19-24) max rel err {err:.2e}, max |alpha_SR| {np.max(np.abs(a_sr)):.3e} rad")
@@ -153,8 +153,8 @@ def test_kim_eq19_radius_is_the_drive_radius(tau):
     the drive-roller radius (40 mm) the model's α_SR is 38/40 − 1 = −5 % off the closed form, far outside
     TOL_EQ19_24 (measured: the ratio is r_S/r_D to 1e-4)."""
     eps_s, _, r_d = _existing_constants()
-    r_s = next(r.radius for r in layout("existing").rollers if r.role == "steering")
-    r = solve("existing", GAMMAS, tau, EXISTING_ONLY_STEERING)
+    r_s = next(r.radius for r in layout("existing_kim").rollers if r.role == "steering")
+    r = solve("existing_kim", GAMMAS, tau, EXISTING_ONLY_STEERING)
     ratio = r["alpha_steering"] / kim.steering_slip_angle(tau, GAMMAS, eps_s, r_s)
     report(f"tau={tau}: model / eq 19 with r_S: {ratio.min():.4f}..{ratio.max():.4f} (r_S/r_D = {r_s / r_d:.4f})")
     np.testing.assert_allclose(ratio, r_s / r_d, rtol=1e-4)
@@ -169,7 +169,7 @@ def test_kim_eq24_printed_sign_is_reversed(tau):
     phi = kim.kim_phi_from_gamma(GAMMAS)
     gamma_a = kim.kim_gamma_actual(phi, kim.steering_lateral_slip_angle(tau, GAMMAS, eps_s, r_d))
     printed = kim.wrap_half_pi(GAMMAS - gamma_a)
-    r = solve("existing", GAMMAS, tau, EXISTING_ONLY_STEERING)
+    r = solve("existing_kim", GAMMAS, tau, EXISTING_ONLY_STEERING)
     assert np.all(np.sign(printed) == -np.sign(r["alpha_steering"]))
     assert rel_err(r["alpha_steering"], -printed) < TOL_EQ19_24
 
@@ -179,7 +179,7 @@ def test_drive_roller_slip_kim_eqs25_31(tau):
     """α_drive of the model with only drive_longitudinal_creep = Kim's α_DR (eqs 25-31, γ_a = γ) to TOL_EQ25_31;
     at γ = 0, where the closed form is 0, |α_drive| < 1e-8 rad (the model's rigid-direction floor)."""
     _, eps_d, r_d = _existing_constants()
-    r = solve("existing", GAMMAS, tau, EXISTING_ONLY_DRIVE)
+    r = solve("existing_kim", GAMMAS, tau, EXISTING_ONLY_DRIVE)
     a_dr = kim.drive_slip_angle(tau, GAMMAS, eps_d, r_d)
     err = rel_err(r["alpha_drive"], a_dr, zero_atol=1e-8)
     report(f"tau={tau}: alpha_DR (eqs 25-31) max rel err {err:.2e}, max |alpha_DR| {np.max(np.abs(a_dr)):.3e} rad")
@@ -189,9 +189,9 @@ def test_drive_roller_slip_kim_eqs25_31(tau):
 
 @pytest.mark.parametrize("tau", SMALL_LOADS)
 def test_slip_angle_sum_kim_eq32(tau):
-    """Both effects on (existing.yaml's defaults): α ≈ α_SR + α_DR (Kim eq 32) to TOL_EQ32."""
+    """Both effects on (existing_kim.yaml's defaults): α ≈ α_SR + α_DR (Kim eq 32) to TOL_EQ32."""
     eps_s, eps_d, r_d = _existing_constants()
-    r = solve("existing", GAMMAS, tau)
+    r = solve("existing_kim", GAMMAS, tau)
     expected = kim.kim_slip_angle(tau, GAMMAS, eps_s, eps_d, r_d)
     err = rel_err(r["alpha"], expected)
     report(f"tau={tau}: alpha (eq 32) max rel err {err:.2e}")
@@ -202,9 +202,9 @@ def test_slip_angle_independent_of_speed_kim_sec43():
     """Kim sec. 4.3 / Fig. 12: the slip angle does not depend on the CVT's speed (creep ∝ rolling speed);
     ω1 = 1, 10, 100 rad/s."""
     g, t = np.meshgrid(GAMMAS, [-1.0, -0.3, 0.3, 1.0], indexing="ij")
-    base = solve("existing", g, t)["alpha"]
+    base = solve("existing_kim", g, t)["alpha"]
     for w in (1.0, 100.0):
-        np.testing.assert_allclose(solve("existing", g, t, speeds=w)["alpha"], base, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(solve("existing_kim", g, t, speeds=w)["alpha"], base, rtol=1e-9, atol=1e-12)
 
 
 @pytest.mark.parametrize("tau", SMALL_LOADS)
@@ -214,9 +214,9 @@ def test_kim_closed_forms_negative_speed(tau):
     α_DR (eqs 25-31) and α (eq 32) to the same tolerances as for ω1 > 0 (modulo 180°: see
     test_slip_angles_for_negative_speed)."""
     eps_s, eps_d, r_d = _existing_constants()
-    rs = solve("existing", GAMMAS, tau, EXISTING_ONLY_STEERING, speeds=-10.0)
-    rd = solve("existing", GAMMAS, tau, EXISTING_ONLY_DRIVE, speeds=-10.0)
-    rb = solve("existing", GAMMAS, tau, speeds=-10.0)
+    rs = solve("existing_kim", GAMMAS, tau, EXISTING_ONLY_STEERING, speeds=-10.0)
+    rd = solve("existing_kim", GAMMAS, tau, EXISTING_ONLY_DRIVE, speeds=-10.0)
+    rb = solve("existing_kim", GAMMAS, tau, speeds=-10.0)
     err_s = rel_err(kim.wrap_half_pi(rs["alpha_steering"]), kim.steering_slip_angle(tau, GAMMAS, eps_s, r_d, -1.0))
     err_d = rel_err(kim.wrap_half_pi(rd["alpha_drive"]), kim.drive_slip_angle(tau, GAMMAS, eps_d, r_d, omega_par=-1.0),
                     zero_atol=1e-8)
@@ -230,7 +230,7 @@ def test_slip_angles_for_negative_speed():
     positive and negative ω∥; Brokowski Fig. 13, w_m < 0, shows small sideslip angles): the model's reported
     α, α_steering and α_drive should equal their values wrapped to [−90°, 90°) for ω1 < 0 as they do for
     ω1 > 0 (α and α_steering once came out as ±π + slip)."""
-    r = solve("existing", GAMMAS, 0.5, speeds=-10.0)
+    r = solve("existing_kim", GAMMAS, 0.5, speeds=-10.0)
     for key in ("alpha_drive", "alpha", "alpha_steering"):
         np.testing.assert_allclose(r[key], kim.wrap_half_pi(r[key]), atol=1e-12, err_msg=key)
 
@@ -246,7 +246,7 @@ def test_box_halves_drive_slip_kim_sec51(tau):
     """Kim sec. 5.1: four drive rollers share each tractive force, "essentially halving" the drive-roller
     slip: max |α_drive| over the envelope, box / existing, is 1/2 (Kim's ε for both). Measured 0.4993 at
     ±0.05 N·m and 0.5003 at ±1 N·m (the normal forces shift a little with load): within 0.005 of 1/2."""
-    ratio = _max_abs("box", "alpha_drive", tau) / _max_abs("existing", "alpha_drive", tau)
+    ratio = _max_abs("box_kim", "alpha_drive", tau) / _max_abs("existing_kim", "alpha_drive", tau)
     report(f"tau={tau}: max|alpha_drive| box/existing = {ratio:.4f}")
     assert abs(ratio - 0.5) < 0.005
 
@@ -255,7 +255,7 @@ def test_box_halves_drive_slip_kim_sec51(tau):
 def test_box_lessens_steering_slip_kim_sec51(tau):
     """Kim sec. 5.1: four steering rollers at the full moment arm "significantly lessen" the steering-roller
     slip: max |α_steering|, box / existing, below one half."""
-    ratio = _max_abs("box", "alpha_steering", tau) / _max_abs("existing", "alpha_steering", tau)
+    ratio = _max_abs("box_kim", "alpha_steering", tau) / _max_abs("existing_kim", "alpha_steering", tau)
     report(f"tau={tau}: max|alpha_steering| box/existing = {ratio:.4f}")
     assert ratio < 0.5
 
@@ -264,18 +264,18 @@ def test_box_lessens_steering_slip_kim_sec51(tau):
 
 # Compiled model vs reference (two Newton solvers, CasADi's to a 1e-12 residual and scipy's hybr to xtol
 # 1e-14, on the same equations): measured max |difference| 6.7e-16 rad in α and 4.4e-16 N·m in the
-# torques over the whole envelope of existing.yaml; tolerance 1e-13 absolute (≈ 150×, room for the solvers'
+# torques over the whole envelope of existing_kim.yaml; tolerance 1e-13 absolute (≈ 150×, room for the solvers'
 # own stopping tolerances).
 REFERENCE_ATOL = 1e-13
 
 
-@pytest.fixture(scope="module", params=["existing", "unequal"])
+@pytest.fixture(scope="module", params=["existing_kim", "unequal_kim"])
 def reference_envelope(request):
     """The reference model (reference_existing.py: Kim's vectors, the variant's radii and Kim's ε written in
     by hand here, not read from the variant) and the compiled model over Kim's full envelope."""
     name = request.param
-    ref = ExistingCVT(r_drive=0.040, r_drive_2=0.040) if name == "existing" else \
-        ExistingCVT(r_drive=0.030, r_drive_2=0.045)      # unequal.yaml: r_drive 30 mm, brake_ratio 1.5
+    ref = ExistingCVT(r_drive=0.040, r_drive_2=0.040) if name == "existing_kim" else \
+        ExistingCVT(r_drive=0.030, r_drive_2=0.045)      # unequal_kim.yaml: r_drive 30 mm, brake_ratio 1.5
     lay = layout(name)
     radii = {r.name: float(r.radius) for r in lay.rollers}
     # the variant is the machine the reference describes
@@ -325,7 +325,7 @@ TOL_EQ17 = 1e-7
 
 def gillespie_k_existing():
     """k = b/(R r μ N) (Brokowski eq 19) for the existing CVT's drive rollers at the preload, every number
-    typed from existing.yaml: sphere R = 63.5 mm (2 GPa, ν 0.35), drive roller r = 40 mm with a 15 mm crown
+    typed from existing_kim.yaml: sphere R = 63.5 mm (2 GPa, ν 0.35), drive roller r = 40 mm with a 15 mm crown
     (10.7 MPa, ν 0.48), μ = 0.8, N = 100 N; b the lateral Hertz semi-axis (hertz_reference)."""
     R, r, crown, N, mu = 0.0635, 0.040, 0.015, 100.0, 0.8
     e_star = 1 / ((1 - 0.48 ** 2) / 10.7e6 + (1 - 0.35 ** 2) / 2e9)
@@ -334,13 +334,13 @@ def gillespie_k_existing():
 
 
 def test_gillespie_k_inputs_are_the_variants():
-    """The numbers typed into gillespie_k_existing are existing.yaml's (so the closed form describes the
+    """The numbers typed into gillespie_k_existing are existing_kim.yaml's (so the closed form describes the
     machine the model solves)."""
-    lay = layout("existing")
+    lay = layout("existing_kim")
     d1 = next(r for r in lay.rollers if r.role == "drive" and r.shaft == 1)
     sm = lay.sphere_material
     assert (lay.sphere_radius, d1.radius, d1.crown_radius, d1.preload) == pytest.approx((0.0635, 0.040, 0.015, 100.0))
-    assert (d1.material.E, d1.material.nu, sm.E, sm.nu, min(d1.material.mu, sm.mu)) == pytest.approx(
+    assert (d1.material.E, d1.material.nu, sm.E, sm.nu, d1.friction.mu) == pytest.approx(
         (10.7e6, 0.48, 2e9, 0.35, 0.8))
 
 
@@ -348,10 +348,10 @@ def test_gillespie_k_inputs_are_the_variants():
 def test_gillespie_spin_creep_is_dissipative(tau):
     """With only drive_spin_creep the CVT dissipates power for loads of both signs, whereas the printed
     Brokowski eq 14 (0 < γ < 90°) would make it produce power (τ1ω1 + τ2ω2 < 0)."""
-    r = solve("existing", GILLESPIE_GAMMAS, tau, SPIN_ONLY)
+    r = solve("existing_kim", GILLESPIE_GAMMAS, tau, SPIN_ONLY)
     assert np.all(r["power_loss"] > 0)
     g = GILLESPIE_GAMMAS[GILLESPIE_GAMMAS > 0]
-    w1 = layout("existing").motor_speed
+    w1 = layout("existing_kim").motor_speed
     p14 = tau * w1 * (np.cos(g) * kim.gillespie_ratio_printed_eq14(g, gillespie_k_existing(), tau) - np.sin(g))
     assert np.all(p14 < 0)
 
@@ -363,7 +363,7 @@ def test_gillespie_speed_ratio_brokowski_eqs14_15(tau):
     τ⊥ → −τ⊥ for γ > 0; the printed eq 14 puts the slip (ratio − tan γ) on the wrong side of the ideal ratio."""
     k = gillespie_k_existing()
     g = GILLESPIE_GAMMAS
-    r = solve("existing", g, tau, SPIN_ONLY)
+    r = solve("existing_kim", g, tau, SPIN_ONLY)
     ratio = r["omega_2"] / r["omega_1"]
     err = rel_err(ratio, kim.gillespie_ratio(g, k, tau))
     neg, pos = g < 0, g > 0
@@ -382,7 +382,7 @@ def test_gillespie_speed_ratio_brokowski_eqs14_15(tau):
 def test_gillespie_sideslip_brokowski_eq17(tau):
     """tan α from the printed Brokowski eq 17 (0 < γ < 90°) = the model's α, to TOL_EQ17 rad."""
     g = GILLESPIE_GAMMAS[GILLESPIE_GAMMAS > 0]
-    r = solve("existing", g, tau, SPIN_ONLY)
+    r = solve("existing_kim", g, tau, SPIN_ONLY)
     alpha17 = np.arctan(kim.gillespie_tan_alpha(g, gillespie_k_existing(), tau))
     diff = np.max(np.abs(r["alpha"] - alpha17))
     report(f"tau={tau}: |alpha - atan(eq 17)| max {diff:.2e} rad, max |alpha| {np.max(np.abs(alpha17)):.3e} rad")
@@ -395,7 +395,7 @@ def test_creep_spin_efficiency_brokowski_eq22(tau):
     drive_spin_creep = tan γ / tan(γ + α) (Brokowski eq 22) with α from eq 17 (k from eq 19), not the
     model's own α: this checks the model's torques and speeds against the paper's loss, to 1e-6 relative
     (measured 2.4e-7, ≈ 4× below: the ratio's floor error propagated)."""
-    r = solve("existing", GILLESPIE_GAMMAS, tau, SPIN_ONLY)
+    r = solve("existing_kim", GILLESPIE_GAMMAS, tau, SPIN_ONLY)
     p_in2 = r["tau_2"] * r["omega_2"] > 0
     assert p_in2.sum() == len(GILLESPIE_GAMMAS) // 2
     eta = -r["tau_1"] * r["omega_1"] / (r["tau_2"] * r["omega_2"])

@@ -62,7 +62,7 @@ def patch_constants(layout: Layout, roller: Roller) -> dict:
         _, G, nu = hertz.contact_material(roller.creep.creep_modulus, roller.material.nu, sphere.E, sphere.nu)
     C11, C22, C23, C33 = kalker.kalker_coefficients(a / b, nu)
     return {"a": a, "b": b, "p0": p0, "G": G, "nu": nu, "E_star": E_star, "C11": C11, "C22": C22, "C23": C23,
-            "C33": C33, "mu": ca.fmin(roller.material.mu, sphere.mu), "lever": hertz.pivot_lever(a, b)}
+            "C33": C33, "mu": roller.friction.mu, "lever": hertz.pivot_lever(a, b)}
 
 
 class KimLaw:
@@ -76,7 +76,7 @@ class KimLaw:
     contains: dict = {}
     fitted = True
     rigid_unless_effects = True
-    reference_variant = "existing"
+    reference_variant = "existing_kim"
     several_roots = False   # inside the envelopes the roots are unique (core.model._solve_from_rest)
 
     def constants(self, layout: Layout, roller: Roller) -> dict:
@@ -129,7 +129,7 @@ class KalkerLaw:
                 "traction_saturation": "FASTSIM saturates every contact towards μN"}
     fitted = False
     rigid_unless_effects = False
-    reference_variant = "existing_kalker"
+    reference_variant = "existing"
     several_roots = True    # a point may have two roots: each is also solved from rest (core.model)
 
     def constants(self, layout: Layout, roller: Roller) -> dict:
@@ -171,6 +171,7 @@ class KalkerLaw:
 
 LAWS = {law.name: law for law in (KimLaw(), KalkerLaw())}
 IDEAL = "kim"           # the ideal CVT: rigid rolling contacts, Kim's law with no effect on
+DEFAULT = "kalker"      # a variant's law when it names none: the most complete physics (creep, spin, saturation)
 
 
 def contact_law(name: str):

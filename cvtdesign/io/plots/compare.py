@@ -23,9 +23,10 @@ COMPARE_KEYS = ("gamma_cmd", "load", "status", *(key for key, _, _ in COMPARE_RO
 TITLE_Y = 1.0
 # a variant's colour is the same in every run: Kim's existing CVT and the ideal CVT always these, every other
 # variant the PALETTE colour its name hashes to (`variant_colours`)
-# (the shipped variants and the shipped studies' optima hash to different colours: box red, box_kalker green,
-# existing_kalker purple, unequal pink, box_box_placement orange, box_box_placement_kalker brown)
+# (the shipped variants and the shipped studies' optima hash to different colours: box red, box green,
+# existing purple, unequal pink, box_box_placement orange, box_box_placement brown)
 EXISTING_COLOUR, IDEAL_COLOUR = "#1f77b4", "#000000"
+KIM_CVT = ("existing", "existing_kim")       # Kim's existing CVT, on the default basis and under his own law
 PALETTE = ("#ff7f0e", "#8c564b", "#9467bd", "#d62728", "#bcbd22", "#2ca02c", "#e377c2", "#17becf")
 OVERLAY_MAX = 3     # up to this many variants are overlaid in each panel; more get a column each
 PANELS_MAX = 6      # at most this many columns of variants; the others are in the table only
@@ -38,7 +39,7 @@ def variant_colours(names) -> dict:
     taken in sorted order (so only two variants hashing alike, in one run, make one of them change colour)."""
     out, taken = {}, set()
     for name in sorted(set(names)):
-        if name == "existing":
+        if name in KIM_CVT:
             out[name] = EXISTING_COLOUR
             continue
         k = zlib.crc32(f"cvtdesign {name}".encode())
@@ -56,7 +57,7 @@ def shown_variants(results) -> tuple[list, str]:
         return list(results), ""
     ok = {name: np.abs(res["alpha"][res["status"] == 0]) for name, res in results}
     worst = {name: float(np.nanmax(a)) if np.isfinite(a).any() else np.inf for name, a in ok.items()}
-    keep = sorted(worst, key=lambda n: (n != "existing", worst[n]))[:PANELS_MAX]
+    keep = sorted(worst, key=lambda n: (n not in KIM_CVT, worst[n]))[:PANELS_MAX]
     return ([(n, r) for n, r in results if n in keep],
             f"{PANELS_MAX} of {len(results)} variants drawn (existing and the smallest worst |α|); the table has all")
 

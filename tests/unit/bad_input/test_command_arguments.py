@@ -9,7 +9,7 @@ from conftest import ROOT, variant_path
 
 from cvtdesign.cli import main
 
-EXISTING = variant_path("existing")
+EXISTING = variant_path("existing_kim")
 
 
 # ----------------------------------------------------------------------------------------------------- rig
@@ -37,7 +37,7 @@ def test_rig_bad_input(case, tmp_path, capsys):
 # ---------------------------------------------------------------------------------------------------- show
 
 def test_bad_file_is_one_line_and_writes_nothing(cli, make_variant, tmp_path):
-    bad = make_variant("existing", lambda d: d["rollers"]["D1"].update(radius="forty mm"), file="bad")
+    bad = make_variant("existing_kim", lambda d: d["rollers"]["D1"].update(radius="forty mm"), file="bad")
     code, out, err = cli("show", bad, "--out", tmp_path / "out")
     assert code == 2 and out == ""
     assert len(err.splitlines()) == 1 and err.startswith(f"cvtdesign: error: {bad}: rollers.D1.radius")
@@ -45,7 +45,7 @@ def test_bad_file_is_one_line_and_writes_nothing(cli, make_variant, tmp_path):
 
 
 def test_gamma_outside_the_envelope_is_refused(cli, tmp_path):
-    code, _, err = cli("show", ROOT / "variants/existing.yaml", "--gamma", 95, "--out", tmp_path / "out")
+    code, _, err = cli("show", ROOT / "variants/existing_kim.yaml", "--gamma", 95, "--out", tmp_path / "out")
     assert code == 2 and len(err.splitlines()) == 1 and "--gamma" in err and not (tmp_path / "out").exists()
 
 
@@ -62,7 +62,7 @@ def test_resteer_bad_truth_set_is_one_line(cli, tmp_path):
 
 @pytest.mark.parametrize("name", ["p.txt", "p"])
 def test_an_unknown_format_is_one_line(tmp_path, capsys, name):
-    assert main(["compare", str(ROOT / "variants/box.yaml"), "--out", str(tmp_path), "--points", str(tmp_path / name)]) == 2
+    assert main(["compare", str(ROOT / "variants/box_kim.yaml"), "--out", str(tmp_path), "--points", str(tmp_path / name)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--points" in err and ".csv or .parquet" in err
     assert not (tmp_path / name).exists()

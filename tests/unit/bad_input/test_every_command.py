@@ -42,8 +42,8 @@ from conftest import ROOT
 
 from cvtdesign.cli import main
 
-EXISTING = ROOT / "variants" / "existing.yaml"
-PLACEMENT = ROOT / "studies" / "box_placement.yaml"
+EXISTING = ROOT / "variants" / "existing_kim.yaml"
+PLACEMENT = ROOT / "studies" / "box_placement_kim.yaml"
 NAN, INF = float("nan"), float("inf")
 DEL = object()                      # a mutation that deletes the key
 
@@ -113,7 +113,7 @@ def _write(path: Path, content) -> Path:
 
 
 def bad_variant(env: Env, edits=(), raw=None, name="bad.yaml") -> Path:
-    """existing.yaml with `edits` ((path, value) pairs, value DEL to delete; or a callable on the data), or
+    """existing_kim.yaml with `edits` ((path, value) pairs, value DEL to delete; or a callable on the data), or
     `raw` text/bytes (a function of the shipped text, or the content itself), written to in/<name>."""
     if raw is not None:
         content = raw(EXISTING.read_text()) if callable(raw) else raw
@@ -150,7 +150,7 @@ def with_variant(command, *edits, raw=None, missing=False):
 
 
 def _study_file(env, fields, raw=None, name="bad_study.yaml") -> Path:
-    """studies/box_placement.yaml (in the working directory's copy, so its base ../variants/box.yaml resolves
+    """studies/box_placement_kim.yaml (in the working directory's copy, so its base ../variants/box_kim.yaml resolves
     there) with `fields` merged into its sections (a dict merges, DEL deletes, else replaces)."""
     if raw is not None:
         return _write(env.work / "studies" / name, raw)
@@ -190,7 +190,7 @@ def protocol(content):
     def build(env):
         text = yaml.safe_dump(content, sort_keys=False) if isinstance(content, (dict, list)) else content
         f = _write(env.inp / "protocol.yaml", text)
-        return ["rig", str(env.work / "variants" / "existing.yaml"), "--protocol", str(f),
+        return ["rig", str(env.work / "variants" / "existing_kim.yaml"), "--protocol", str(f),
                 "--out", str(env.out / "d.csv")]
     return build
 
@@ -198,16 +198,16 @@ def protocol(content):
 def diagnose(content, *extra):
     def build(env):
         f = _write(env.inp / "data.csv", content)
-        return ["diagnose", str(f), "--variant", str(env.work / "variants" / "existing.yaml"),
+        return ["diagnose", str(f), "--variant", str(env.work / "variants" / "existing_kim.yaml"),
                 "--json", str(env.out / "r.json"), "--plots", str(env.out / "plots"), *extra]
     return build
 
 
 def cli(*args):
-    """A command line: {v} the working copy of existing.yaml, {csv} a good measured-data file, {out} the output
+    """A command line: {v} the working copy of existing_kim.yaml, {csv} a good measured-data file, {out} the output
     folder, {in} the input folder, {plain} a regular file, {adir} a folder, {tmp} the case's tmp_path."""
     def build(env):
-        keys = {"v": env.work / "variants" / "existing.yaml", "csv": good_csv(env), "out": env.out, "in": env.inp,
+        keys = {"v": env.work / "variants" / "existing_kim.yaml", "csv": good_csv(env), "out": env.out, "in": env.inp,
                 "plain": env.plain, "adir": env.adir, "tmp": env.tmp}
         return [a.format(**keys) for a in args]
     return build
@@ -223,7 +223,7 @@ def scheduler_nobody(command):
     def build(env):
         addr = f"tcp://127.0.0.1:{free_port()}"
         if command == "study":
-            return ["study", str(env.work / "studies" / "box_placement.yaml"), "--scheduler", addr,
+            return ["study", str(env.work / "studies" / "box_placement_kim.yaml"), "--scheduler", addr,
                     "--out", str(env.out / "store")]
         return ["selfcheck", "--matrices", "independent", "--quick", "--scheduler", addr,
                 "--json", str(env.out / "s.json")]
@@ -320,7 +320,7 @@ WRONG_UNITS = [
     ("roller_defaults.preload", ("roller_defaults", "preload"), "100 m"),
     ("urethane_82A.youngs_modulus", M82 + ("youngs_modulus",), "10.7 mm"),
     ("urethane_82A.poisson_ratio", M82 + ("poisson_ratio",), "0.48 mm"),
-    ("urethane_82A.friction", M82 + ("friction",), "0.8 N"),
+    ("pairs.0.friction", ("pairs", 0, "friction"), "0.8 N"),
     ("urethane_82A.allowable_pressure", M82 + ("allowable_pressure",), "6 N"),
     ("contact.creep_drive", ("contact", "creep_drive"), "0.0038 N"),
     ("contact.creep_steering", ("contact", "creep_steering"), "0.0049 m"),
@@ -347,8 +347,8 @@ NON_POSITIVE = [
     ("roller_defaults.preload", ("parameters", "preload"), "-100 N"),
     ("roller_defaults.mount_stiffness", ("roller_defaults", "mount_stiffness"), "0 N/m"),
     ("urethane_82A.youngs_modulus", M82 + ("youngs_modulus",), "0 MPa"),
-    ("urethane_82A.friction", M82 + ("friction",), 0),
-    ("urethane_82A.friction", M82 + ("friction",), -0.8),
+    ("pairs.0.friction", ("pairs", 0, "friction"), 0),
+    ("pairs.0.friction", ("pairs", 0, "friction"), -0.8),
     ("contact.creep_drive", ("contact", "creep_drive"), "0 1/N"),
     ("contact.creep_steering", ("contact", "creep_steering"), "-0.0049 1/N"),
     ("contact.creep_reference_force", ("contact", "creep_reference_force"), "0 N"),
@@ -368,7 +368,7 @@ NON_FINITE = [
     ("roller_defaults.mount_stiffness", ("roller_defaults", "mount_stiffness"), "nan N/m"),
     ("urethane_82A.youngs_modulus", M82 + ("youngs_modulus",), "inf MPa"),
     ("urethane_82A.poisson_ratio", M82 + ("poisson_ratio",), NAN),
-    ("urethane_82A.friction", M82 + ("friction",), INF),
+    ("pairs.0.friction", ("pairs", 0, "friction"), INF),
     ("urethane_82A.allowable_pressure", M82 + ("allowable_pressure",), NAN),
     ("contact.creep_drive", ("contact", "creep_drive"), "inf 1/N"),
     ("envelope.motor_speed", ("envelope", "motor_speed"), INF),
@@ -385,7 +385,7 @@ for name, path, value in NON_FINITE:
 BOOLEANS = [
     ("sphere.radius", ("sphere", "radius")), ("rollers.D1.radius", D1 + ("radius",)),
     ("rollers.D1.preload", D1 + ("preload",)), ("roller_defaults.mount_stiffness", ("roller_defaults", "mount_stiffness")),
-    ("urethane_82A.friction", M82 + ("friction",)), ("urethane_82A.poisson_ratio", M82 + ("poisson_ratio",)),
+    ("pairs.0.friction", ("pairs", 0, "friction")), ("urethane_82A.poisson_ratio", M82 + ("poisson_ratio",)),
     ("urethane_82A.youngs_modulus", M82 + ("youngs_modulus",)), ("envelope.motor_speed", ("envelope", "motor_speed")),
     ("envelope.gamma.step", ENV_G + ("step",)), ("parameters.preload", ("parameters", "preload")),
     ("steering.forks.0.sign", FORK0 + ("sign",)), ("rollers.D1.shaft", D1 + ("shaft",)),
@@ -626,7 +626,7 @@ scase("batch.pareto 'yes'", "batch.pareto", command="study", batch={"pareto": "y
 case("study: missing study file", ("nope.yaml", "cannot read file"), cli("study", "{in}/nope.yaml", "--out", "{out}/s"),
      "study", "study YAML")
 # command line
-P = "{tmp}/work/studies/box_placement.yaml"
+P = "{tmp}/work/studies/box_placement_kim.yaml"
 for id, expect, args in [
     ("--starts 0", "--starts", ("--starts", "0")),          # was ignored (one start): cmd_optimise refuses it
     ("--starts -2", "--starts", ("--starts", "-2")),
@@ -723,13 +723,13 @@ case("rig: --protocol is a directory", ("adir", "cannot read file"), cli(*R, "--
      "rig", "protocol YAML")
 case("rig: no --out", ("rig", "--out"), cli("rig", "{v}"), "rig", "command line")
 case("optimise: --json is the calibration", ("--json", "is this command's input (calibration)"),
-     cli("optimise", "{tmp}/work/studies/box_placement.yaml", "--calibration", "{plain}", "--json", "{plain}"),
+     cli("optimise", "{tmp}/work/studies/box_placement_kim.yaml", "--calibration", "{plain}", "--json", "{plain}"),
      "optimise", "command line")
-case("rig: --out is the variant", ("--out", "existing.yaml is this command's input (variant)"),
+case("rig: --out is the variant", ("--out", "existing_kim.yaml is this command's input (variant)"),
      cli("rig", "{v}", "--out", "{v}"), "rig", "command line")
 case("diagnose: --json is the data", ("--json", "is this command's input (data)"),
      cli("diagnose", "{csv}", "--variant", "{v}", "--json", "{csv}"), "diagnose", "command line")
-case("compare: --report is a variant", ("--report", "existing.yaml is this command's input (variants)"),
+case("compare: --report is a variant", ("--report", "existing_kim.yaml is this command's input (variants)"),
      cli("compare", "{v}", "--report", "{v}"), "compare", "command line")
 
 
@@ -876,7 +876,7 @@ for id, expect, args in [
     case(f"resteer: {id}", expect, cli(*TT, *args), "resteer", "command line")
 case("resteer: --table-ratios without --table", ("--table-ratios", "expected --table"),
      cli("resteer", "{v}", "--table-ratios", "0.4:2.5:5"), "resteer", "command line")
-case("resteer: a variant twice", ("existing.yaml is a variant file and --variant names another",),
+case("resteer: a variant twice", ("existing_kim.yaml is a variant file and --variant names another",),
      cli("resteer", "{v}", "--variant", "{v}", "--table", "{out}/t.csv"), "resteer", "command line")
 
 # ------------------------------------------------------------------------------------------------- capacity
@@ -936,7 +936,7 @@ WRONG_KIND = [
     ("contact azimuth as a length ratio", "rollers.D1.contact.azimuth", D1 + ("contact",),
      {"polar": "90 deg", "azimuth": "1570 mm/m"}),
     ("steering offset in %", "effect_parameters.steering_offset.offset", EP, {"steering_offset": {"offset": "5 %"}}),
-    ("friction in degrees", "urethane_82A.friction", M82 + ("friction",), "45 deg"),
+    ("friction in degrees", "pairs.0.friction", ("pairs", 0, "friction"), "45 deg"),
     ("Poisson's ratio in rad", "urethane_82A.poisson_ratio", M82 + ("poisson_ratio",), "0.48 rad"),
     ("coupling ratio in turns", "rollers.D1.ratio", D1 + ("ratio",), "1 turn"),
     ("motor speed in Hz", "envelope.motor_speed", ("envelope", "motor_speed"), "10 Hz"),
@@ -967,7 +967,7 @@ scase("duty-cycle load beyond the contacts", "objective.duty_cycle[0].load",
 scase("study envelope load meant in N·mm", "envelope.load", envelope=Whole(
     {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "30 deg"}, "load": {"start": -1000, "stop": 1000, "step": 500}}))
 case("study: --workers 100000", ("--workers", "100000"),
-     cli("study", "{tmp}/work/studies/box_placement.yaml", "--out", "{out}/store", "--workers", "100000"),
+     cli("study", "{tmp}/work/studies/box_placement_kim.yaml", "--out", "{out}/store", "--workers", "100000"),
      "study", "command line")
 case("selfcheck: --workers 100000", ("--workers", "100000"),
      cli("selfcheck", "--matrices", "independent", "--quick", "--workers", "100000", "--json", "{out}/s.json"),

@@ -1,9 +1,9 @@
 """Every bad input: ONE line on stderr naming the file, the field or row and what was expected, exit status 2,
 no traceback, nothing written. The CLI is called in-process (cvtdesign.cli.main); bad variants are
-variants/existing.yaml loaded, edited and dumped (or raw text for cases below the YAML level). Most cases
+variants/existing_kim.yaml loaded, edited and dumped (or raw text for cases below the YAML level). Most cases
 fail before any model is compiled, so the module runs in seconds.
 
-Also: the shipped variants and studies still load, and `compare variants/box.yaml` gives its figures."""
+Also: the shipped variants and studies still load, and `compare variants/box_kim.yaml` gives its figures."""
 import copy
 import json
 import math
@@ -23,9 +23,9 @@ from cvtdesign.errors import InputError
 from cvtdesign.io.units import to_si
 from cvtdesign.io.variant import load_variant, quantity
 
-EXISTING = ROOT / "variants" / "existing.yaml"
-BOX = ROOT / "variants" / "box.yaml"
-UNEQUAL = ROOT / "variants" / "unequal.yaml"
+EXISTING = ROOT / "variants" / "existing_kim.yaml"
+BOX = ROOT / "variants" / "box_kim.yaml"
+UNEQUAL = ROOT / "variants" / "unequal_kim.yaml"
 # the shipped studies: optimisation studies, and tolerance studies (a `tolerances:` list; cvtdesign tolerance)
 TOLERANCE_STUDIES = [f for f in sorted((ROOT / "studies").glob("*.yaml")) if "tolerances" in yaml.safe_load(f.read_text())]
 STUDIES = [f for f in sorted((ROOT / "studies").glob("*.yaml")) if f not in TOLERANCE_STUDIES]
@@ -37,7 +37,7 @@ INF, NAN = float("inf"), float("nan")
 def _set(data, path, value):
     node = data
     for k in path[:-1]:
-        node = node.setdefault(k, {})
+        node = node[k] if isinstance(node, list) else node.setdefault(k, {})
     node[path[-1]] = value
 
 
@@ -64,9 +64,9 @@ def raw_variant(content):
 
 
 def study(**fields):
-    """A builder: studies/box_placement.yaml with `fields` merged into its sections; optimised."""
+    """A builder: studies/box_placement_kim.yaml with `fields` merged into its sections; optimised."""
     def build(tmp):
-        data = yaml.safe_load((ROOT / "studies" / "box_placement.yaml").read_text())
+        data = yaml.safe_load((ROOT / "studies" / "box_placement_kim.yaml").read_text())
         data["base"] = str(BOX)
         for k, v in fields.items():
             if isinstance(v, dict) and isinstance(data.get(k), dict):
@@ -85,7 +85,7 @@ ROWS = "".join(f"{g},10,{10 * math.tan(math.radians(g)):.5f},{t},{t}\n"
 
 
 def csv(content):
-    """A builder: a measured-data file with this text or these bytes, diagnosed against existing.yaml."""
+    """A builder: a measured-data file with this text or these bytes, diagnosed against existing_kim.yaml."""
     def build(tmp):
         f = tmp / "data.csv"
         (f.write_bytes if isinstance(content, bytes) else f.write_text)(content)
@@ -116,7 +116,8 @@ CASES = {
                              r"roller_defaults\.mount_stiffness: expected a finite stiffness"),
     "preload .inf": (variant((RD + ("preload",), INF)), r"rollers\.D1\.preload: expected a finite force"),
     "Young's modulus .inf": (variant((MAT + ("youngs_modulus",), INF)), r"urethane_82A\.youngs_modulus: expected a finite"),
-    "friction .inf": (variant((MAT + ("friction",), INF)), r"urethane_82A\.friction: expected a finite"),
+    "friction .inf": (variant((("pairs", 0, "friction"), INF)), r"pairs\.0\.friction: expected a finite"),
+    "friction on a material": (variant((MAT + ("friction",), 0.8)), r"urethane_82A\.friction: friction belongs to a pair"),
     "nan in a contact vector": (variant((RD + ("contact",), [NAN, 1.0, 0.0])),
                                 r"rollers\.D1\.contact: expected a non-zero vector of 3 finite numbers"),
     "envelope.gamma.stop .inf": (variant((("envelope", "gamma", "stop"), INF)), r"envelope\.gamma\.stop: expected a finite angle"),
@@ -210,7 +211,7 @@ CASES = {
                            r"line 1: not a readable CSV file \(byte 0x89 is not UTF-8"),
     "NUL bytes in a CSV": (csv(HEADER + "0,10,\x00\x01,1,1\n"), r"line 2: not a readable CSV file \(a NUL byte"),
     "a YAML file as CSV": (cli("diagnose", "{existing}", "--variant", "{existing}", "--json", "{out}/r.json"),
-                           r"existing\.yaml: not a readable CSV file"),
+                           r"existing_kim\.yaml: not a readable CSV file"),
     # ---- bounded command-line values
     "resteer --load nan": (cli("resteer", "--variant", "{existing}", "--load", "nan N*m", "--json", "{out}/r.json"),
                            r"--load: expected a finite torque"),
@@ -288,7 +289,7 @@ def test_shipped_tolerance_studies_load():
     its header, every dimension a finite size."""
     from cvtdesign.io.tolerance_file import load_tolerances
     assert [f.name for f in TOLERANCE_STUDIES] == ["box_tolerances.yaml"]
-    spec, dims = load_tolerances(TOLERANCE_STUDIES[0], load_variant(ROOT / "variants/box_kalker.yaml"))
+    spec, dims = load_tolerances(TOLERANCE_STUDIES[0], load_variant(ROOT / "variants/box.yaml"))
     assert len(dims) == 42 and all(np.isfinite(d.size) and d.size > 0 for d in dims)
 
 
@@ -298,8 +299,8 @@ def test_compare_box_figures_unchanged(tmp_path, monkeypatch):
     js = tmp_path / "c.json"
     assert main(["compare", str(BOX), "--out", str(tmp_path / "plots"), "--json", str(js)]) == 0
     rows = {r["name"]: r for r in json.loads(js.read_text())["variants"]}
-    assert round(rows["box"]["max_abs_alpha_deg"], 3) == 4.166
-    assert round(rows["existing"]["max_abs_alpha_deg"], 3) == 10.761
+    assert round(rows["box_kim"]["max_abs_alpha_deg"], 3) == 4.166
+    assert round(rows["existing_kim"]["max_abs_alpha_deg"], 3) == 10.761
 
 
 def test_plausible_plain_numbers_are_still_si(tmp_path):

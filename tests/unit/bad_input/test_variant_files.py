@@ -7,7 +7,7 @@ from conftest import variant_path
 
 from cvtdesign.cli import main
 
-EXISTING = variant_path("existing")
+EXISTING = variant_path("existing_kim")
 
 
 def edited(tmp_path, *pairs, name="bad.yaml"):

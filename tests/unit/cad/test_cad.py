@@ -23,7 +23,7 @@ from cvtdesign.core.geometry import pose
 from cvtdesign.core.model import compile_model
 from cvtdesign.io.variant import load_variant
 
-BOX, EXISTING = ROOT / "variants/box.yaml", ROOT / "variants/existing.yaml"
+BOX, EXISTING = ROOT / "variants/box_kim.yaml", ROOT / "variants/existing_kim.yaml"
 
 # written out by hand from the variant files: sphere, rollers (role + name), axles, forks, couplings
 BOX_PARTS = (["sphere", "drive_A", "follower_A_", "drive_B", "follower_B_", "steering_N1", "steering_N2",
@@ -37,7 +37,7 @@ EXISTING_PARTS = ["sphere", "drive_D1", "drive_D2", "steering_S1", "steering_S2"
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory):
     out = tmp_path_factory.mktemp("cad")
-    return out, {name: export_variant(path, out, check=True) for name, path in (("box", BOX), ("existing", EXISTING))}
+    return out, {name: export_variant(path, out, check=True) for name, path in (("box_kim", BOX), ("existing_kim", EXISTING))}
 
 
 @pytest.mark.slow
@@ -56,7 +56,7 @@ def test_step_svg_png_written_and_nothing_else(exported):
             assert stat.S_IMODE(Path(r[key]).stat().st_mode) == 0o666 & ~umask
 
 
-@pytest.mark.parametrize("name, parts", [("box", BOX_PARTS), ("existing", EXISTING_PARTS)])
+@pytest.mark.parametrize("name, parts", [("box_kim", BOX_PARTS), ("existing_kim", EXISTING_PARTS)])
 def test_reimported_names_count_colours(exported, name, parts):
     _, res = exported
     assert res[name]["parts"] == parts
@@ -65,14 +65,14 @@ def test_reimported_names_count_colours(exported, name, parts):
     for part, (shape, colour) in back.items():
         assert len(shape.Solids()) == 1 and shape.Solids()[0].isValid(), part
         assert colour is not None
-    assert np.allclose(back["drive_A" if name == "box" else "drive_D1"][1], plan.COLOURS["drive"], atol=1e-3)
+    assert np.allclose(back["drive_A" if name == "box_kim" else "drive_D1"][1], plan.COLOURS["drive"], atol=1e-3)
     assert np.allclose(back["steering_S1"][1], plan.COLOURS["steering"], atol=1e-3)
 
 
 def test_box_parts_named_by_role(exported):
-    """Every roller in box.yaml's STEP file is its role and its name in the variant; no bare YAML id."""
+    """Every roller in box_kim.yaml's STEP file is its role and its name in the variant; no bare YAML id."""
     _, res = exported
-    names = list(step.read_step(Path(res["box"]["step"])))
+    names = list(step.read_step(Path(res["box_kim"]["step"])))
     layout = load_variant(BOX)
     assert {"drive_A", "drive_B", "follower_A_", "follower_B_", "steering_N1", "fork_1", "sphere"} <= set(names)
     assert not {r.name for r in layout.rollers} & set(names)
@@ -83,7 +83,7 @@ def test_box_parts_named_by_role(exported):
                                                            "fork_0", "fork_3", "axle_X"))
 
 
-@pytest.mark.parametrize("name, gamma, phi", [("box", 45.0, 45.0), ("existing", 45.0, None)])
+@pytest.mark.parametrize("name, gamma, phi", [("box_kim", 45.0, 45.0), ("existing_kim", 45.0, None)])
 def test_step_header_read_back(exported, name, gamma, phi):
     """FILE_DESCRIPTION and FILE_NAME carry the variant, its file, γ, φ and cvtdesign's version (box: φ = γ,
     its forks turn about the pole axis)."""
@@ -96,7 +96,7 @@ def test_step_header_read_back(exported, name, gamma, phi):
     made_by = f"cvtdesign {version('cvtdesign')}"
     assert h["name"] == f"{name}.step" and h["originating_system"] == made_by
     said = dict(line.split(": ", 1) for line in h["description"])
-    assert said["variant"] == name and said["variant file"] == str(BOX if name == "box" else EXISTING)
+    assert said["variant"] == name and said["variant file"] == str(BOX if name == "box_kim" else EXISTING)
     assert said["written by"] == made_by
     assert float(said["commanded gamma [deg]"]) == gamma
     assert abs(float(said["steering angle phi [deg]"]) - res[name]["phi_deg"]) < 1e-9
@@ -104,7 +104,7 @@ def test_step_header_read_back(exported, name, gamma, phi):
         assert abs(float(said["steering angle phi [deg]"]) - phi) < 1e-6
 
 
-@pytest.mark.parametrize("name", ["box", "existing"])
+@pytest.mark.parametrize("name", ["box_kim", "existing_kim"])
 def test_all_checks_pass(exported, name):
     _, res = exported
     rows = {r["check"]: r for r in res[name]["checks"]}
@@ -127,7 +127,7 @@ def test_step_header_round_trip_wrapped_and_quoted(tmp_path):
     back from the header exactly as written."""
     folder = tmp_path / "the rig's variants, in a folder with a long name so that the header wraps"
     folder.mkdir()
-    path = folder / "existing.yaml"
+    path = folder / "existing_kim.yaml"
     path.write_text(EXISTING.read_text())
     header = step.step_header(plan.plan(load_variant(path), 30.0), "one_ball.step")
     cq = kernel().cq
@@ -150,8 +150,8 @@ def test_cli_end_to_end_wheels_where_the_model_puts_them(tmp_path, capsys):
     layout = load_variant(EXISTING)
     phi = float(compile_model(layout).evaluate(np.radians([30.0]), [0.0])["phi"][0])
     assert abs(np.degrees(phi) + 20.75) < 0.01
-    back = step.read_step(tmp_path / "existing.step")
-    said = dict(line.split(": ", 1) for line in step.read_header(tmp_path / "existing.step")["description"])
+    back = step.read_step(tmp_path / "existing_kim.step")
+    said = dict(line.split(": ", 1) for line in step.read_header(tmp_path / "existing_kim.step")["description"])
     assert said["commanded gamma [deg]"] == "30" and abs(float(said["steering angle phi [deg]"]) - np.degrees(phi)) < 1e-6
     R = 1000 * layout.sphere_radius
     for r in layout.rollers:
@@ -349,7 +349,7 @@ def two_on_one_fork() -> dict:
     """Kim's CVT with a third steering roller S3 at −c2 on S2's fork (axis c2, sign −1), S2's preload doubled
     so that the preloads balance: `show` and `compare` take it; its export ended in a traceback ('part fork_2:
     its primitives fused into 2 solids')."""
-    d = lt.read("existing")
+    d = lt.read("existing_kim")
     d["rollers"]["S2"]["preload"] = "200 N"
     d["rollers"]["S3"] = dict(d["rollers"]["S2"], contact="-c2", preload="100 N")
     d["steering"]["forks"][1]["rollers"] = ["S2", "S3"]
@@ -390,7 +390,7 @@ def test_a_part_running_into_another_is_refused_before_writing(tmp_path):
 def exportable_layouts(draw):
     """A shipped layout (or the one with two rollers on a fork), its drive rollers at radii 25–50 mm, rotated,
     possibly mirrored, with random axle flips; and a commanded γ inside its envelope."""
-    name = draw(st.sampled_from(["existing", "box", "unequal", "two on one fork"]), label="variant")
+    name = draw(st.sampled_from(["existing_kim", "box_kim", "unequal_kim", "two on one fork"]), label="variant")
     d = two_on_one_fork() if name == "two on one fork" else lt.read(name)
     for rn in [n for n, s in d["rollers"].items() if s["role"] == "drive"]:
         d = lt.set_radius(d, rn, draw(st.floats(0.025, 0.050), label=f"{rn} radius [m]"))
@@ -452,7 +452,7 @@ def test_svg_centred_named_scaled_without_empty_groups(exported):
         texts = re.findall(r">([^<>]+)</text>", svg)
         named = [p for p in r["parts"] if p.split("_")[0] in ("sphere", "drive", "follower", "steering", "fork")]
         assert set(named) <= set(texts) and any(t.endswith(" mm") for t in texts)
-        assert ("A_ turns with A (shaft 1); B_ turns with B (shaft 2)" in svg) == (name == "box")
+        assert ("A_ turns with A (shaft 1); B_ turns with B (shaft 2)" in svg) == (name == "box_kim")
     p = plan.plan(load_variant(BOX))
     assert "coupling_A_" in p.names()                      # still in the STEP file
 

@@ -15,7 +15,7 @@ NOT_LOADED = ("dask", "distributed", "cadquery", "OCP")     # packages, and pypl
 SCRIPT = """
 import sys
 from cvtdesign.cli import main
-status = main(["compare", "variants/box.yaml", "--out", sys.argv[1]])
+status = main(["compare", "variants/box_kim.yaml", "--out", sys.argv[1]])
 print("status", status, "parent modules:", " ".join(sorted(sys.modules)))
 """
 

@@ -15,7 +15,7 @@ from cvtdesign.design.solve import knee, pareto_front
 from cvtdesign.design.study_file import load_study
 from cvtdesign.verification import selfcheck
 
-EXISTING = variant_path("existing")
+EXISTING = variant_path("existing_kim")
 
 
 # --- resteer --------------------------------------------------------------------------------------------
@@ -35,7 +35,7 @@ def test_resteer_cli_commands_and_scores(cli, tmp_path):
     np.testing.assert_allclose(ideal, np.arctan(q), rtol=0, atol=1e-15)
     ach = rep["achieved"]
     assert np.max(np.abs(ach["nominal"]["error_pct"])) < 1e-6
-    m = shipped_model("existing")
+    m = shipped_model("existing_kim")
     res = m.evaluate(ideal, 0.8)
     ratio = res["omega_2"] / res["omega_1"]
     np.testing.assert_allclose(ach["ideal"]["achieved"], ratio, rtol=1e-12)
@@ -100,7 +100,7 @@ def test_pareto_front_of_the_box_study(tmp_path):
     grows (each point's feasible set contains the previous one's); the ends are the two single-objective
     optima's worst |α|."""
     data = yaml.safe_load((ROOT / "studies" / "box_pareto.yaml").read_text())
-    data["base"] = str(variant_path("box"))
+    data["base"] = str(variant_path("box_kim"))
     data["envelope"] = {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
                         "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}
     path = tmp_path / "pareto.yaml"

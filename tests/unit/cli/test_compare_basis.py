@@ -15,7 +15,7 @@ NARROW = {"start": "-0.5 N*m", "stop": "0.5 N*m", "step": "0.25 N*m"}
 
 
 def small_existing(tmp_path, name, file, load, gamma_step="40 deg", **edits):
-    d = variant_data("existing")
+    d = variant_data("existing_kim")
     d["name"] = name
     d["envelope"]["gamma"]["step"] = gamma_step
     d["envelope"]["load"] = load
@@ -49,7 +49,7 @@ def test_columns_share_the_first_files_envelope(tmp_path, cli):
 
 @pytest.mark.slow
 def test_different_laws_are_refused_in_one_line(tmp_path, cli):
-    """existing (kim) and existing_kalker: refused with one line naming both files and their laws, nothing
+    """existing (kim) and existing: refused with one line naming both files and their laws, nothing
     written; --as-written compares them, each column saying its law."""
     a = small_existing(tmp_path, "kim", "a.yaml", WIDE)
     b = small_existing(tmp_path, "kalker", "b.yaml", WIDE, contact={"law": "kalker"})

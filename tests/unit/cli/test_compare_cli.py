@@ -23,7 +23,7 @@ KEYS = {"name", "file", "max_abs_alpha_deg", "rms_alpha_deg", "max_abs_alpha_ste
 @pytest.fixture(scope="module")
 def box_vs_existing(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("compare")
-    code = main(["compare", str(ROOT / "variants/box.yaml"), "--out", str(tmp / "plots"), "--json", str(tmp / "f.json")])
+    code = main(["compare", str(ROOT / "variants/box_kim.yaml"), "--out", str(tmp / "plots"), "--json", str(tmp / "f.json")])
     return code, tmp
 
 
@@ -31,7 +31,7 @@ def test_single_file_compares_with_ideal_and_existing(box_vs_existing, monkeypat
     code, tmp = box_vs_existing
     assert code == 0
     rows = json.loads((tmp / "f.json").read_text())["variants"]
-    assert [r["name"] for r in rows] == ["ideal (box)", "existing", "box"]
+    assert [r["name"] for r in rows] == ["ideal (box_kim)", "existing_kim", "box_kim"]
     for r in rows:
         assert KEYS <= set(r)
     ideal, existing, box = rows
@@ -45,17 +45,17 @@ def test_single_file_compares_with_ideal_and_existing(box_vs_existing, monkeypat
 
 def test_plot_written(box_vs_existing):
     _, tmp = box_vs_existing
-    png = tmp / "plots" / "box.png"                # named after the input file
+    png = tmp / "plots" / "box_kim.png"                # named after the input file
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
-    assert [p.name for p in (tmp / "plots").iterdir()] == ["box.png"]   # no temporary files left
+    assert [p.name for p in (tmp / "plots").iterdir()] == ["box_kim.png"]   # no temporary files left
 
 
 @pytest.mark.slow
 def test_three_variants_side_by_side(tmp_path, capsys):
-    files = [str(ROOT / f"variants/{n}.yaml") for n in ("existing", "box", "unequal")]
+    files = [str(ROOT / f"variants/{n}.yaml") for n in ("existing_kim", "box_kim", "unequal_kim")]
     assert main(["compare", *files, "--out", str(tmp_path), "--json", str(tmp_path / "f.json")]) == 0
     rows = json.loads((tmp_path / "f.json").read_text())["variants"]
-    assert [r["name"] for r in rows] == ["existing", "box", "unequal"]
+    assert [r["name"] for r in rows] == ["existing_kim", "box_kim", "unequal_kim"]
     # each figure is its own variant's: max |α| over the envelope, re-evaluated here from the compiled model
     for r in rows:
         m = shipped_model(r["name"])
@@ -63,18 +63,18 @@ def test_three_variants_side_by_side(tmp_path, capsys):
         assert r["max_abs_alpha_deg"] == pytest.approx(np.degrees(np.nanmax(np.abs(m.evaluate(G, T)["alpha"]))),
                                                        rel=1e-9), r["name"]
     table = capsys.readouterr().out
-    assert "max |α| [°]" in table and "unequal" in table
+    assert "max |α| [°]" in table and "unequal_kim" in table
 
 
 @pytest.mark.slow
 def test_single_file_outside_the_repository_still_compares_with_existing(tmp_path, monkeypatch, make_variant):
-    """Run from another folder with a copy of box.yaml there: Kim's existing CVT comes from the package, not
+    """Run from another folder with a copy of box_kim.yaml there: Kim's existing CVT comes from the package, not
     from a `variants/` folder beside the working directory, so its column is never silently dropped."""
-    box = make_variant("box")
+    box = make_variant("box_kim")
     monkeypatch.chdir(tmp_path)
     assert main(["compare", str(box), "--out", "plots", "--json", "f.json"]) == 0
     rows = json.loads((tmp_path / "f.json").read_text())["variants"]
-    assert [r["name"] for r in rows] == ["ideal (box)", "existing", "box"]
+    assert [r["name"] for r in rows] == ["ideal (box_kim)", "existing_kim", "box_kim"]
     assert rows[1]["max_abs_alpha_deg"] == pytest.approx(10.761, abs=5e-4)
 
 
@@ -87,8 +87,8 @@ def test_roller_defaults_supply_any_roller_field(make_variant, tmp_path):
         data["roller_defaults"] |= {"radius": rollers["D1"]["radius"], "material": rollers["D1"]["material"]}
         for r in ("D1", "D2"):
             del rollers[r]["radius"], rollers[r]["material"]
-    hoisted = make_variant("existing", hoist, file="hoisted")
-    assert main(["compare", str(ROOT / "variants/existing.yaml"), str(hoisted), "--out", str(tmp_path / "p"),
+    hoisted = make_variant("existing_kim", hoist, file="hoisted")
+    assert main(["compare", str(ROOT / "variants/existing_kim.yaml"), str(hoisted), "--out", str(tmp_path / "p"),
                  "--json", str(tmp_path / "f.json")]) == 0
     a, b = json.loads((tmp_path / "f.json").read_text())["variants"]
     assert {k: v for k, v in a.items() if k not in ("name", "file")} == \
@@ -96,9 +96,9 @@ def test_roller_defaults_supply_any_roller_field(make_variant, tmp_path):
 
 
 def test_the_ideal_cvt_is_ideal_under_kalkers_law():
-    """Kalker's law creeps with no effect on, so the 'ideal' column of `compare box_kalker.yaml` slipped like
+    """Kalker's law creeps with no effect on, so the 'ideal' column of `compare box.yaml` slipped like
     the variant (max |α| 4.185°). The ideal CVT is the layout with rigid rolling contacts, whatever its law."""
-    for name in ("box_kalker", "box"):
+    for name in ("box", "box_kim"):
         m = ideal_model(load_variant(ROOT / f"variants/{name}.yaml"))
         row = metrics(m, envelope(m))
         assert row["max_abs_alpha_deg"] < np.degrees(EPS_RIGID * 50) and row["min_efficiency"] > 1 - 1e-6, name
@@ -117,8 +117,8 @@ def test_a_table_never_looks_better_than_the_run(make_variant, tmp_path, capsys)
     """A variant with 38 of 357 points ok printed a clean column (its failures in a footnote only), and a
     Hertz pressure over the allowable had no mark. Now a first row says 'under half' in its column, a figure
     over no ok point is '—' (never 0.000), and the pressure is marked in the table, the JSON and the report."""
-    files = [make_variant("existing", heavy, file="heavy"),
-             make_variant("existing", lambda d: heavy(d, ("10 N*m", "30 N*m", "10 N*m"), name="hopeless"),
+    files = [make_variant("existing_kim", heavy, file="heavy"),
+             make_variant("existing_kim", lambda d: heavy(d, ("10 N*m", "30 N*m", "10 N*m"), name="hopeless"),
                           file="hopeless")]
     report = tmp_path / "r.html"
     assert main(["compare", *map(str, files), "--out", str(tmp_path / "p"), "--json", str(tmp_path / "f.json"),
@@ -143,13 +143,13 @@ def test_the_files_are_written_before_the_table_and_a_closed_pipe_is_quiet(tmp_p
     """`compare … --json f | head` lost the JSON: it was written after the table, which the closed pipe
     stopped. Now the JSON, the report and the plot are there, and nothing is said about the pipe."""
     script = Path(sys.executable).parent / "cvtdesign"
-    proc = subprocess.Popen([str(script), "compare", str(ROOT / "variants/box.yaml"), "--out", str(tmp_path / "p"),
+    proc = subprocess.Popen([str(script), "compare", str(ROOT / "variants/box_kim.yaml"), "--out", str(tmp_path / "p"),
                              "--json", str(tmp_path / "f.json"), "--report", str(tmp_path / "r.html")],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     proc.stdout.close()                  # the reader is gone before anything is printed
     err = proc.stderr.read()
     assert proc.wait(timeout=120) == 1 and err == "", err
-    assert json.loads((tmp_path / "f.json").read_text())["variants"][-1]["name"] == "box"
+    assert json.loads((tmp_path / "f.json").read_text())["variants"][-1]["name"] == "box_kim"
     assert (tmp_path / "r.html").stat().st_size > 0 and (tmp_path / "p" / "box.png").exists()
 
 
@@ -169,7 +169,7 @@ class ClosedPipe(io.StringIO):
 
 
 @pytest.mark.parametrize("argv, written", [
-    (["show", "{existing}", "--out", "{tmp}/s"], ["s/existing_layout.png"]),
+    (["show", "{existing}", "--out", "{tmp}/s"], ["s/existing_kim_layout.png"]),
     (["contact", "{existing}", "--json", "{tmp}/c.json", "--plots", "{tmp}/c"], ["c.json", "c"]),
     (["resteer", "--variant", "{existing}", "--load", "0.5 N*m", "--json", "{tmp}/r.json"], ["r.json"]),
     (["cache"], []),
@@ -179,7 +179,7 @@ def test_every_command_writes_its_files_before_the_terminal(argv, written, tmp_p
     else (no BrokenPipeError traceback)."""
     with open(tmp_path / "stdout", "w") as sink:
         monkeypatch.setattr(sys, "stdout", ClosedPipe(sink.fileno()))
-        args = [a.format(existing=ROOT / "variants/existing.yaml", tmp=tmp_path) for a in argv]
+        args = [a.format(existing=ROOT / "variants/existing_kim.yaml", tmp=tmp_path) for a in argv]
         try:
             code = main(args)
         except SystemExit as e:          # rich's own handling of a closed pipe

@@ -20,7 +20,7 @@ EXPECTED = ["variant", "gamma_cmd_deg", "tau_perp_Nm", "status", "roller", "role
 @pytest.fixture(scope="module")
 def kalker_points(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("points")
-    files = [str(ROOT / f"variants/{n}.yaml") for n in ("existing_kalker", "box")]
+    files = [str(ROOT / f"variants/{n}.yaml") for n in ("existing", "box_kim")]
     assert main(["compare", *files, "--out", str(tmp), "--points", str(tmp / "p.csv"), "--json", str(tmp / "f.json"),
                  "--as-written"]) == 0
     assert main(["compare", *files, "--out", str(tmp), "--points", str(tmp / "p.parquet"), "--as-written"]) == 0
@@ -29,11 +29,11 @@ def kalker_points(tmp_path_factory):
 
 @pytest.mark.slow
 def test_one_row_per_variant_point_and_contact(kalker_points):
-    """The columns outside tools rely on, in order; 357 points × 4 contacts of existing_kalker and × 8 of the box;
+    """The columns outside tools rely on, in order; 357 points × 4 contacts of existing and × 8 of the box;
     the CSV and the Parquet file hold the same table."""
     csv, parquet, _ = kalker_points
     assert list(csv.columns[:len(EXPECTED)]) == EXPECTED == COLUMNS
-    assert csv.groupby("variant").size().to_dict() == {"existing_kalker": 357 * 4, "box": 357 * 8}
+    assert csv.groupby("variant").size().to_dict() == {"existing": 357 * 4, "box_kim": 357 * 8}
     pd.testing.assert_frame_equal(csv, parquet, check_dtype=False, rtol=1e-8)
 
 
@@ -43,9 +43,9 @@ def test_rows_are_the_model_s_state(kalker_points):
     coefficients are as used: the materials library's creep modulus makes the drive rollers' G·C11 the theory's
     (G 7.19 MPa, C11 5.64) over 3.1364, the factor that gives Kim's ε_D."""
     csv, _, _ = kalker_points
-    ek = csv[(csv.variant == "existing_kalker") & (csv.status == "ok")]
+    ek = csv[(csv.variant == "existing") & (csv.status == "ok")]
     np.testing.assert_allclose(np.hypot(ek.F_long_N, ek.F_lat_N), ek.utilisation * ek.mu * ek.N_N, rtol=1e-6, atol=1e-3)
-    res = envelope(shipped_model("existing_kalker"))
+    res = envelope(shipped_model("existing"))
     power = (res["tau_1"] * res["omega_1"] + res["tau_2"] * res["omega_2"]).ravel()
     loss = ek.groupby(["gamma_cmd_deg", "tau_perp_Nm"], sort=True).loss_W.sum().to_numpy()
     np.testing.assert_allclose(loss, power[np.isfinite(power)], atol=1e-9)
@@ -58,11 +58,11 @@ def test_rows_are_the_model_s_state(kalker_points):
 def test_points_that_are_not_ok_carry_their_status_and_no_numbers(tmp_path):
     """A load range past the physics (±6 N·m on Kim's CVT): the failed points keep their status and every number
     of theirs is empty."""
-    text = (ROOT / "variants/existing.yaml").read_text().replace("load: {start: -1 N*m, stop: 1 N*m, step: 0.1 N*m}",
+    text = (ROOT / "variants/existing_kim.yaml").read_text().replace("load: {start: -1 N*m, stop: 1 N*m, step: 0.1 N*m}",
                                                                   "load: {start: -6 N*m, stop: 6 N*m, step: 3 N*m}")
     v = tmp_path / "heavy.yaml"
     v.write_text(text)
-    assert main(["compare", str(v), str(ROOT / "variants/box.yaml"), "--out", str(tmp_path), "--points",
+    assert main(["compare", str(v), str(ROOT / "variants/box_kim.yaml"), "--out", str(tmp_path), "--points",
                  str(tmp_path / "p.csv")]) == 0
     p = pd.read_csv(tmp_path / "p.csv")
     bad = p[p.status != "ok"]
@@ -73,7 +73,7 @@ def test_points_that_are_not_ok_carry_their_status_and_no_numbers(tmp_path):
 def test_worst_efficiency_is_taken_where_power_is_delivered(kalker_points):
     """Under Kalker's law zero-load points lose power (spin) and deliver none: their efficiency, 0, printed
     'worst efficiency 0.000' for both kalker variants. It is now taken over the points that deliver power, and
-    the zero-output points' losses are a figure of their own: existing_kalker 0.052 over 254 points (2 more in
+    the zero-output points' losses are a figure of their own: existing 0.052 over 254 points (2 more in
     range deliver none), 3.81 W lost at a point that delivers none; Kim's law unchanged (0.729 on the box)."""
     _, _, out = kalker_points
     ek, box = out["variants"]

@@ -20,7 +20,7 @@ def test_compare_leaves_the_collector_as_it_was(tmp_path, capsys, collecting):
         assert main(["compare", str(tmp_path / "missing.yaml"), "--out", str(tmp_path / "out")]) == 2
         assert "missing.yaml" in capsys.readouterr().err
         assert gc.isenabled() is collecting
-        assert main(["compare", str(variant_path("box")), "--out", str(tmp_path / "out")]) == 0
+        assert main(["compare", str(variant_path("box_kim")), "--out", str(tmp_path / "out")]) == 0
         assert gc.isenabled() is collecting
     finally:
         (gc.enable if was else gc.disable)()

@@ -25,10 +25,10 @@ def hertz_independent(R, r_roll, r_crown, N, E1, nu1, E2, nu2):
 
 @pytest.fixture(scope="module")
 def kalker_existing(tmp_path_factory):
-    """existing.yaml without Kim's fitted creep constants (the contact physics alone), through the CLI."""
+    """existing_kim.yaml without Kim's fitted creep constants (the contact physics alone), through the CLI."""
     tmp = tmp_path_factory.mktemp("contact")
 
-    data = variant_data("existing")
+    data = variant_data("existing_kim")
     data.pop("contact", None)
     path = write_yaml(tmp / "kalker.yaml", data)
     assert main(["contact", str(path), "--json", str(tmp / "c.json"), "--plots", str(tmp / "plots")]) == 0
@@ -106,7 +106,7 @@ def test_contact_figures_read_as_they_are(monkeypatch, tmp_path):
     (Kim's two drive rollers, his two steering rollers) are one curve named together, each contact in a
     colour, line style and marker of its own."""
     figures = captured(monkeypatch, plots)
-    variant = ROOT / "variants" / "unequal.yaml"
+    variant = ROOT / "variants" / "unequal_kim.yaml"
     assert main(["contact", str(variant), "--plots", str(tmp_path)]) == 0
     curves, patches = figures
     assert text_problems(curves) == [] and text_problems(patches) == []

@@ -28,8 +28,8 @@ from cvtdesign.io.report import Note, Table, html_report
 from cvtdesign.io.units import degrees, engineering, number
 from cvtdesign.io.variant import load_variant
 
-BOX = ROOT / "variants" / "box.yaml"
-EXISTING = ROOT / "variants" / "existing.yaml"
+BOX = ROOT / "variants" / "box_kim.yaml"
+EXISTING = ROOT / "variants" / "existing_kim.yaml"
 BROWSER = next((shutil.which(b) for b in ("chromium", "chromium-browser", "google-chrome") if shutil.which(b)), None)
 # run once the page and its images have loaded: each <img> gets its decoded width; the body the page's width,
 # its scroll width and the elements that reach past the page's edges (a table scrolling in its own box may),
@@ -192,15 +192,15 @@ def test_compare_report(tmp_path, capsys):
     doc = rendered(report, tmp_path)
     check_header_and_images(doc, f"cvtdesign compare {BOX}", 1)
     rows = doc.tables["CVT comparison over the operating envelope (γ × τ⊥)"]
-    assert rows[0] == ["figure", "ideal (box)", "existing", "box"]
-    box = column(rows, "box")
+    assert rows[0] == ["figure", "ideal (box_kim)", "existing_kim", "box_kim"]
+    box = column(rows, "box_kim")
     assert box["max |α| [°]"] == "4.166 [4.100, 4.232]" and box["max Hertz p [MPa]"] == "2.60"
-    assert column(rows, "ideal (box)")["max |α| [°]"] == "0.000"
+    assert column(rows, "ideal (box_kim)")["max |α| [°]"] == "0.000"
     assert box["calibration"] == "own ε (fitted)" and box["contact law"] == "kim"
     # the same figures as the JSON and as printed
     js = json.loads((tmp_path / "c.json").read_text())["variants"]
     lo, hi = js[1]["max_abs_alpha_deg_interval"]
-    assert column(rows, "existing")["max |α| [°]"] == f"{js[1]['max_abs_alpha_deg']:.3f} [{lo:.3f}, {hi:.3f}]" \
+    assert column(rows, "existing_kim")["max |α| [°]"] == f"{js[1]['max_abs_alpha_deg']:.3f} [{lo:.3f}, {hi:.3f}]" \
         == "10.761 [10.597, 10.925]"
     assert re.search(r"│ max \|α\| \[°\] +│ +0\.000 │ +10\.761 \[10\.597, 10\.925\] │ 4\.166 \[4\.100, 4\.232\] │",
                      printed)       # whatever the widths
@@ -208,7 +208,7 @@ def test_compare_report(tmp_path, capsys):
     assert doc.order[:5] == ["summary", "h2", "h2", "figure", "h2"] and doc.order[-2:] == ["glossary", "h2"]
     assert doc.ids["summary"].startswith("SummaryBox slips least: its largest slip angle is 4.166°, against 10.761° "
                                          "for Kim's existing CVT (2.6 times less). It also keeps the highest "
-                                         "worst-case efficiency, 0.729 (existing 0.424).How sure: ".replace("Box", "box"))
+                                         "worst-case efficiency, 0.729 (existing 0.424).How sure: ".replace("Box", "box_kim"))
     assert "every operating point of every variant is ok (357 each)" in doc.ids["summary"]
     assert {r[0] for r in rows[1:]} <= set(doc.terms) and "Figure 1" in doc.terms
 
@@ -320,12 +320,12 @@ def test_study_summary_names_designs_in_units():
     assert table.headers == ["point", "worst α", "power loss", "d", "preload", "status", "variant file"]
     assert table.rows[1] == ["1", "3.058°", "3.242 W", "48.8 mm", "132.2 N", "Solve_Succeeded", "s_pareto1.yaml"]
     assert knee_note.text == "Pareto box_pareto: knee: point 1 — d = 48.8 mm, preload = 132.2 N, worst α 3.058°, loss 3.242 W"
-    starts = pd.DataFrame([{"variant": "box.yaml", "fixed": json.dumps({"r_steer": 0.03}), "objective": o,
+    starts = pd.DataFrame([{"variant": "box_kim.yaml", "fixed": json.dumps({"r_steer": 0.03}), "objective": o,
                             "worst_alpha_deg": o, "power_loss_W": np.nan, "design.d": d, "variant_file": f"/r/v{i}.yaml"}
                            for i, (o, d) in enumerate([(1.807, 0.04211), (1.807, 0.04211), (2.5, 0.09)])])
     best = best_optima(starts)
     t = optima_table(best, starts, "worst_alpha", kinds)
     assert t.headers == ["variant", "sweep point", "d", "worst |α|", "power loss", "found by", "variant file"]
-    assert t.rows == [["box.yaml", "r_steer = 30 mm", "42.11 mm", "1.807°", "—", "2 starts", "v0.yaml"]]
+    assert t.rows == [["box_kim.yaml", "r_steer = 30 mm", "42.11 mm", "1.807°", "—", "2 starts", "v0.yaml"]]
     rms = optima_table(best.assign(worst_alpha_deg=2.2), starts, "rms_alpha", kinds)    # the objective is another figure
     assert rms.headers[3:5] == ["worst |α|", "RMS α"] and rms.rows[0][3:5] == ["2.2°", "1.807°"]

@@ -55,24 +55,24 @@ def test_show_each_shipped_variant(variant, compare_laws, cli, tmp_path):
 @pytest.mark.slow
 def test_laws_and_table_values(cli, tmp_path):
     laws = {}
-    for name in ("existing", "unequal"):
+    for name in ("existing_kim", "unequal_kim"):
         laws[name] = law_of(cli("show", ROOT / f"variants/{name}.yaml", "--out", tmp_path)[1])
-    assert laws == {"existing": "ω2/ω1 = 1 · tan γ", "unequal": "ω2/ω1 = 0.6667 · tan γ"}   # k = r1/r2 (Kim eq 8)
-    code, out, _ = cli("show", ROOT / "variants/existing.yaml", "--out", tmp_path)
+    assert laws == {"existing_kim": "ω2/ω1 = 1 · tan γ", "unequal_kim": "ω2/ω1 = 0.6667 · tan γ"}   # k = r1/r2 (Kim eq 8)
+    code, out, _ = cli("show", ROOT / "variants/existing_kim.yaml", "--out", tmp_path)
     assert code == 0
     rows = {line.split("│")[1].strip(): line for line in out.splitlines() if line.startswith("│")}
     assert "d2 (-0.7071, 0.7071, 0)" in rows["D1"] and "-d1 (-0.7071, -0.7071, 0)" in rows["D1"]
     assert "about c2 (0, -0.7071, -0.7071), ratio -1" in rows["S2"] and " 38 " in rows["S2"] and " 100 " in rows["S2"]
 
 
-@pytest.mark.parametrize("name, gamma", [("existing", 30.0), ("existing", -55.0), ("box", 40.0)])
+@pytest.mark.parametrize("name, gamma", [("existing_kim", 30.0), ("existing_kim", -55.0), ("box_kim", 40.0)])
 def test_forks_at_the_commanded_gamma(name, gamma, cli, tmp_path):
     """The printed φ realises γ (Kim eq 5 for the existing CVT, φ = γ for the box CVT), and every steered
     roller in the drawing rolls about the commanded axis u(γ) without lateral slip: (n × a)·u = 0."""
     code, out, _ = cli("show", ROOT / f"variants/{name}.yaml", "--gamma", gamma, "--out", tmp_path)
     assert code == 0
     phi = float(re.search(r"steering angle φ = (-?[\d.]+)°", out).group(1))
-    expected = np.degrees(kim_gamma_from_phi(np.radians(phi))) if name == "existing" else phi
+    expected = np.degrees(kim_gamma_from_phi(np.radians(phi))) if name == "existing_kim" else phi
     assert (expected - gamma + 90) % 180 - 90 == pytest.approx(0, abs=2e-3)    # an axis is a line: mod 180°
     layout = load_variant(ROOT / f"variants/{name}.yaml")
     scene = layout_scene(layout, steering_angle(layout, np.radians(gamma)), np.radians(gamma))
@@ -84,8 +84,8 @@ def test_forks_at_the_commanded_gamma(name, gamma, cli, tmp_path):
 
 @pytest.mark.slow
 def test_rotated_copy_prints_the_same_law(cli, tmp_path):
-    law = law_of(cli("show", ROOT / "variants/unequal.yaml", "--out", tmp_path / "a")[1])
-    turned = dump(rotate(read("unequal"), axis_angle_matrix([1.0, 2.0, 3.0], 0.7)), tmp_path / "unequal.yaml")
+    law = law_of(cli("show", ROOT / "variants/unequal_kim.yaml", "--out", tmp_path / "a")[1])
+    turned = dump(rotate(read("unequal_kim"), axis_angle_matrix([1.0, 2.0, 3.0], 0.7)), tmp_path / "unequal_kim.yaml")
     code, out, _ = cli("show", turned, "--gamma", 20, "--out", tmp_path / "b")
     assert code == 0 and law_of(out) == law == "ω2/ω1 = 0.6667 · tan γ"
     assert (tmp_path / "b" / "unequal_layout_gamma20.png").read_bytes()[:8] == PNG
@@ -113,7 +113,7 @@ def view_labels(fig, title: str) -> dict:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["existing", "box", "unequal"])
+@pytest.mark.parametrize("name", ["existing_kim", "box_kim", "unequal_kim"])
 def test_labels_name_each_roller_its_shaft_and_fork_and_sit_on_it(name, monkeypatch, cli, tmp_path):
     """Kim's top view labelled 'shaft 1' beside D2 and 'fork (S2)' inside S1. Now each roller's label (its
     name, role, and the motor or brake shaft or the fork it is on) is anchored at that roller and no other,
@@ -153,9 +153,9 @@ def test_shafts_drawn_through_their_rollers_and_forks_out_through_theirs(existin
 def test_frame_vectors_only_where_the_file_names_them(monkeypatch, cli, tmp_path):
     """Kim's d1…c3 mean something only on a layout written in them: existing names d1 d2 c1 c2, box d1 d2;
     a rotated copy of unequal, written in numbers, gets none (they were drawn on it all the same)."""
-    assert load_variant(ROOT / "variants/existing.yaml").kim_vectors == ("d1", "d2", "c1", "c2")
-    assert load_variant(ROOT / "variants/box.yaml").kim_vectors == ("d1", "d2")
-    turned = dump(rotate(read("unequal"), axis_angle_matrix([1.0, 2.0, 3.0], 0.7)), tmp_path / "turned.yaml")
+    assert load_variant(ROOT / "variants/existing_kim.yaml").kim_vectors == ("d1", "d2", "c1", "c2")
+    assert load_variant(ROOT / "variants/box_kim.yaml").kim_vectors == ("d1", "d2")
+    turned = dump(rotate(read("unequal_kim"), axis_angle_matrix([1.0, 2.0, 3.0], 0.7)), tmp_path / "turned.yaml")
     assert load_variant(turned).kim_vectors == ()
     fig, _ = drawn(monkeypatch, cli, tmp_path, turned)
     texts = {t.get_text() for t in fig.findobj(lambda a: hasattr(a, "get_text"))}
@@ -169,11 +169,11 @@ def test_default_gamma_shows_a_working_machine_and_files_are_named_after_the_fil
     after the variant file (two files with the same `name:` no longer overwrite each other's drawing), with
     the γ when one is given; a drawing replaced is said so."""
     copy = tmp_path / "my_copy.yaml"
-    copy.write_text((ROOT / "variants/existing.yaml").read_text())       # its name: is still 'existing'
+    copy.write_text((ROOT / "variants/existing_kim.yaml").read_text())       # its name: is still 'existing'
     code, out, _ = cli("show", copy, "--out", tmp_path / "o")
     assert code == 0 and "at commanded γ = 45°" in out and "ideal ω2/ω1 = 1" in out
     assert (tmp_path / "o" / "my_copy_layout.png").exists() and "replaced" not in out
-    assert cli("show", ROOT / "variants/existing.yaml", "--out", tmp_path / "o", "--gamma", 30)[0] == 0
+    assert cli("show", ROOT / "variants/existing_kim.yaml", "--out", tmp_path / "o", "--gamma", 30)[0] == 0
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["existing_layout_gamma30.png", "my_copy_layout.png"]
     code, out, _ = cli("show", copy, "--out", tmp_path / "o")
     assert code == 0 and "(replaced the earlier drawing of this file at this γ)" in out

@@ -31,10 +31,10 @@ def small(data):
 
 @pytest.fixture(scope="module")
 def box_and_existing(tmp_path_factory):
-    """`capacity box.yaml existing.yaml --json --plots` on γ −80..80° step 40°: (JSON, stdout, plots folder)."""
+    """`capacity box_kim.yaml existing_kim.yaml --json --plots` on γ −80..80° step 40°: (JSON, stdout, plots folder)."""
     tmp = tmp_path_factory.mktemp("capacity")
     files = []
-    for name in ("box", "existing"):
+    for name in ("box_kim", "existing_kim"):
         data = variant_data(name)
         small(data)
         files.append(write_yaml(tmp / f"{name}.yaml", data))
@@ -49,7 +49,7 @@ def test_json_interface_and_every_gamma_named(box_and_existing):
     """The interface outside tools rely on: {"variants": [{"name", "capacity": [rows with KEYS]}]}; at every γ
     and sign either a limit of the CVT with its contact, or no number at all with the reason counted."""
     rep, out, plots = box_and_existing
-    assert [v["name"] for v in rep["variants"]] == ["box", "existing"]
+    assert [v["name"] for v in rep["variants"]] == ["box_kim", "existing_kim"]
     for v in rep["variants"]:
         assert [r["gamma_deg"] for r in v["capacity"]] == [-80, -40, 0, 40, 80]
         unknown = 0
@@ -64,8 +64,8 @@ def test_json_interface_and_every_gamma_named(box_and_existing):
                     assert row[f"limit_{side}"] in LIMITS and row[f"contact_{side}"] in row[f"contacts_{side}"]
                     assert np.sign(row[f"tau_perp_{side}_Nm"]) == (1 if side == "max" else -1)
         assert unknown == v["unknown"]
-    assert (plots / "box+existing_capacity.png").stat().st_size > 10_000
-    assert "box: 2 of 10 searches ended where the model has no steady solution" in " ".join(out.split())
+    assert (plots / "box_kim+existing_kim_capacity.png").stat().st_size > 10_000
+    assert "box_kim: 2 of 10 searches ended where the model has no steady solution" in " ".join(out.split())
 
 
 def test_box_carries_more_than_existing_for_kims_reason(box_and_existing):
@@ -89,18 +89,18 @@ def test_box_carries_more_than_existing_for_kims_reason(box_and_existing):
     zero = box["capacity"][2]
     np.testing.assert_allclose(zero["tau_2_max_Nm"], 2 * 0.8 * 100 * 0.040, rtol=2 * RTOL)
     states = {}
-    for name, v in zip(("box", "existing"), rep):       # the state at each capacity τ⊥ > 0
+    for name, v in zip(("box_kim", "existing_kim"), rep):       # the state at each capacity τ⊥ > 0
         m = shipped_model(name)
         rows = [r for r in v["capacity"] if r["limit_max"]]
         tau = np.array([r["tau_perp_max_Nm"] for r in rows])
         res = m.evaluate(np.radians([r["gamma_deg"] for r in rows]), tau)
         steer = [i for i, r in enumerate(m.layout.rollers) if r.role == "steering"]
         states[name] = res, steer, tau, [m.roller_names.index(r["contact_max"]) for r in rows]
-    res, steer, tau, _ = states["box"]
+    res, steer, tau, _ = states["box_kim"]
     np.testing.assert_allclose(res["N"], 100, rtol=1e-3)
     assert np.all(res["utilisation"][steer] < 0.75)
     box_lateral = np.abs(res["F_a"][steer]).max(axis=0) / tau
-    res, steer, tau, k = states["existing"]
+    res, steer, tau, k = states["existing_kim"]
     cols = np.arange(tau.size)
     other = [steer[1 - steer.index(i)] for i in k]
     assert np.all(res["N"][k, cols] < res["N"][other, cols]) and np.all(res["utilisation"][:2] < 0.96)
@@ -112,7 +112,7 @@ def test_box_carries_more_than_existing_for_kims_reason(box_and_existing):
 def test_the_named_limit_is_met_just_beyond_the_capacity(gamma_deg):
     """Just below each capacity (by RTOL) the point holds, every utilisation below 1; just above (by 2·RTOL)
     the model flags gross slip at the contact named (existing, both signs)."""
-    m = shipped_model("existing")
+    m = shipped_model("existing_kim")
     cap = capacity(m, [np.radians(gamma_deg)], load_capacity(m.layout))
     for side in ("max", "min"):
         tau, k = cap[f"tau_perp_{side}"][0], cap[f"contact_{side}"][0]
@@ -126,7 +126,7 @@ def test_safety_factor_counts_gross_slip_at_one_over_s(cli, make_variant, tmp_pa
     (normal forces at the preload: F linear in load) at 6.4/1.5 N·m; existing's below its capacity without
     the factor but above that divided by 1.5 (its steering roller's N falls with load)."""
     js = tmp_path / "c.json"
-    files = [make_variant(n, small) for n in ("box", "existing")]
+    files = [make_variant(n, small) for n in ("box_kim", "existing_kim")]
     rc, out, err = cli("capacity", *files, "--safety", "1.5", "--json", js)
     assert rc == 0 and err == ""
     assert "gross slip at F/(μN) = 1/1.5" in out and "reaches 1/1.5 = 0.667" in out
@@ -135,7 +135,7 @@ def test_safety_factor_counts_gross_slip_at_one_over_s(cli, make_variant, tmp_pa
     np.testing.assert_allclose(box["capacity"][2]["tau_perp_max_Nm"], 6.4 / 1.5, rtol=2 * RTOL)
     e0 = existing["capacity"][2]["tau_perp_max_Nm"]
     assert 2.190 / 1.5 < e0 < 2.190
-    for name, v in (("box", box), ("existing", existing)):
+    for name, v in (("box_kim", box), ("existing_kim", existing)):
         m = shipped_model(name)
         res = m.evaluate(np.radians([r["gamma_deg"] for r in v["capacity"]]),
                          [r["tau_perp_max_Nm"] for r in v["capacity"]])
@@ -150,11 +150,11 @@ def test_pressure_limit_names_the_contact(cli, make_variant, tmp_path):
         for k in ("urethane_82A", "urethane_84A"):
             d["materials"][k]["allowable_pressure"] = "2.7 MPa"
     js = tmp_path / "c.json"
-    rc, out, err = cli("capacity", make_variant("existing", edit), "--json", js)
+    rc, out, err = cli("capacity", make_variant("existing_kim", edit), "--json", js)
     assert rc == 0 and err == ""
     rows = json.loads(js.read_text())["variants"][0]["capacity"]
     assert {r["limit_max"] for r in rows} == {r["limit_min"] for r in rows} == {"pressure"}
-    m = shipped_model("existing")
+    m = shipped_model("existing_kim")
     res = m.evaluate(np.radians([r["gamma_deg"] for r in rows]), [r["tau_perp_max_Nm"] for r in rows])
     k = [m.roller_names.index(r["contact_max"]) for r in rows]
     assert set(k) <= {2, 3} and np.all(res["N"][k, range(5)] > 100)
@@ -166,7 +166,7 @@ def test_limit_codes_order_and_safety():
     """The model's own status first (lost contact, gross slip, not converged keep theirs); at a point that
     holds, utilisation ≥ 1/S is gross slip at the most utilised contact, then p_max over the allowable is
     pressure at the contact most over it; unchecked contacts (NaN allowable) never limit."""
-    m = shipped_model("existing")
+    m = shipped_model("existing_kim")
     allow = allowable_pressures(m.layout)
     res = m.evaluate(np.radians([0.0, 0.0, 0.0]), [0.5, 1.5, 3.0])
     code, contact = limit_codes(m, res, allow)
@@ -183,14 +183,14 @@ def test_limit_codes_order_and_safety():
 def test_smallest_capacity_over_gamma():
     """The smallest capacity is the least |τ⊥| over γ and sign where every search ended on a limit; where a
     search ended on no limit below it (the box at ±80°, the axis at the pole), it is not known."""
-    m = shipped_model("existing")
+    m = shipped_model("existing_kim")
     g = np.radians([0.0, 40.0, 80.0])
     cap = capacity(m, g, load_capacity(m.layout))
     least = smallest_capacity(cap)
     taus = np.abs(np.concatenate([cap["tau_perp_max"], cap["tau_perp_min"]]))
     assert least["tau_perp"] == np.nanmin(taus) and least["limit"] == "gross_slip" and least["unknown"] == 0
     assert least["gamma"] == g[1] and m.roller_names[least["contact"]] in ("S1", "S2")
-    box = shipped_model("box")
+    box = shipped_model("box_kim")
     least = smallest_capacity(capacity(box, np.radians([0.0, 80.0]), load_capacity(box.layout)))
     assert np.isnan(least["tau_perp"]) and least["limit"] is None and least["unknown"] == 1
     assert least["gamma"] == np.radians(80.0) and least["side"] == "max"
@@ -199,7 +199,7 @@ def test_smallest_capacity_over_gamma():
 # --- min_capacity: a constraint of optimise --------------------------------------------------------------------
 
 def _capacity_study(tmp_path, capacity, design, **constraints):
-    data = {"name": "t", "base": str(variant_path("box")), "multistart": {"starts": 2},
+    data = {"name": "t", "base": str(variant_path("box_kim")), "multistart": {"starts": 2},
             "envelope": {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "30 deg"},
                          "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "0.5 N*m"}},
             "design": design, "constraints": {"min_capacity": capacity, **constraints}}

@@ -16,7 +16,7 @@ from cvtdesign.core.newton import newton_solver
 from cvtdesign.io.variant import load_spec, load_variant, resolve
 from conftest import VARIANTS
 
-SHIPPED = ("existing", "box", "unequal", "existing_kalker", "box_kalker")
+SHIPPED = ("existing_kim", "box_kim", "unequal_kim", "existing", "box")
 needs_compiler = pytest.mark.skipif(native.compiler() is None, reason="no C compiler on this machine")
 
 
@@ -100,9 +100,9 @@ def test_newton_written_out_is_casadis_newton():
 @needs_compiler
 def test_compiled_derivatives_match_interpreted(cache):
     """d(outputs)/d(θ, design) of the compiled library (its fwd1_/adj1_ functions, found by CasADi's
-    `external`) against the interpreted model's implicit derivatives, forward and reverse: existing.yaml
+    `external`) against the interpreted model's implicit derivatives, forward and reverse: existing_kim.yaml
     with r_steer and preload as design symbols."""
-    spec, path = load_spec(VARIANTS / "existing.yaml"), str(VARIANTS / "existing.yaml")
+    spec, path = load_spec(VARIANTS / "existing_kim.yaml"), str(VARIANTS / "existing_kim.yaml")
     p = ca.SX.sym("p", 2)
     m = compile_model(resolve(spec, path, overrides={"r_steer": p[0], "preload": p[1]}),
                       effects=["drive_longitudinal_creep", "steering_lateral_creep", "normal_force_variation"], design=p)
@@ -128,7 +128,7 @@ def test_auto_compiles_in_a_detached_process_once_hot(cache, monkeypatch):
     process; the library appears in the cache and later evaluations use it."""
     monkeypatch.setenv("CVTDESIGN_COMPILE", "auto")
     monkeypatch.setattr(native, "HOT_SECONDS", 0.0)
-    m = compile_model(load_variant(VARIANTS / "existing.yaml"))
+    m = compile_model(load_variant(VARIANTS / "existing_kim.yaml"))
     G, T = np.meshgrid(np.radians([-40.0, 0.0, 40.0]), [-0.5, 0.5], indexing="ij")
     first = m.evaluate(G, T)
     assert m._tiered.native is None and m._tiered.pending is not None
@@ -164,7 +164,7 @@ def test_without_a_compiler_the_model_runs_interpreted_with_one_notice(cache, mo
     monkeypatch.setenv("CC", "no-such-compiler-cvtdesign")
     monkeypatch.setattr(native, "_noticed", set())
     monkeypatch.setenv("CVTDESIGN_COMPILE", "always")
-    m = compile_model(load_variant(VARIANTS / "existing.yaml"))
+    m = compile_model(load_variant(VARIANTS / "existing_kim.yaml"))
     g = np.radians([-30.0, 30.0])
     a = m.evaluate(g, 0.5)
     b = m.evaluate(g, 0.5)
@@ -182,7 +182,7 @@ def test_a_failing_compiler_falls_back_with_its_error(cache, monkeypatch, capsys
     monkeypatch.setenv("CC", "false")
     monkeypatch.setattr(native, "_noticed", set())
     monkeypatch.setenv("CVTDESIGN_COMPILE", "always")
-    m = compile_model(load_variant(VARIANTS / "existing.yaml"))
+    m = compile_model(load_variant(VARIANTS / "existing_kim.yaml"))
     m.evaluate(np.radians([10.0]), 0.2)
     m.evaluate(np.radians([10.0]), 0.2)
     err = capsys.readouterr().err.splitlines()

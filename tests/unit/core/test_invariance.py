@@ -47,7 +47,7 @@ from cvtdesign.core import metrics as ev
 from cvtdesign.core.geometry import pose, rigid_constraints
 from cvtdesign.core.model import compile_model
 
-SHIPPED = ("existing", "box", "unequal")
+SHIPPED = ("existing_kim", "box_kim", "unequal_kim")
 # the same layouts under contact law kalker (every direction compliant, spin through C23): the model tests
 # run on them too, which checks the patch frame and the spin term's sign under rotation and mirroring
 KALKER = ("existing+kalker", "box+kalker")
@@ -172,7 +172,7 @@ def test_explicit_round_trip(name, tmp_path):
 
 def test_explicit_frame_side():
     """frame.side, given by name, list or {polar, azimuth} over the parameters, becomes a unit list."""
-    data = base("box")
+    data = base("box_kim")
     for side, want in (("-z", [0, 0, -1]), ([0, 3, 4], [0, 0.6, 0.8]),
                        ({"polar": "= asin(d / (2*R))", "azimuth": "90 deg"}, [0, 30 / 63.5, np.sqrt(1 - (30 / 63.5) ** 2)])):
         data["frame"] = {"side": side, "distance": "200 mm"}
@@ -284,7 +284,7 @@ def test_flip_axle_each_roller(name, followers):
 
 def test_flip_drive_axle_without_followers_fights():
     """Flipping a box drive roller but leaving its follower as it was: no rigid motion is left."""
-    data = base("box")
+    data = base("box_kim")
     with pytest.raises(AssertionError, match="0 rigid motions"):
         _rigid_motion(lt.layout_of(lt.flip_axle(data, "A", followers="none")))
 
@@ -315,7 +315,7 @@ def test_flip_fork_and_relabel_keep_poses(name, phi):
 
 def test_set_radius_keeps_follower_consistent():
     """A box drive roller of another radius: its follower's ratio follows, one rigid motion remains."""
-    data = lt.set_radius(base("box"), "A", 0.025)
+    data = lt.set_radius(base("box_kim"), "A", 0.025)
     assert data["rollers"]["A_"]["ratio"] == pytest.approx(0.025 / 0.040, rel=1e-12)
     data = lt.set_radius(data, "A_", 0.055)
     assert data["rollers"]["A_"]["ratio"] == pytest.approx(0.025 / 0.055, rel=1e-12)

@@ -12,12 +12,13 @@ from conftest import variant_data, write_yaml
 from cvtdesign.cli import main
 from cvtdesign.core.model import compile_model
 from cvtdesign.core.contact.patch import theory_patch
-from cvtdesign.io.variant import load_variant, shipped_variant
+from cvtdesign.io.variant import load_variant
+from cvtdesign.io.shipped import shipped_variant
 
 GAMMAS = np.radians(np.arange(-80, 81, 10.0))
 
 
-def kalker(tmp_path, name="existing", calibration=None, **extra):
+def kalker(tmp_path, name="existing_kim", calibration=None, **extra):
     data = variant_data(name)
     data["contact"] = {"law": "kalker"} | ({"calibration": calibration} if calibration else {})
     data.update(extra)
@@ -33,7 +34,7 @@ def kalker(tmp_path, name="existing", calibration=None, **extra):
      "contact.calibration: applies to law kalker only"),
 ])
 def test_what_the_law_refuses(tmp_path, capsys, edit, message):
-    data = variant_data("existing")
+    data = variant_data("existing_kim")
     data["contact"] = {"law": "kalker"}
     edit(data)
     assert main(["compare", str(write_yaml(tmp_path / "v.yaml", data)), "--out", str(tmp_path / "o")]) == 2
@@ -59,7 +60,7 @@ def test_spin_gives_an_axis_offset_at_zero_load(tmp_path):
     at zero load: the steering rollers' spin force (C23) is a lateral creep that moves the axis (the steering
     part of α), and the contacts' spin moments (C33), balanced on the sphere by drive forces, add a drive part.
     Measured on the existing CVT, calibrated: |α| up to 0.139°, steering part 0.201°, drive part 0.062°."""
-    L = load_variant(shipped_variant("existing"))
+    L = load_variant(shipped_variant("existing_kim"))
     d, s = L.rollers[0], next(r for r in L.rollers if r.role == "steering")
     cal = {"drive": 0.0038 / float(theory_patch(L, d, 100.0)["eps_long"]),
            "steering": 0.0049 / float(theory_patch(L, s, 100.0)["eps_lat"])}
@@ -78,13 +79,13 @@ def test_calibrated_box_follows_kims_fit_in_the_linear_range(tmp_path):
     """Calibrated so that the compliances at 100 N are Kim's ε_D and ε_S, the box CVT (its pole rollers see
     little spin) slips like Kim's fitted model at small loads: dα/dτ⊥ at γ = 40° within 0.5 % (measured
     −0.42 %: 4.1292 against 4.1468 °/(N·m); −0.07 % before the spin moment was in the law)."""
-    L = load_variant(shipped_variant("box"))
+    L = load_variant(shipped_variant("box_kim"))
     d, s = L.rollers[0], next(r for r in L.rollers if r.role == "steering")
     cal = {"drive": 0.0038 / float(theory_patch(L, d, 100.0)["eps_long"]),
            "steering": 0.0049 / float(theory_patch(L, s, 100.0)["eps_lat"])}
     g = np.radians([40.0, 40.0])
     kim = compile_model(L).evaluate(g, np.array([0.05, -0.05]))
-    kal = compile_model(load_variant(kalker(tmp_path, "box", calibration=cal))).evaluate(g, np.array([0.05, -0.05]))
+    kal = compile_model(load_variant(kalker(tmp_path, "box_kim", calibration=cal))).evaluate(g, np.array([0.05, -0.05]))
     slope = lambda r: (r["alpha"][0] - r["alpha"][1]) / 0.1    # noqa: E731
     assert slope(kal) == pytest.approx(slope(kim), rel=5e-3)
 
@@ -103,7 +104,7 @@ def test_optimise_carries_a_fitted_calibration(tmp_path):
     file gives the study's objective (to 1e-6°)."""
     study = tmp_path / "study.yaml"
     study.write_text(yaml.safe_dump({
-        "name": "t", "base": str(shipped_variant("box_kalker")), "design": {"d": {"lower": "40 mm", "upper": "90 mm"}},
+        "name": "t", "base": str(shipped_variant("box")), "design": {"d": {"lower": "40 mm", "upper": "90 mm"}},
         "multistart": {"starts": 1},
         "envelope": {"gamma": {"start": "20 deg", "stop": "60 deg", "step": "20 deg"},
                      "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}}))
@@ -132,7 +133,7 @@ def test_optimise_carries_a_fitted_calibration(tmp_path):
 def test_bad_calibration_report_is_one_line(tmp_path, capsys, content, message):
     (tmp_path / "fit.json").write_text(content)
     study = tmp_path / "study.yaml"
-    study.write_text(yaml.safe_dump({"name": "t", "base": str(shipped_variant("box_kalker")),
+    study.write_text(yaml.safe_dump({"name": "t", "base": str(shipped_variant("box")),
                                      "design": {"d": {"lower": "40 mm", "upper": "90 mm"}}}))
     assert main(["optimise", str(study), "--calibration", str(tmp_path / "fit.json"), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
@@ -140,7 +141,7 @@ def test_bad_calibration_report_is_one_line(tmp_path, capsys, content, message):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["box_kalker", "existing_kalker"])
+@pytest.mark.parametrize("name", ["box", "existing"])
 def test_energy_balance_with_the_spin_moment(name):
     """The power the shafts put in, τ1ω1 + τ2ω2, is what the contacts dissipate: −Σ F·s (creep) − Σ Mz Ω·n
     (the spin moment on the sphere against its spin over the roller), to 1e-9 of the largest term, at every
@@ -178,11 +179,11 @@ def test_energy_balance_with_the_spin_moment(name):
 def test_zero_load_brake_speed_against_brokowski():
     """At zero load the kalker law turns the sphere's axis away from γ = 0 through the steering rollers' spin,
     so the brake shaft (2) runs faster than ideal near γ = 0 and slower near ±90°, with either motor sense:
-    existing_kalker +1.30 % at γ = −10°, +0.69 % at 10°, −1.28 % at −80°, −0.68 % at 80°, the steering part of
+    existing +1.30 % at γ = −10°, +0.69 % at 10°, −1.28 % at −80°, −0.68 % at 80°, the steering part of
     α −0.178° at −10°. Brokowski et al. define tan g = ω_motor/ω_brake, so their g = ±90° (where they saw the
     brake 'rotating faster than we would expect', from a transmission-angle error) is γ ≈ 0 here
     (docs/contact.md derives it)."""
-    m = compile_model(load_variant(shipped_variant("existing_kalker")))
+    m = compile_model(load_variant(shipped_variant("existing")))
     g = np.radians([-80.0, -10.0, 10.0, 80.0])
     for w1 in (10.0, -10.0):
         r = m.evaluate(g, 0.0 * g, speeds=w1)

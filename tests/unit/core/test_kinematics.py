@@ -20,11 +20,11 @@ from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.core.model import STATUS, compile_model
 from cvtdesign.io.variant import load_variant
 
-EXISTING = str(variant_path("existing"))
+EXISTING = str(variant_path("existing_kim"))
 
 
 def non_perpendicular(tmp_path, theta_deg=20.0):
-    """existing.yaml with shaft 2's roller turned by θ about z (shaft axes 90° + θ apart); the drive
+    """existing_kim.yaml with shaft 2's roller turned by θ about z (shaft axes 90° + θ apart); the drive
     preloads rebalanced so that Σ P n = 0: P_D2 = P/cos θ, P_D1 = P (1 − tan θ)."""
     d = yaml.safe_load(open(EXISTING))
     th = np.radians(theta_deg)
@@ -39,7 +39,7 @@ def non_perpendicular(tmp_path, theta_deg=20.0):
 
 def test_kims_layout_is_the_special_case():
     """For Kim's CVT the derived frame is d1, d2 with c = 0, s = 1, k = r1/r2 (Kim eqs 8, 15, 17 exactly)."""
-    f = shaft_frame(load_variant(variant_path("unequal")))
+    f = shaft_frame(load_variant(variant_path("unequal_kim")))
     assert np.allclose(f.u1, FRAME["d1"], atol=1e-15) and np.allclose(f.u2, FRAME["d2"], atol=1e-15)
     assert f.c == 0.0 and f.s == pytest.approx(1.0, abs=1e-15) and f.k == pytest.approx(30 / 45, rel=1e-15)
     g = np.radians([-70.0, 10.0, 55.0])

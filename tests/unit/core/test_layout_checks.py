@@ -22,11 +22,11 @@ from cvtdesign.errors import InputError
 from cvtdesign.io.variant import load_spec, load_variant, resolve
 
 VARIANTS = ROOT / "variants"
-R_MM = 63.5                      # sphere radius of existing.yaml
+R_MM = 63.5                      # sphere radius of existing_kim.yaml
 ON_SPHERE = f"{R_MM / np.sqrt(2):.12f} mm"   # a coordinate of a contact point R·d2 = R·(−1, 1, 0)/√2
 
 
-def variant(name="existing"):
+def variant(name="existing_kim"):
     return yaml.safe_load((VARIANTS / f"{name}.yaml").read_text())
 
 
@@ -71,7 +71,7 @@ def run_compare(tmp_path, capsys, path):
 
 # --- what must still load ------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("name, rollers", [("existing", 4), ("box", 8), ("unequal", 4)])
+@pytest.mark.parametrize("name, rollers", [("existing_kim", 4), ("box_kim", 8), ("unequal_kim", 4)])
 def test_shipped_variants_load(name, rollers):
     """Each shipped layout loads and meets what the checks require: preloads in balance (Σ P n = 0), unit
     normals, axles in the tangent planes, a drive roller on each shaft."""
@@ -90,20 +90,20 @@ def test_balanced_custom_layouts_load(tmp_path):
     d = variant()
     d["parameters"]["preload"] = "200 N"                         # every preload doubled
     assert {r.preload for r in load_variant(write(tmp_path, d, "double.yaml")).rollers} == {200.0}
-    b = variant("box")
+    b = variant("box_kim")
     b["rollers"]["A"]["preload"] = b["rollers"]["A_"]["preload"] = "150 N"   # opposite rollers, equal preloads
     load_variant(write(tmp_path, b, "box150.yaml"))
 
 
 def test_symbolic_preloads_skip_the_balance_check():
     """An optimiser's CasADi parameters cannot be checked numerically: the check is skipped, not crashed."""
-    spec = load_spec(VARIANTS / "existing.yaml")
+    spec = load_spec(VARIANTS / "existing_kim.yaml")
     spec.rollers.pop("S1")
     spec.steering.forks.pop(0)
-    layout = resolve(spec, "existing.yaml", overrides={"preload": ca.SX.sym("preload")})
+    layout = resolve(spec, "existing_kim.yaml", overrides={"preload": ca.SX.sym("preload")})
     assert check_preload_equilibrium(layout) is None
     with pytest.raises(InputError, match="preloads do not balance"):
-        check_preload_equilibrium(resolve(spec, "existing.yaml"))
+        check_preload_equilibrium(resolve(spec, "existing_kim.yaml"))
 
 
 # --- 1. preload equilibrium ----------------------------------------------------------------------------
@@ -117,7 +117,7 @@ def test_unbalanced_preloads_one_line_exit_2(tmp_path, capsys):
 
 
 def test_unbalanced_preloads_name_the_roller_that_lifts_off(tmp_path):
-    b = variant("box")
+    b = variant("box_kim")
     b["rollers"]["A"]["preload"] = "1000 N"
     _, msg = refusal(tmp_path, b)
     assert re.search(r"rollers: the preloads do not balance \(Σ P_i n_i = 900 N along \(-0\.707, 0\.707, 0\) = d2\)", msg), msg
@@ -139,7 +139,7 @@ def test_tiny_imbalance_is_accepted(tmp_path):
 
 
 def test_balance_check_direct():
-    layout = load_variant(VARIANTS / "existing.yaml")
+    layout = load_variant(VARIANTS / "existing_kim.yaml")
     check_preload_equilibrium(layout)
     lopsided = replace(layout, rollers=tuple(replace(r, preload=50.0) if r.name == "D1" else r for r in layout.rollers))
     with pytest.raises(InputError, match=r"= 50 N along \(0\.707, -0\.707, 0\) = -d2\).*87\.5 N on rollers"):
@@ -176,10 +176,10 @@ def test_fork_without_rollers(tmp_path):
 def test_contact_point_on_the_sphere_loads(tmp_path):
     d = variant()
     d["rollers"]["D1"]["contact"] = [f"-{ON_SPHERE}", ON_SPHERE, "0 mm"]          # = R·d2
-    b = variant("box")
+    b = variant("box_kim")
     b["rollers"]["A"]["contact"] = ["= -R/sqrt(2)", "= R/sqrt(2)", "0 mm"]        # expressions over parameters
-    for data, name, ref in ((d, "D1", load_variant(VARIANTS / "existing.yaml")),
-                            (b, "A", load_variant(VARIANTS / "box.yaml"))):
+    for data, name, ref in ((d, "D1", load_variant(VARIANTS / "existing_kim.yaml")),
+                            (b, "A", load_variant(VARIANTS / "box_kim.yaml"))):
         layout = load_variant(write(tmp_path, data, f"{name}.yaml"))
         normal = next(r.normal for r in layout.rollers if r.name == name)
         np.testing.assert_allclose(np.ravel(normal), FRAME["d2"], atol=1e-12)
@@ -275,7 +275,7 @@ def test_rounded_directions_are_refused_with_the_reason(tmp_path):
     """The box's follower A_ with its axle -d1 typed to six decimals, [-0.707107, -0.707106, 0], is within 1e-6
     of perpendicular to its normal but turned by 4e-5° against drive roller A on the same shaft: the laterally
     rigid rollers then fight, and the message says that rounding may be why."""
-    d = variant("box")
+    d = variant("box_kim")
     d["rollers"]["A_"]["axle"] = [-0.707107, -0.707106, 0]
     _, msg = refusal(tmp_path, d)
     assert "(rollers fight)" in msg and "no direction is rounded" in msg, msg
@@ -321,7 +321,7 @@ def grown(layout, factor):
                                          for r in layout.rollers))
 
 
-@pytest.mark.parametrize("name", ["existing", "box", "unequal"])
+@pytest.mark.parametrize("name", ["existing_kim", "box_kim", "unequal_kim"])
 def test_overlap_check_agrees_with_the_plain_test(name):
     """The vectorised check finds the same overlapping pairs at the same γ as the plain test: none on the
     shipped variants, and the same ones when the rollers grow until they overlap (box: at 1.5×, the steering
@@ -338,7 +338,7 @@ def test_overlap_check_agrees_with_the_plain_test(name):
 def test_overlapping_steering_rollers_are_refused_at_the_first_gamma():
     """Box with its rollers 1.5× as large: N1/N2 and S1/S2 overlap; the message names the first pair at the
     first γ of the envelope."""
-    big = grown(shipped_layout("box"), 1.5)
+    big = grown(shipped_layout("box_kim"), 1.5)
     g, a, b = sampled_overlaps(big)[0]
     with pytest.raises(InputError, match=rf"rollers\.{a}, rollers\.{b}: the two rollers overlap at "
                                          rf"γ = {np.degrees(g):.0f}°; move them apart or make them smaller"):

@@ -16,7 +16,7 @@ from cvtdesign.core.geometry import ideal_gamma, pose
 from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.io.variant import load_variant
 
-EXISTING = (ROOT / "variants/existing.yaml").read_text(encoding="utf-8")
+EXISTING = (ROOT / "variants/existing_kim.yaml").read_text(encoding="utf-8")
 
 
 def three_steering_rollers(tmp_path) -> Path:

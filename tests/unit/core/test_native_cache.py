@@ -40,7 +40,7 @@ def compare(folder: Path, cache: Path, policy: str = "always", variant: str = "s
 
 
 def _variant(folder: Path, name: str, gamma_step: str, load_step: str):
-    data = variant_data("existing")
+    data = variant_data("existing_kim")
     data["envelope"] |= {"gamma": {"start": "-80 deg", "stop": "80 deg", "step": gamma_step},
                          "load": {"start": "-1 N*m", "stop": "1 N*m", "step": load_step}}
     (folder / f"{name}.yaml").write_text(yaml.safe_dump(data, sort_keys=False, allow_unicode=True))

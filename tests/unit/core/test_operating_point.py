@@ -15,12 +15,12 @@ from cvtdesign.io.variant import load_variant
 
 @pytest.fixture(scope="module", params=["never", "always"])
 def existing(request):
-    """existing.yaml interpreted, and compiled to C (CVTDESIGN_COMPILE; skipped without a C compiler)."""
+    """existing_kim.yaml interpreted, and compiled to C (CVTDESIGN_COMPILE; skipped without a C compiler)."""
     if request.param == "always" and native.compiler() is None:
         pytest.skip("no C compiler on this machine")
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("CVTDESIGN_COMPILE", request.param)
-        yield compile_model(load_variant(ROOT / "variants/existing.yaml"))
+        yield compile_model(load_variant(ROOT / "variants/existing_kim.yaml"))
 
 
 def test_forward_kinematics_is_kim_eq5(existing):
@@ -84,14 +84,14 @@ def test_past_the_envelope_the_root_is_the_one_loading_from_rest_reaches(existin
 
 
 def test_a_solve_that_did_not_converge_is_not_called_gross_slip():
-    """With a saturation law (existing.yaml + normal_force_variation + traction_saturation):
+    """With a saturation law (existing_kim.yaml + normal_force_variation + traction_saturation):
     - γ = −60°, τ⊥ = 6 N·m ended with ω2 = NaN and a residual whose ∞-norm skipped the NaN: it was counted
       as converged, and then as gross slip. Loaded from rest, the model ends on a root with the sphere
       turning backwards (past |F| = 11 μN on the way): no number, and not gross slip either;
     - γ = −80°, τ⊥ = 1.8 N·m did not converge from ideal kinematics (residual 0.13) and was called gross slip
       because the last iterate had a contact near μN. Loaded from rest it converges, with every contact
       below half of μN: the state of 64 small load steps."""
-    L = load_variant(ROOT / "variants/existing.yaml")
+    L = load_variant(ROOT / "variants/existing_kim.yaml")
     m = compile_model(L, ("drive_longitudinal_creep", "steering_lateral_creep", "normal_force_variation",
                           "traction_saturation"))
     res = m.evaluate(np.radians([-60.0, -80.0]), [6.0, 1.8])
@@ -124,7 +124,7 @@ def test_under_kalkers_law_the_answer_does_not_depend_on_how_the_layout_is_writt
 @pytest.mark.slow
 @pytest.mark.parametrize("compile_policy", ["never", "always"])
 def test_a_second_root_near_the_friction_limit_is_not_reported_as_the_rig_s(compile_policy, monkeypatch):
-    """existing_kalker.yaml at γ = −16°, τ⊥ = 2.5 N·m (past its envelope; contacts at 0.68 μN): the Newton solve
+    """existing.yaml at γ = −16°, τ⊥ = 2.5 N·m (past its envelope; contacts at 0.68 μN): the Newton solve
     from ideal kinematics lands on α = 18.492° while loading from rest reaches 18.350° (in 4, 16, 64 or 256
     steps alike). Its Jacobian determinant has the zero-load state's sign, so a check of that sign would have
     accepted it; where a contact uses more than half its friction the point is also solved from rest, so it is
@@ -132,7 +132,7 @@ def test_a_second_root_near_the_friction_limit_is_not_reported_as_the_rig_s(comp
     if compile_policy == "always" and native.compiler() is None:
         pytest.skip("no C compiler on this machine")
     monkeypatch.setenv("CVTDESIGN_COMPILE", compile_policy)
-    data = lt.read(ROOT / "variants/existing_kalker.yaml")
+    data = lt.read(ROOT / "variants/existing.yaml")
     models = [compile_model(lt.layout_of(d)) for d in (data, lt.rotate(data, lt.axis_angle_matrix((3, 1, 2), np.radians(23))))]
     g = np.radians(-16.0)
     for m in models:

@@ -38,7 +38,7 @@ def test_standstill_at_a_pivoting_fork_is_mu_n_l():
     """Kim's forks turn about their contacts' normals, so at standstill each patch pivots: the fork's torque at
     one contact is μNℓ by hand (N, a, b of the point, ℓ from SciPy's E), to 1 %; the motor's is the sum over
     both forks (|k| = 1)."""
-    model = shipped_model("existing")
+    model = shipped_model("existing_kim")
     res = envelope(model)
     names = [r.name for r in model.layout.rollers]
     i, k = names.index("S1"), 37
@@ -56,7 +56,7 @@ def test_rolling_torque_of_a_fork_through_its_contact_is_its_spin_moment():
     """With f = n the lateral force has no lever about the fork (n·(n × F) = 0) and the rolling resistance acts
     about the axle (n·a = 0): the fork's torque is the contact's spin moment, which Kim's law does not have
     (0 to round-off) and the kalker law does; the motor's is Σ k_i T_i."""
-    for name, spins in (("existing", False), ("existing_kalker", True)):
+    for name, spins in (("existing_kim", False), ("existing", True)):
         model = shipped_model(name)
         res = envelope(model)
         rollers, n = model.layout.rollers, len(model.layout.rollers)
@@ -73,25 +73,25 @@ def test_rolling_torque_of_a_fork_through_its_contact_is_its_spin_moment():
 def test_compare_reports_steering_torque_and_where(tmp_path, cli):
     """compare's JSON: max_steering_torque_Nm and max_steering_torque_at (the interface outside tools read), the
     standstill figure and its place; the table's rows and the note saying where each extreme is taken."""
-    d = variant_data("box_kalker")
+    d = variant_data("box")
     d["envelope"]["gamma"]["step"] = "40 deg"
     d["envelope"]["load"]["step"] = "0.5 N*m"
     code, out, _ = cli("compare", write_yaml(tmp_path / "b.yaml", d), "--out", tmp_path / "p",
                        "--json", tmp_path / "f.json")
     assert code == 0
-    row = next(r for r in json.loads((tmp_path / "f.json").read_text())["variants"] if r["name"] == "box_kalker")
+    row = next(r for r in json.loads((tmp_path / "f.json").read_text())["variants"] if r["name"] == "box")
     assert row["max_steering_torque_Nm"] > 0.1 and row["max_standstill_steering_torque_Nm"] > 1.0
     at = row["max_steering_torque_at"]
     assert at["contact"] in {"N1", "N2", "S1", "S2"} and set(at) == {"gamma_deg", "tau_perp_Nm", "contact"}
     assert row["max_standstill_steering_torque_at"]["contact"] in {"N1", "N2", "S1", "S2"}
     assert "max steering torque [N·m]" in out and "steering at standstill [N·m]" in out
     flat = " ".join(out.split())
-    assert f"box_kalker: where: max |α| at γ {row['max_abs_alpha_deg_at']['gamma_deg']:g}°" in flat
+    assert f"box: where: max |α| at γ {row['max_abs_alpha_deg_at']['gamma_deg']:g}°" in flat
     assert f"max steering torque at {at['contact']}, γ {at['gamma_deg']:g}°" in flat
 
 
 def _study(tmp_path, limit):
-    data = {"name": "t", "base": str(variant_path("box")), "multistart": {"starts": 1},
+    data = {"name": "t", "base": str(variant_path("box_kim")), "multistart": {"starts": 1},
             "design": {"d": {"lower": "30 mm", "upper": "110 mm"}, "preload": {"lower": "40 N", "upper": "100 N"}},
             "envelope": {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
                          "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}},
@@ -112,7 +112,7 @@ def test_optimise_rows_are_compares_steering_torques(tmp_path):
     rolling = [i for i, lab in enumerate(pr.g_labels) if lab.startswith("rolling steering")]
     still = [i for i, lab in enumerate(pr.g_labels) if lab.startswith("standstill steering")]
     assert set(fam[rolling + still]) == {"steering_torque"} and len(rolling) == len(still) == 9
-    d = variant_data("box")
+    d = variant_data("box_kim")
     d["parameters"]["d"], d["parameters"]["preload"] = "70 mm", "70 N"
     d["envelope"] = {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
                      "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}

@@ -27,7 +27,7 @@ def central_differences(model, row, keys, idx, h):
 
 
 def kalker_model(tmp_path):
-    d = variant_data("existing_kalker")
+    d = variant_data("existing")
     d["envelope"]["gamma"]["step"] = "40 deg"
     d["envelope"]["load"]["step"] = "0.5 N*m"
     return compile_model(load_variant(write_yaml(tmp_path / "k.yaml", d)))
@@ -38,7 +38,7 @@ def test_figure_gradients_are_the_figures_derivatives(which, tmp_path):
     """d figure/dθ of every figure in the calibration's scales, against central differences (h = 1e-6) of the
     figure as compare computes it: relative error below 1e-5 where the derivative is not ~0 (measured: 1e-9
     under kim, 1e-7 under kalker, whose Newton solve stops at 1e-10)."""
-    model = shipped_model("existing") if which == "kim" else kalker_model(tmp_path)
+    model = shipped_model("existing_kim") if which == "kim" else kalker_model(tmp_path)
     res = envelope(model)
     row = metrics(model, res)
     idx, _ = uncertainty.covariance(model)
@@ -59,7 +59,7 @@ def test_the_interval_is_the_one_sampling_gives():
     the figures' sampled standard deviation against the first-order σ_f = √(gᵀΣg). The draws' own noise on a
     standard deviation is about 7 % (1/√(2·99)), so the two agree to 0.8–1.2, 3 of that noise (with 1000 draws
     they agree to 1 %, and the 95 % percentile intervals to 2 %; docs/materials.md gives larger σ)."""
-    model = shipped_model("existing")
+    model = shipped_model("existing_kim")
     res = envelope(model)
     idx, cov = uncertainty.covariance(model)
     grads = uncertainty.figure_gradients(model, res, idx)
@@ -82,7 +82,7 @@ def test_fitted_effect_parameters_widen_the_interval(tmp_path):
     """A fitted effect parameter with its σ (effect_uncertainty, as diagnose reports it) adds to the
     calibration's: rolling resistance's offset 0.2 ± 0.05 mm widens the worst efficiency's interval, and its
     part is |g| σ (independent of the calibration)."""
-    d = variant_data("existing")
+    d = variant_data("existing_kim")
     d["effects"] = d["effects"] + ["rolling_resistance"]
     d["effect_parameters"] = {"rolling_resistance": {"offset": "0.2 mm"}}
     plain = compile_model(load_variant(write_yaml(tmp_path / "a.yaml", d)))
@@ -105,20 +105,20 @@ def test_the_figures_bands_are_the_points_intervals(tmp_path):
     computation, two views); the figure shades the calibrated variant's curves and says THEORY ONLY in the
     legend for a variant without a calibration (its curves get no band)."""
     from cvtdesign.io import plots
-    model = shipped_model("existing")
+    model = shipped_model("existing_kim")
     res = envelope(model)
     row = metrics(model, res)
     bands = uncertainty.point_bands(model, res)
     lo, hi = uncertainty.intervals(model, res, row)["max_abs_alpha_deg_interval"]
     k = np.nanargmax(np.abs(res["alpha"]))
     assert np.degrees(bands["alpha_band"].ravel()[k]) == pytest.approx((hi - lo) / 2, rel=1e-9)
-    d = variant_data("existing")
+    d = variant_data("existing_kim")
     d["name"], d["sphere"]["material"] = "steel_ball", "steel"
     del d["contact"], d["materials"]["urethane_82A"], d["materials"]["urethane_84A"]
     theory = compile_model(load_variant(write_yaml(tmp_path / "t.yaml", d)))
     res_t = envelope(theory)
     keys = plots.COMPARE_KEYS
-    got = plots.compare_figure([("existing", {k: res[k] for k in keys} | bands | {"theory_only": False}),
+    got = plots.compare_figure([("existing_kim", {k: res[k] for k in keys} | bands | {"theory_only": False}),
                                 ("steel_ball", {k: res_t[k] for k in keys} | uncertainty.point_bands(theory, res_t)
                                  | {"theory_only": True})], tmp_path / "f.png")
     assert "steel_ball — THEORY ONLY (uncalibrated: likely too stiff)" in got["legend"]

@@ -103,18 +103,18 @@ def client_folder(folder: Path) -> Path:
     """A project folder: studies/small.yaml naming ../variants/{box,existing}.yaml and ../fits/fit.json."""
     for sub in ("studies", "variants", "fits"):
         (folder / sub).mkdir(parents=True)
-    for v in ("box", "existing"):
+    for v in ("box_kim", "existing_kim"):
         shutil.copy(ROOT / f"variants/{v}.yaml", folder / f"variants/{v}.yaml")
     (folder / "fits/fit.json").write_text(json.dumps({"final_fit": {
         "drive_longitudinal_creep.scale": {"value": 1.2, "std": 0.01, "identifiable": True}}}))
     (folder / "studies/small.yaml").write_text(yaml.safe_dump({
-        "name": "small", "base": "../variants/box.yaml", "calibration": "../fits/fit.json",
+        "name": "small", "base": "../variants/box_kim.yaml", "calibration": "../fits/fit.json",
         "design": {"r_steer": {"lower": "25 mm", "upper": "45 mm"},
-                   "d": {"lower": "30 mm", "upper": "110 mm", "variants": ["../variants/box.yaml"]}},
+                   "d": {"lower": "30 mm", "upper": "110 mm", "variants": ["../variants/box_kim.yaml"]}},
         "envelope": {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
                      "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "2 N*m"}},
         "multistart": {"starts": 2, "seed": 2},
-        "batch": {"variants": ["../variants/box.yaml", "../variants/existing.yaml"]}}))
+        "batch": {"variants": ["../variants/box_kim.yaml", "../variants/existing_kim.yaml"]}}))
     return folder
 
 

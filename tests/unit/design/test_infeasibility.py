@@ -15,7 +15,7 @@ SMALL = {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
 
 
 def _study(tmp_path, **constraints):
-    box = variant_data("box")
+    box = variant_data("box_kim")
     box["parameters"]["r_drive"] = "45 mm"          # fixed: R + 2 r = 63.5 + 90 = 153.5 mm
     data = {"name": "t", "base": str(write_yaml(tmp_path / "box45.yaml", box)), "envelope": SMALL,
             "design": {"d": {"lower": "30 mm", "upper": "110 mm"}, "r_steer": {"lower": "20 mm", "upper": "60 mm"}},

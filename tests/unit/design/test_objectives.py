@@ -17,7 +17,7 @@ from cvtdesign.design.solve import knee
 
 def pareto_study(folder: Path, kind="pareto") -> Path:
     data = yaml.safe_load((ROOT / "studies/box_pareto.yaml").read_text())
-    data.update(base=str(ROOT / "variants/box.yaml"), objective={"kind": kind}, pareto={"points": 3})
+    data.update(base=str(ROOT / "variants/box_kim.yaml"), objective={"kind": kind}, pareto={"points": 3})
     data["envelope"] = {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
                         "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}
     data.pop("batch")

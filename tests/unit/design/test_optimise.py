@@ -19,7 +19,7 @@ from cvtdesign.io.variant import load_spec, load_variant, resolve
 
 
 def study(tmp_path, **fields):
-    data = {"name": "t", "base": str(ROOT / "variants/box.yaml"), "design": {"d": {"lower": "30 mm", "upper": "110 mm"}},
+    data = {"name": "t", "base": str(ROOT / "variants/box_kim.yaml"), "design": {"d": {"lower": "30 mm", "upper": "110 mm"}},
             "multistart": {"starts": 1}}
     data.update(fields)
     path = tmp_path / "study.yaml"
@@ -76,7 +76,7 @@ def test_optimise_cli_improves_box(tmp_path):
     assert res["status"] == "Solve_Succeeded"
     # the optimum: r_steer at its 20 mm bound and the tandem pair as close as the 2 mm clearance lets it,
     # d = R (2 r_s + c)/(R + r_s) (test_steering_pair_moves_to_the_largest_moment_arm), with worst |α| =
-    # 3.77885° (measured; variants/box.yaml has 4.166°), pinned to 1e-5 relative (IPOPT's tolerance)
+    # 3.77885° (measured; variants/box_kim.yaml has 4.166°), pinned to 1e-5 relative (IPOPT's tolerance)
     assert {"worst_alpha", "clearance", "envelope_radius", "bound r_steer"} <= set(res["active_constraints"])
     R, rs, c = 0.0635, 0.020, 0.002
     assert res["design"]["r_steer"] == pytest.approx(rs, rel=1e-6)
@@ -104,10 +104,10 @@ def test_a_design_variable_no_field_uses_is_refused(tmp_path, capsys):
     """A box written out in plain numbers (for example rotated and saved) keeps its parameters but no field
     uses them: optimising d then reported "optimum d = 69.13 mm" and two "distinct" optima of the same
     4.166°. The layout is now resolved at both bounds, and the same layout at both is refused."""
-    variant = yaml.safe_load((ROOT / "variants/box.yaml").read_text())
+    variant = yaml.safe_load((ROOT / "variants/box_kim.yaml").read_text())
     variant["parameters"]["spare"] = "10 mm"
-    (tmp_path / "box.yaml").write_text(yaml.safe_dump(variant, allow_unicode=True))
-    path = study(tmp_path, base=str(tmp_path / "box.yaml"), design={"spare": {"lower": "5 mm", "upper": "20 mm"}})
+    (tmp_path / "box_kim.yaml").write_text(yaml.safe_dump(variant, allow_unicode=True))
+    path = study(tmp_path, base=str(tmp_path / "box_kim.yaml"), design={"spare": {"lower": "5 mm", "upper": "20 mm"}})
     assert main(["optimise", str(path), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "design.spare: no field of the variant" in err and "uses the parameter 'spare'" in err
@@ -150,7 +150,7 @@ def test_constraint_labels_name_their_roller_and_point(tmp_path):
     z = np.array([0.3])
     g = np.asarray(pr.evaluate(np.append(z, 0.0))[1]).ravel()
     d = pr.lower[0] + (pr.upper[0] - pr.lower[0]) * z[0]
-    box = ROOT / "variants/box.yaml"
+    box = ROOT / "variants/box_kim.yaml"
     m = compile_model(resolve(load_spec(box), str(box), overrides={"d": d}))
     expected = {"traction": lambda r: (r["utilisation"] - 0.8) * r["N"] / 100.0,
                 "hertz_pressure": lambda r: r["p_max"] / 6e6, "normal_force": lambda r: r["N"] / 100.0}
@@ -171,14 +171,14 @@ def test_constraint_labels_name_their_roller_and_point(tmp_path):
 def test_design_variable_free_in_some_variants_only(tmp_path, capsys):
     """A design variable with `variants` is free only in those variant files; the others optimise without it."""
     path = study(tmp_path, design={"r_steer": {"lower": "20 mm", "upper": "60 mm"},
-                                   "d": {"lower": "30 mm", "upper": "110 mm", "variants": [str(ROOT / "variants/box.yaml")]}},
-                 batch={"variants": [str(ROOT / "variants/existing.yaml"), str(ROOT / "variants/box.yaml")]},
+                                   "d": {"lower": "30 mm", "upper": "110 mm", "variants": [str(ROOT / "variants/box_kim.yaml")]}},
+                 batch={"variants": [str(ROOT / "variants/existing_kim.yaml"), str(ROOT / "variants/box_kim.yaml")]},
                  envelope={"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
                            "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "2 N*m"}})
     from cvtdesign.design.study_file import load_study
     spec, _ = load_study(path)
-    assert build_problem(path, spec, ROOT / "variants/existing.yaml").names == ["r_steer"]
-    assert sorted(build_problem(path, spec, ROOT / "variants/box.yaml").names) == ["d", "r_steer"]
+    assert build_problem(path, spec, ROOT / "variants/existing_kim.yaml").names == ["r_steer"]
+    assert sorted(build_problem(path, spec, ROOT / "variants/box_kim.yaml").names) == ["d", "r_steer"]
     data = yaml.safe_load(path.read_text())
     data["design"]["d"]["variants"] = ["bx.yaml"]
     path.write_text(yaml.safe_dump(data, allow_unicode=True))
@@ -212,7 +212,7 @@ def test_written_variant_carries_sweep_parameters_and_study_envelope(tmp_path):
 def lossy_existing(tmp_path):
     """Kim's existing CVT with a 2 mm rolling-resistance offset: the loss optimum takes little preload, and
     its lateral load unloads one steering roller (at τ⊥ = 1 N·m, N ≈ P − 43 N)."""
-    data = yaml.safe_load((ROOT / "variants/existing.yaml").read_text())
+    data = yaml.safe_load((ROOT / "variants/existing_kim.yaml").read_text())
     data["effect_parameters"] = {"rolling_resistance": {"offset": "2 mm"}}
     path = tmp_path / "lossy.yaml"
     path.write_text(yaml.safe_dump(data, allow_unicode=True, sort_keys=False))
@@ -253,7 +253,7 @@ def test_envelope_check_flags_lost_contact_and_traction_row_cannot_pass_it(tmp_p
     """Kim's existing CVT at τ⊥ = ±4 N·m: a steering roller's normal force goes negative (down to −49 N at
     100 N preload), where F/(μN) is negative too. The post-solve check counts those points as lost contact,
     and the traction row |F| − 0.8 μN is positive there, so it can no longer pass them."""
-    m = compile_model(load_variant(ROOT / "variants/existing.yaml"))
+    m = compile_model(load_variant(ROOT / "variants/existing_kim.yaml"))
     G, T = np.meshgrid(np.radians(np.arange(-80, 81, 20.0)), [-4.0, 0.0, 4.0], indexing="ij")
     g, l = G.ravel(), T.ravel()
     # the raw model outputs (evaluate blanks the points outside the physics): N < 0 with utilisation < 0
@@ -275,7 +275,7 @@ def test_envelope_check_flags_lost_contact_and_traction_row_cannot_pass_it(tmp_p
     assert ok.ok and ok.summary().startswith("0 of 27") and 0 < ok.min_normal_force < 100 and ok.max_utilisation < 1
 
     # the rows of a study over that load, at the base design: wherever N < 0, the traction row is violated
-    pr = build_problem(study(tmp_path, base=str(ROOT / "variants/existing.yaml"),
+    pr = build_problem(study(tmp_path, base=str(ROOT / "variants/existing_kim.yaml"),
                              design={"r_steer": {"lower": "20 mm", "upper": "60 mm"}},
                              envelope={"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "20 deg"},
                                        "load": {"start": "-4 N*m", "stop": "4 N*m", "step": "4 N*m"}}))
@@ -289,7 +289,7 @@ def test_optimum_failing_the_envelope_check_is_not_an_optimum(tmp_path):
     """Without a traction margin, Kim's existing CVT at τ⊥ = ±2 N·m: IPOPT solves (nothing in the rows
     limits F/(μN)), but at 4 points a contact needs more traction than μN. The solve is reported as failed
     with the count, and no variant file is written."""
-    path = study(tmp_path, base=str(ROOT / "variants/existing.yaml"), design={"r_steer": {"lower": "20 mm", "upper": "60 mm"}},
+    path = study(tmp_path, base=str(ROOT / "variants/existing_kim.yaml"), design={"r_steer": {"lower": "20 mm", "upper": "60 mm"}},
                  constraints={"traction_margin": None},
                  envelope={"gamma": {"start": "-40 deg", "stop": "40 deg", "step": "20 deg"},
                            "load": {"start": "-2 N*m", "stop": "2 N*m", "step": "2 N*m"}})

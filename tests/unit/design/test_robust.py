@@ -16,7 +16,7 @@ from cvtdesign.design.study_file import load_study
 
 
 def study(folder: Path, worst_case=True, **extra) -> Path:
-    data = {"name": "r", "base": str(ROOT / "variants/box_kalker.yaml"),
+    data = {"name": "r", "base": str(ROOT / "variants/box.yaml"),
             "design": {"d": {"lower": "40 mm", "upper": "100 mm"}},
             "constraints": {"clearance": "2 mm", "traction_margin": 0.2},
             "envelope": {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
@@ -32,7 +32,7 @@ def study(folder: Path, worst_case=True, **extra) -> Path:
 
 @pytest.mark.slow
 def test_the_corners_are_the_calibrations_95_percent_box(tmp_path):
-    """box_kalker's drive (82A, σ 1.3 %) and steering (84A, σ 1.0 %) calibrations are independent: 4 corners at
+    """box's drive (82A, σ 1.3 %) and steering (84A, σ 1.0 %) calibrations are independent: 4 corners at
     ±2.236σ (a box of joint probability 0.95), each the whole envelope, and the misfit rows once per γ."""
     path = study(tmp_path)
     p = build_problem(path, *load_study(path))
@@ -69,7 +69,7 @@ def test_the_robust_optimum_holds_over_the_region(tmp_path, cli):
 @pytest.mark.parametrize("edit, message", [
     ({"objective": {"kind": "rms_alpha"}}, "robust: the worst case over the region is built for objective kind"),
     ({"robust": {"over": "calibration", "confidence": 1.2}}, "robust.confidence: expected a probability"),
-    ({"base": str(ROOT / "variants/existing.yaml").replace("existing", "box"),
+    ({"base": str(ROOT / "variants/existing_kim.yaml").replace("existing_kim", "box_kim"),
       "robust": {"over": "tolerances"}}, "robust.over"),
 ])
 def test_bad_robust_settings_are_one_line(tmp_path, cli, edit, message):
@@ -81,7 +81,7 @@ def test_bad_robust_settings_are_one_line(tmp_path, cli, edit, message):
 @pytest.mark.slow
 def test_robust_needs_a_stated_uncertainty(tmp_path, cli):
     """A base variant whose compliance has no σ (THEORY ONLY here: kalker factors of 1) is refused in one line."""
-    v = yaml.safe_load((ROOT / "variants/box_kalker.yaml").read_text())
+    v = yaml.safe_load((ROOT / "variants/box.yaml").read_text())
     v["contact"] = {"law": "kalker", "calibration": {"drive": 1, "steering": 1}}
     (tmp_path / "theory.yaml").write_text(yaml.safe_dump(v, allow_unicode=True))
     code, out, err = cli("optimise", study(tmp_path, base=str(tmp_path / "theory.yaml")), "--out", tmp_path / "o")

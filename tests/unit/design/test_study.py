@@ -41,7 +41,7 @@ CONNECT = cluster.connect
 
 
 def small_study(folder, name="small.yaml", **extra):
-    data = {"name": "small", "base": str(ROOT / "variants/box.yaml"),
+    data = {"name": "small", "base": str(ROOT / "variants/box_kim.yaml"),
             "design": {"d": {"lower": "30 mm", "upper": "110 mm"}},
             "constraints": {"clearance": "2 mm"},
             "envelope": {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
@@ -274,28 +274,28 @@ def test_a_port_that_is_not_a_dask_scheduler_is_refused(tmp_path, capsys, monkey
 
 @pytest.mark.parametrize("fields, message", [
     ({"design": {"d": {"lower": "110 mm", "upper": "30 mm"}}}, "design.d: inverted bounds"),
-    ({"batch": {"sweep": {"r_stear": ["30 mm"]}}}, "batch.sweep.r_stear: the variant box.yaml has no parameter"),
-    ({"batch": {"variants": ["box.yaml", "nope.yaml"]}}, "batch.variants: no variant file 'nope.yaml'"),
-    ({"batch": {"variants": ["box.yaml", "broken.yaml"]}}, "broken.yaml: sphere: missing required field"),
+    ({"batch": {"sweep": {"r_stear": ["30 mm"]}}}, "batch.sweep.r_stear: the variant box_kim.yaml has no parameter"),
+    ({"batch": {"variants": ["box_kim.yaml", "nope.yaml"]}}, "batch.variants: no variant file 'nope.yaml'"),
+    ({"batch": {"variants": ["box_kim.yaml", "broken.yaml"]}}, "broken.yaml: sphere: missing required field"),
     ({"max_iter": 0}, "max_iter: expected an integer from 1 to 10000, got 0"),
     ({"effects": ["drive_longitudinal_creep", "bogus_creep"]}, "effects: unknown effect 'bogus_creep'"),
     ({"constraints": {"min_normal_force": "-5 N"}}, "constraints.min_normal_force: expected a positive force"),
     # two files of one name shared their case ids and result files: one design silently replaced the other
-    ({"batch": {"variants": ["box.yaml", "alt/box.yaml"]}},
-     "batch.variants: 'box.yaml' and 'alt/box.yaml' have the same name 'box'"),
+    ({"batch": {"variants": ["box_kim.yaml", "alt/box_kim.yaml"]}},
+     "batch.variants: 'box_kim.yaml' and 'alt/box_kim.yaml' have the same name 'box_kim'"),
     # counts are checked before the cases are built (3 million starts took 1.1 GB first)
     ({"multistart": {"starts": 3_000_000}}, "multistart.starts: expected an integer from 1 to 10000, got 3000000"),
     ({"batch": {"sweep": {"preload": [f"{50 + k} N" for k in range(1000)], "r_steer": ["30 mm"] * 10}}},
      "make 30000 cases; expected at most 10000"),
     ({"batch": {"sweep": {"preload": []}}}, "batch.sweep.preload: no values; expected at least one"),
     # a design variable free only in a file the study does not run stayed fixed without a word
-    ({"design": {"d": {"lower": "30 mm", "upper": "110 mm", "variants": ["alt/box.yaml"]}},
-      "batch": {"variants": ["box.yaml"]}}, "design.d.variants: 'alt/box.yaml' is not one of batch.variants"),
+    ({"design": {"d": {"lower": "30 mm", "upper": "110 mm", "variants": ["alt/box_kim.yaml"]}},
+      "batch": {"variants": ["box_kim.yaml"]}}, "design.d.variants: 'alt/box_kim.yaml' is not one of batch.variants"),
 ])
 def test_bad_study_refused_before_any_case(tmp_path, capsys, no_cluster, fields, message):
-    shutil.copy(ROOT / "variants/box.yaml", tmp_path / "box.yaml")
+    shutil.copy(ROOT / "variants/box_kim.yaml", tmp_path / "box_kim.yaml")
     (tmp_path / "alt").mkdir()
-    shutil.copy(ROOT / "variants/box.yaml", tmp_path / "alt" / "box.yaml")
+    shutil.copy(ROOT / "variants/box_kim.yaml", tmp_path / "alt" / "box_kim.yaml")
     (tmp_path / "broken.yaml").write_text("name: broken\n")
     path = small_study(tmp_path, **fields)
     assert main(["study", str(path), "--out", str(tmp_path / "s")]) == 2

@@ -1,7 +1,7 @@
 """`cvtdesign tolerance`: the machine as built (core.tolerances), its exact derivatives in the deviations, the
 Monte Carlo on Dask in a resumable store, the first order against the samples, kim's rigid directions
 refused, and bad tolerances files refused in one line. Small envelopes (3 × 3 points) and few samples; the
-full box_kalker study that issue 27 asks for is measured in docs/tolerances.md."""
+full box study that issue 27 asks for is measured in docs/tolerances.md."""
 from __future__ import annotations
 
 import json
@@ -34,7 +34,7 @@ def one_line(err: str, *needles):
         assert n in err, err
 
 
-def small(tmp_path, name="box_kalker"):
+def small(tmp_path, name="box"):
     """The variant on 3 × 3 points: γ −40°, 0°, 40° and τ⊥ −1, 0, 1 N·m."""
     d = variant_data(name)
     d["envelope"]["gamma"] = {"start": "-40 deg", "stop": "40 deg", "step": "40 deg"}
@@ -80,7 +80,7 @@ def test_as_built_moves_each_roller_as_its_dimension_says():
     """An axle turns about its contact normal by x and stays a unit vector ⊥ n; a contact moved along
     rolling goes x along t = n × a (the pose turned about the sphere centre by x/R); a fork offset turns every
     roller of the fork about the fork's axis; radius and preload change by x and by P·x."""
-    L: Layout = shipped_layout("box")
+    L: Layout = shipped_layout("box_kim")
     by = {r.name: r for r in L.rollers}
     x = math.radians(0.5)
     dims = (Dimension("axle of A", "axle", ("A",), "normal", 1.0, 0), Dimension("c", "contact", ("B",), "normal", 1.0, 1,
@@ -160,7 +160,7 @@ def test_the_json_interface_and_the_first_order_against_the_samples(finished):
 
 def test_the_ranked_figure_names_each_tolerance_with_its_unit(finished):
     folder, _, drawn = finished
-    assert (folder / "plots" / "box_kalker_small_box_axle_tolerances_tolerance.png").stat().st_size > 10_000
+    assert (folder / "plots" / "box_small_box_axle_tolerances_tolerance.png").stat().st_size > 10_000
     fig = drawn[-1]
     ranked = fig.axes[1]
     assert "axle of N1, σ 0.1°" in [t.get_text() for t in ranked.get_yticklabels()]
@@ -188,10 +188,10 @@ def test_a_second_run_resumes_and_more_samples_add_to_the_same_draws(finished, k
 
 
 def test_kim_refuses_a_drive_roller_direction_in_one_line_saying_why(tmp_path, capsys):
-    """box.yaml (law kim): 1e-5° of drive roller A's axle makes its contacts fight with 131 N against the
+    """box_kim.yaml (law kim): 1e-5° of drive roller A's axle makes its contacts fight with 131 N against the
     100 N preload; steering axles (laterally compliant under steering_lateral_creep), radii and preloads are
     meaningful there and are not refused."""
-    variant = small(tmp_path, "box")
+    variant = small(tmp_path, "box_kim")
     bad = tolerances(tmp_path, [{"dimension": "preload", "rollers": "all", "uniform": "10 %"},
                                 {"dimension": "axle", "rollers": "all", "normal": "0.1 deg"}], "kim")
     assert main(["tolerance", str(variant), "--tolerances", str(bad), "--store", str(tmp_path / "s")]) == 2

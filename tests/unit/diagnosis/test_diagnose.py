@@ -20,7 +20,7 @@ from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.core.model import compile_model
 from cvtdesign.io.variant import load_variant
 
-EXISTING = ROOT / "variants" / "existing.yaml"
+EXISTING = ROOT / "variants" / "existing_kim.yaml"
 KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
 
 

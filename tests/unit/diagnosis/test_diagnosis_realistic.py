@@ -20,8 +20,8 @@ from cvtdesign.diagnosis.diagnose.predictor import Predictor
 from cvtdesign.diagnosis.diagnose.sequence import approach
 from cvtdesign.io.variant import load_variant
 
-EXISTING = ROOT / "variants" / "existing.yaml"
-BOX = ROOT / "variants" / "box.yaml"
+EXISTING = ROOT / "variants" / "existing_kim.yaml"
+BOX = ROOT / "variants" / "box_kim.yaml"
 KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
 SMALL = rig.Protocol(np.radians(np.arange(-80, 81, 20.0)), np.array([-1.0, -0.6, -0.2, 0.2, 0.6, 1.0]),
                      np.array([10.0]))      # 9 γ × 6 loads: a small grid, for speed

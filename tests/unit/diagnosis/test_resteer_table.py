@@ -14,7 +14,7 @@ from conftest import ROOT, shipped_model, variant_path
 
 from cvtdesign.diagnosis import resteer
 
-EXISTING = variant_path("existing")
+EXISTING = variant_path("existing_kim")
 
 
 def read_table(path) -> pd.DataFrame:
@@ -24,7 +24,7 @@ def read_table(path) -> pd.DataFrame:
 
 
 def model_ratio(gamma_deg, tau):
-    return resteer.ratio(shipped_model("existing"), np.radians(gamma_deg), np.asarray(tau, float))
+    return resteer.ratio(shipped_model("existing_kim"), np.radians(gamma_deg), np.asarray(tau, float))
 
 
 def test_table_rows_and_every_number_on_the_model(cli, tmp_path):
@@ -71,14 +71,14 @@ def test_a_node_without_a_command_is_marked_and_empty(cli, tmp_path):
 def test_no_solution_where_the_model_slips_grossly():
     """Under 3 N·m Kim's CVT slips grossly near ratio 1 (its capacity there is 1.9 N·m): no command, and the
     reason is the model's, not the envelope's."""
-    g, why = resteer.model_commands(shipped_model("existing"), [1.0, 1.0], [0.5, 3.0])
+    g, why = resteer.model_commands(shipped_model("existing_kim"), [1.0, 1.0], [0.5, 3.0])
     assert np.isfinite(g[0]) and np.isnan(g[1]) and list(why) == ["ok", "no_solution"]
 
 
 def test_interpolating_a_finer_table_leaves_less():
     """interpolation_error at the cells' centres: the worst is re-evaluated there by hand, and halving the
     ratio step lowers it."""
-    m = shipped_model("existing")
+    m = shipped_model("existing_kim")
     errors = []
     for count in (5, 9):
         table = resteer.command_table(m, np.linspace(0.5, 2.5, count), [-1.0, 0.0, 1.0])

@@ -13,8 +13,8 @@ from cvtdesign.diagnosis import rig
 from cvtdesign.cli import main
 from cvtdesign.errors import InputError
 
-EXISTING = variant_path("existing")
-UNEQUAL = variant_path("unequal")
+EXISTING = variant_path("existing_kim")
+UNEQUAL = variant_path("unequal_kim")
 KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
 
 
@@ -40,7 +40,7 @@ def test_noise_free_rig_reproduces_the_model(layout, tmp_path):
     path = tmp_path / "d.csv"
     path.write_text(rig.to_csv_text(rows))
     data = measured.load_measured(path, layout)
-    m = shipped_model("existing", KIM)
+    m = shipped_model("existing_kim", KIM)
     G, T = np.meshgrid(np.radians(np.arange(-80, 81, 10.0)), np.round(np.arange(-1, 1.0001, 0.2), 12), indexing="ij")
     res = m.evaluate(G, T)
     np.testing.assert_allclose(data.rows["alpha_deg"], np.degrees(res["alpha"]).ravel(), atol=1e-6)
@@ -52,7 +52,7 @@ def test_noise_free_rig_reproduces_the_model(layout, tmp_path):
 def test_unequal_radii_alpha_uses_the_radius_ratio(tmp_path):
     """Kim eqs 8, 15 with the radius ratio: with unequal radii ω2 is scaled by r2/r1 first, so the ideal CVT
     has α = 0 (up to the model's rigid-direction compliance floor, under 3e-6° at 1 N·m)."""
-    L = shipped_layout("unequal")
+    L = shipped_layout("unequal_kim")
     rows, _ = rig.simulate(L, (), noise=rig.Noise(0, 0, 0))
     path = tmp_path / "d.csv"
     path.write_text(rig.to_csv_text(rows))

@@ -19,7 +19,8 @@ from cvtdesign.diagnosis.measured import from_rows
 from cvtdesign.io import reference
 from cvtdesign.io.measured_csv import read_measured
 from cvtdesign.io.schema import VariantSpec, unit_text
-from cvtdesign.io.variant import PLAUSIBLE, load_variant, shipped_variant
+from cvtdesign.io.variant import PLAUSIBLE, load_variant
+from cvtdesign.io.shipped import shipped_variant
 
 DOCS = ROOT / "docs"
 OWN = ["variant-reference.md", "effects.md", "measured-data.md", "adding-an-effect.md", "writing-a-variant.md"]
@@ -120,7 +121,7 @@ def test_measured_data_example_gives_the_derived_values_it_quotes(tmp_path):
     csv = re.search(r"```csv\n(.*?)```", text, re.S)[1]
     (tmp_path / "ex.csv").write_text(csv)
     rows, dropped = read_measured(tmp_path / "ex.csv")
-    m = from_rows(rows, shaft_frame(load_variant(shipped_variant("existing"))))
+    m = from_rows(rows, shaft_frame(load_variant(shipped_variant("existing_kim"))))
     table = re.findall(r"^\| (\d) \| (\S+) \| (\S+) \| (\S+) \| (\S+) \| (\d) \|$", text, re.M)
     assert [int(r[0]) for r in table] == [2, 3, 4]
     for (line, alpha, tperp, tpar, eff, point), (_, row) in zip(table, m.rows.iterrows()):
@@ -145,7 +146,7 @@ def test_readme_compare_table_is_what_compare_prints(tmp_path, monkeypatch):
     from cvtdesign.cli.compare import COLUMNS, figure_cell
     monkeypatch.chdir(ROOT)
     js = tmp_path / "c.json"
-    files = [f"variants/{n}.yaml" for n in ("existing", "box", "unequal")]
+    files = [f"variants/{n}.yaml" for n in ("existing_kim", "box_kim", "unequal_kim")]
     assert main(["compare", *files, "--out", str(tmp_path / "p"), "--json", str(js)]) == 0
     rows = {r["name"]: r for r in json.loads(js.read_text())["variants"]}
     text = (ROOT / "README.md").read_text(encoding="utf-8")
@@ -154,4 +155,4 @@ def test_readme_compare_table_is_what_compare_prints(tmp_path, monkeypatch):
     assert len(lines) == 9
     for line, (key, _, fmt) in zip(lines, COLUMNS):
         cells = [c.strip() for c in line.strip("|").split("|")][-3:]
-        assert cells == [figure_cell(rows[n], key, fmt) for n in ("existing", "box", "unequal")], (key, line)
+        assert cells == [figure_cell(rows[n], key, fmt) for n in ("existing_kim", "box_kim", "unequal_kim")], (key, line)

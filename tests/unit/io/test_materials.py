@@ -15,7 +15,8 @@ from cvtdesign.core.metrics import envelope, metrics
 from cvtdesign.core.model import compile_model
 from cvtdesign.io.variant import load_variant
 
-KIM_FITTED = {"creep_drive": "0.0038 1/N", "creep_steering": "0.0049 1/N", "creep_reference_force": "100 N"}
+KIM_FITTED = {"law": "kim", "creep_drive": "0.0038 1/N", "creep_steering": "0.0049 1/N", "creep_reference_force": "100 N",
+              "fitted_on": {"drive": ["urethane_82A", "bowling_ball"], "steering": ["urethane_84A", "bowling_ball"]}}
 KALKER_FACTORS = {"law": "kalker", "calibration": {"drive": 3.1364, "steering": 3.6033}}
 
 
@@ -23,7 +24,7 @@ def three_steering(contact=None, **edits) -> dict:
     """A new layout of Kim's rollers on his ball: a third steering roller S3 at −c2 on S2's fork (S2's preload
     doubled so the preloads balance), its materials from the library (no `materials:`), and `contact` as given
     (None: no contact section)."""
-    d = variant_data("existing")
+    d = variant_data("existing_kim")
     d["name"] = "three"
     del d["materials"]
     d["rollers"]["S2"]["preload"] = "200 N"
@@ -47,12 +48,12 @@ def test_a_new_layout_of_kims_materials_is_calibrated(tmp_path, law, explicit):
     """The same new layout with no contact section (the library's calibration) and with Kim's fitted constants
     written out (kim) or the factors that give them (kalker): the figures agree within 5 % (measured: max |α|
     within 0.3 %), and the library's figures are not the theory's (about 3× smaller)."""
-    lib = write_yaml(tmp_path / "lib.yaml", three_steering({"law": law} if law == "kalker" else None))
+    lib = write_yaml(tmp_path / "lib.yaml", three_steering({"law": law}))
     own = write_yaml(tmp_path / "own.yaml", three_steering(explicit))
     theory = write_yaml(tmp_path / "theory.yaml", three_steering(
         {"law": law, "calibration": {"drive": 1, "steering": 1}} if law == "kalker" else
-        None, materials={"urethane_82A": {"youngs_modulus": "10.7 MPa", "poisson_ratio": 0.481, "friction": 0.8},
-                         "urethane_84A": {"youngs_modulus": "12.3 MPa", "poisson_ratio": 0.481, "friction": 0.8}}))
+        {"law": law}, materials={"urethane_82A": {"youngs_modulus": "10.7 MPa", "poisson_ratio": 0.481},
+                                 "urethane_84A": {"youngs_modulus": "12.3 MPa", "poisson_ratio": 0.481}}))
     a, b, t = figures(lib), figures(own), figures(theory)
     for key in ("max_abs_alpha_deg", "rms_alpha_deg", "max_abs_alpha_steering_deg", "max_abs_alpha_drive_deg"):
         assert a[key] == pytest.approx(b[key], rel=0.05), key
@@ -100,8 +101,7 @@ def test_a_pair_with_no_calibration_is_theory_only_everywhere(tmp_path, cli):
 def test_a_redefined_material_loses_the_calibration_and_says_why(tmp_path):
     """A variant that redefines urethane_82A with another modulus keeps its own values, and the library's
     calibration (fitted with the library's values) no longer applies: theory only, with the reason."""
-    d = three_steering(materials={"urethane_82A": {"youngs_modulus": "20 MPa", "poisson_ratio": 0.48,
-                                                   "friction": 0.8}})
+    d = three_steering(materials={"urethane_82A": {"youngs_modulus": "20 MPa", "poisson_ratio": 0.48}})
     L = load_variant(write_yaml(tmp_path / "v.yaml", d))
     d1, s1 = L.rollers[0], next(r for r in L.rollers if r.role == "steering")
     assert d1.material.E == 20e6 and d1.creep.uncalibrated
@@ -137,12 +137,13 @@ def test_a_bad_library_entry_is_one_line(tmp_path, cli):
 
 
 def test_the_kim_variant_and_the_library_agree_on_kims_machine(tmp_path):
-    """variants/existing.yaml (Kim's fitted constants written out) and the same machine on the library's
+    """variants/existing_kim.yaml (Kim's fitted constants written out) and the same machine on the library's
     calibration: max |α| 10.761° both, to 0.1 %."""
-    d = variant_data("existing")
-    del d["contact"], d["materials"]
+    d = variant_data("existing_kim")
+    del d["materials"]
+    d["contact"] = {"law": "kim"}
     lib = figures(write_yaml(tmp_path / "lib.yaml", d))
-    own = figures(write_yaml(tmp_path / "own.yaml", variant_data("existing")))
+    own = figures(write_yaml(tmp_path / "own.yaml", variant_data("existing_kim")))
     assert lib["max_abs_alpha_deg"] == pytest.approx(own["max_abs_alpha_deg"], rel=1e-3)
     assert np.isclose(own["max_abs_alpha_deg"], 10.761, atol=5e-4)
 
@@ -154,7 +155,7 @@ def test_a_diagnosis_saves_its_calibration_for_later_variants(tmp_path, cli):
     3.399/0.8 MPa, to the fit's accuracy, with σ and provenance), and a variant naming the file predicts what
     the rig's machine does: max |α| within 0.3 % of the truth's (measured 0.1 %). Run again, the file keeps its
     other entries and replaces those of the same pair."""
-    d = variant_data("existing")
+    d = variant_data("existing_kim")
     del d["contact"], d["materials"]
     v = write_yaml(tmp_path / "v.yaml", d)
     rig = tmp_path / "rig.csv"
@@ -184,7 +185,7 @@ def test_a_diagnosis_saves_its_calibration_for_later_variants(tmp_path, cli):
 
 def test_save_calibration_needs_a_fitted_compliance(tmp_path, cli):
     """A base model that fits no creep scale has nothing to save: one line, before any work, nothing written."""
-    v = write_yaml(tmp_path / "v.yaml", variant_data("existing"))
+    v = write_yaml(tmp_path / "v.yaml", variant_data("existing_kim"))
     (tmp_path / "rig.csv").write_text("gamma_cmd_deg,omega_1,omega_2,tau_1,tau_2\n10,10,1.7,0.1,-0.5\n")
     code, out, err = cli("diagnose", tmp_path / "rig.csv", "--variant", v, "--base", "steering_offset",
                          "--save-calibration", tmp_path / "lib.yaml")

@@ -22,7 +22,7 @@ from cvtdesign.io.plots import save  # noqa: E402
 from cvtdesign.design.store import read_case, write_case  # noqa: E402
 from cvtdesign.io.units import InputError  # noqa: E402
 
-BOX, EXISTING = ROOT / "variants/box.yaml", ROOT / "variants/existing.yaml"
+BOX, EXISTING = ROOT / "variants/box_kim.yaml", ROOT / "variants/existing_kim.yaml"
 
 
 @pytest.fixture
@@ -289,7 +289,7 @@ def test_a_folder_that_takes_no_file_is_refused_before_any_work(tmp_path, capsys
     from conftest import variant_path
     from cvtdesign.cli import main
     (tmp_path / "d.csv").write_text("gamma_cmd_deg,omega_1,omega_2,tau_1,tau_2\n0,10,0,0,0\n")
-    args = [a.format(existing=variant_path("existing"), tmp=tmp_path) for a in argv]
+    args = [a.format(existing=variant_path("existing_kim"), tmp=tmp_path) for a in argv]
     assert main(args) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "/proc/nope." in err and ": cannot write: " in err, err

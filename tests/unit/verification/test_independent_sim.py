@@ -118,12 +118,12 @@ def test_base_creep_against_kim_closed_forms(tau):
 
 def test_base_agrees_with_the_package_model():
     """The same machine: the base-case α over Kim's protocol (187 points) against the package's model of
-    variants/existing.yaml (its default effects are the same two creeps). Measured: RMS 0.0052°, max 0.017°
+    variants/existing_kim.yaml (its default effects are the same two creeps). Measured: RMS 0.0052°, max 0.017°
     (0.26 noise σ per point; RMS α itself 4.6°); both the same formulation-independent statics, τ∥ = 0."""
     from cvtdesign.core.model import compile_model
     from cvtdesign.io.variant import load_variant
 
-    m = compile_model(load_variant(ROOT / "variants" / "existing.yaml"))
+    m = compile_model(load_variant(ROOT / "variants" / "existing_kim.yaml"))
     pk = m.evaluate(KIM_G, KIM_T)
     r = sim.solve(KIM_G, KIM_T, sim.BASE)
     assert pk["ok"].all() and r["ok"].all()
@@ -226,7 +226,7 @@ def test_simulate_format_noise_and_replicates(tmp_path):
     assert abs(d["gamma_axis_deg"].std() - 0.05) < 0.01 and np.all(d["gamma_cmd_deg"] == 0)
     path = tmp_path / "rig.csv"
     exact.to_csv(path, index=False, float_format="%.12g")
-    data = load_measured(path, load_variant(ROOT / "variants" / "existing.yaml"))
+    data = load_measured(path, load_variant(ROOT / "variants" / "existing_kim.yaml"))
     r = sim.solve(KIM_G, KIM_T, sim.BASE)
     np.testing.assert_allclose(np.radians(data.rows["alpha_deg"].to_numpy()), r["alpha"], atol=1e-9)
     np.testing.assert_allclose(data.rows["tau_perp"].to_numpy(), r["tau_perp"], atol=1e-9)
