@@ -121,6 +121,8 @@ def _where(row: dict, side: str) -> str:
     limit = row[f"limit_{side}"]
     if limit == "usable_ratio":
         a, s = row[f"alpha_{side}_deg"], row[f"alpha_steering_{side}_deg"]
+        if a is None or s is None or not np.isfinite(a - s):
+            return "—"
         return f"S {s:.2f}° D {a - s:.2f}°"
     if limit == "runaway":
         return "ω2/ω1 → ∞"
@@ -132,7 +134,7 @@ def _cell(row: dict, side: str) -> list[str]:
     tau, unknown = row[f"tau_perp_{side}_Nm"], row[f"unknown_{side}"]
     if unknown is not None:
         return ["—", unknown.replace("_", " ") + " ³", "", "", ""]
-    limit = LIMIT_WORDS[row[f"limit_{side}"]] + ("" if tau is not None and np.isfinite(tau) else " without load")
+    limit = LIMIT_WORDS[row[f"limit_{side}"]] + (" without load" if tau == 0 else "")
     return [torque_text(tau), limit, _where(row, side), torque_text(row[f"tau_1_{side}_Nm"]),
             torque_text(row[f"tau_2_{side}_Nm"])]
 

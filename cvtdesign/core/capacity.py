@@ -94,7 +94,7 @@ def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, ma
     once |α| passes `max_slip` [rad] (None: not bounded).
 
     Returns a dict of arrays over γ, for side in ('max', 'min') (τ⊥ > 0 and τ⊥ < 0):
-     * tau_perp_<side> [N m]: the capacity (NaN where unknown, and where the point fails without load);
+     * tau_perp_<side> [N m]: the capacity (NaN where unknown; 0 where a limit is met without load);
      * tau_1_<side>, tau_2_<side> [N m], alpha_<side>, alpha_steering_<side> [rad]: the shaft torques, the slip
        angle and its steering part (the sphere's axis off the command) at that load;
      * limit_<side>: a LIMITS name, 'not_converged', 'reversed' or 'multiple_roots' (the model has no number
@@ -133,9 +133,10 @@ def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, ma
            "max_slip": np.nan if max_slip is None else float(max_slip), "pivoting": pivoting(model, g)}
     for side, part in (("max", slice(0, n)), ("min", slice(n, 2 * n))):
         held = known[part] & res["ok"][part]
-        out[f"tau_perp_{side}"] = np.where(held, sign[part] * lo[part], np.nan)
-        for k in ("tau_1", "tau_2", "alpha", "alpha_steering"):
-            out[f"{k}_{side}"] = np.where(held, res[k][part], np.nan)
+        at_zero = limited[part] & (hi[part] == 0)        # a limit met without load: the capacity is 0
+        out[f"tau_perp_{side}"] = np.where(held, sign[part] * lo[part], np.where(at_zero, 0.0, np.nan))
+        for k in ("tau_1", "tau_2", "alpha", "alpha_steering"):     # where it held, or holds without load
+            out[f"{k}_{side}"] = np.where(held | (at_zero & res["ok"][part]), res[k][part], np.nan)
         out[f"limit_{side}"] = np.array([names[int(c)] for c in code[part]], dtype=object)
         out[f"contact_{side}"] = np.where(limited[part], contact[part], -1)
         out[f"sharing_{side}"] = shared[:, part]

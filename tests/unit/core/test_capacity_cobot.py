@@ -119,3 +119,13 @@ def test_pivoting_not_modelled_under_kims_law(cli, tmp_path):
     assert "box: drive rollers pivoting on the sphere: not modelled" in flat
     assert "box_kalker: at γ 0° the drive rollers B, B_ pivot on the sphere and slide" in flat
     assert "usable ratio: |α| ≤ 2°" in flat
+
+
+def test_a_limit_met_without_load_carries_zero():
+    """Under the FASTSIM law spin makes α without load (box_kalker at γ = 60°: 0.048°): a bound below it is met
+    at zero load, and the capacity is 0 with its limit named, not null."""
+    m = shipped_model("box_kalker")
+    cap = capacity(m, np.radians([60.0]), load_capacity(m.layout), max_slip=np.radians(0.01))
+    assert cap["tau_perp_max"][0] == 0 and cap["limit_max"][0] == "usable_ratio"
+    assert cap["tau_perp_min"][0] == 0 and cap["limit_min"][0] == "usable_ratio"
+    np.testing.assert_allclose(abs(cap["alpha_max"][0]), np.radians(0.048), rtol=0.05)
