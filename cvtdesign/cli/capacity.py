@@ -1,6 +1,7 @@
 """`cvtdesign capacity`: at each γ of a variant's envelope, the largest lateral load τ⊥ of each sign before the
-first contact slips grossly, loses contact or exceeds its allowable pressure, and which contact that is
-(core.capacity)."""
+slip angle passes what a cobot can use, the speed ratio runs away, or the first contact slips grossly, loses
+contact or exceeds its allowable pressure, and which limit and contact that is (core.capacity); and the drive
+rollers that pivot on the sphere with no load."""
 from __future__ import annotations
 
 import dataclasses
@@ -12,7 +13,7 @@ from rich.console import Console
 
 from cvtdesign.cli.printing import json_text, progress_bar, show
 from cvtdesign.core import basis
-from cvtdesign.core.capacity import LIMITS, capacity, smallest_capacity
+from cvtdesign.core.capacity import LIMITS, MAX_SLIP, PIVOT_SHARE, capacity, smallest_capacity
 from cvtdesign.core.metrics import allowable_pressures
 from cvtdesign.core.model import compile_model
 from cvtdesign.errors import InputError
@@ -20,10 +21,11 @@ from cvtdesign.io import plots
 from cvtdesign.io.limits import load_capacity
 from cvtdesign.io.output import make_folder, named_after, write_file
 from cvtdesign.io.report import Note, Table
-from cvtdesign.io.units import number
+from cvtdesign.io.units import check_range, number, to_si
 from cvtdesign.io.variant import load_variant
 
-LIMIT_WORDS = {"gross_slip": "gross slip", "lost_contact": "lost contact", "pressure": "pressure"}
+LIMIT_WORDS = {"gross_slip": "gross slip", "lost_contact": "lost contact", "pressure": "pressure",
+               "usable_ratio": "usable ratio", "runaway": "runaway"}
 
 
 def check_safety(value: float) -> float:
@@ -33,6 +35,16 @@ def check_safety(value: float) -> float:
         raise InputError(f"--safety: expected a finite safety factor of at least 1 (gross slip is counted once "
                          f"F/(μN) reaches 1/S), got {value:g}")
     return float(value)
+
+
+def check_max_slip(text: str | None) -> float | None:
+    """--max-slip: the usable-ratio bound on |α| [rad], an angle in (0°, 90°] ('2deg'; a plain number is in
+    rad); None: the default MAX_SLIP. 90° bounds nothing (α is an angle between two axes): returns None."""
+    if text is None:
+        return MAX_SLIP
+    value = check_range(to_si(text, "angle", "--max-slip"), text, "--max-slip", "usable slip-angle bound |α|", "angle",
+                        lo=0.0, hi=math.pi / 2, lo_open=True, guess="deg")
+    return None if value >= math.pi / 2 - 1e-12 else float(value)
 
 
 def side_record(model, cap: dict, side: str, i: int) -> dict:
@@ -46,6 +58,8 @@ def side_record(model, cap: dict, side: str, i: int) -> dict:
             f"contact_{side}": names[k] if k >= 0 else None,
             f"contacts_{side}": [n for n, s in zip(names, cap[f"sharing_{side}"][:, i]) if s],
             f"tau_1_{side}_Nm": cap[f"tau_1_{side}"][i], f"tau_2_{side}_Nm": cap[f"tau_2_{side}"][i],
+            f"alpha_{side}_deg": np.degrees(cap[f"alpha_{side}"][i]),
+            f"alpha_steering_{side}_deg": np.degrees(cap[f"alpha_steering_{side}"][i]),
             f"unknown_{side}": None if limit in LIMITS else limit,
             f"held_{side}_Nm": cap[f"held_{side}"][i],
             f"held_gamma_axis_{side}_deg": np.degrees(cap[f"held_axis_{side}"][i])}
@@ -62,12 +76,27 @@ def variant_record(name: str, model, cap: dict) -> dict:
             row |= side_record(model, cap, side, i)
         rows.append(row)
     unchecked = [n for n, p in zip(model.roller_names, allowable_pressures(L)) if not np.isfinite(p)]
-    return {"name": name, "file": L.file, "safety": cap["safety"], "capacity": rows,
+    return {"name": name, "file": L.file, "safety": cap["safety"], "max_slip_deg": np.degrees(cap["max_slip"]),
+            "capacity": rows, "pivoting": pivoting_record(model, cap),
             "envelope": {"gamma_deg": [float(np.degrees(L.gamma_grid.min())), float(np.degrees(L.gamma_grid.max()))],
                          "tau_perp_Nm": [float(L.load_grid.min()), float(L.load_grid.max())]},
             "pressure_not_checked": unchecked, "search_bound_Nm": cap["bound"],
             "smallest": smallest_record(model, cap),
             "unknown": sum(r[f"unknown_{s}"] is not None for r in rows for s in ("max", "min"))}
+
+
+def pivoting_record(model, cap: dict) -> dict:
+    """core.capacity.pivoting as JSON: {modelled, share (PIVOT_SHARE), points: [{gamma_deg, contacts,
+    moment_share (|Mz|/(μNℓ) of each), loss_W (theirs together), power_loss_W (the whole machine's)}]} at the γ
+    where some drive or follower roller pivots with no load."""
+    piv, points = cap["pivoting"], []
+    for i, g in enumerate(cap["gamma"]):
+        k = np.flatnonzero(piv["pivots"][:, i]) if piv["modelled"] else []
+        if len(k):
+            points.append({"gamma_deg": round(float(np.degrees(g)), 9), "contacts": [model.roller_names[j] for j in k],
+                           "moment_share": piv["share"][k, i], "loss_W": float(piv["loss"][k, i].sum()),
+                           "power_loss_W": piv["power_loss"][i]})
+    return {"modelled": piv["modelled"], "share": PIVOT_SHARE, "points": points}
 
 
 def smallest_record(model, cap: dict) -> dict:
@@ -86,49 +115,107 @@ def torque_text(value) -> str:
     return "—" if value is None or not np.isfinite(value) else f"{round(float(value), 3) + 0.0:.3f}"
 
 
+def _where(row: dict, side: str) -> str:
+    """What reaches the limit: the contacts (gross slip, lost contact, pressure), the slip angle's steering (S)
+    and drive (D) parts (usable ratio: what to stiffen), the speed ratio's pole (runaway)."""
+    limit = row[f"limit_{side}"]
+    if limit == "usable_ratio":
+        a, s = row[f"alpha_{side}_deg"], row[f"alpha_steering_{side}_deg"]
+        if a is None or s is None or not np.isfinite(a - s):
+            return "—"
+        return f"S {s:.2f}° D {a - s:.2f}°"
+    if limit == "runaway":
+        return "ω2/ω1 → ∞"
+    return ", ".join(row[f"contacts_{side}"]) or row[f"contact_{side}"]
+
+
 def _cell(row: dict, side: str) -> list[str]:
-    """The table's cells of one side: capacity, limit, contact(s), τ1, τ2."""
+    """The table's cells of one side: capacity, limit, contact(s) (_where), τ1, τ2."""
     tau, unknown = row[f"tau_perp_{side}_Nm"], row[f"unknown_{side}"]
     if unknown is not None:
         return ["—", unknown.replace("_", " ") + " ³", "", "", ""]
-    limit = LIMIT_WORDS[row[f"limit_{side}"]] + ("" if tau is not None and np.isfinite(tau) else " without load")
-    return [torque_text(tau), limit, ", ".join(row[f"contacts_{side}"]) or row[f"contact_{side}"],
-            torque_text(row[f"tau_1_{side}_Nm"]), torque_text(row[f"tau_2_{side}_Nm"])]
+    limit = LIMIT_WORDS[row[f"limit_{side}"]] + (" without load" if tau == 0 else "")
+    return [torque_text(tau), limit, _where(row, side), torque_text(row[f"tau_1_{side}_Nm"]),
+            torque_text(row[f"tau_2_{side}_Nm"])]
 
 
 def capacity_blocks(record: dict) -> list:
     """A variant's printed table (a row per γ, each side's capacity, limit, contact and shaft torques) and its
-    notes: the smallest capacity against the envelope, the safety factor, the searches that ended on no
-    limit of the CVT, the contacts whose pressure is not checked."""
-    s = record["safety"]
-    t = Table(f"{record['name']}: load capacity τ⊥ at each γ" + (f", gross slip at F/(μN) = 1/{s:g}" if s != 1 else ""),
-              ["γ [°]", "τ⊥ max [N·m]", "limit", "contact", "τ1 [N·m]", "τ2 [N·m]",
-               "τ⊥ min [N·m]", "limit", "contact", "τ1 [N·m]", "τ2 [N·m]"])
+    notes: the smallest capacity against the envelope, the usable-ratio bound, the safety factor, the
+    runaways, the searches that ended on no limit, the drive rollers that pivot, the contacts whose pressure is
+    not checked."""
+    s, name = record["safety"], record["name"]
+    t = Table(f"{name}: load capacity τ⊥ at each γ [N·m], {bound_text(record)}"
+              + (f", gross slip at F/(μN) = 1/{s:g}" if s != 1 else ""),
+              ["γ [°]", "τ⊥ max", "limit", "contact / α", "τ1", "τ2", "τ⊥ min", "limit", "contact / α", "τ1", "τ2"])
     for row in record["capacity"]:
         t.add(number(row["gamma_deg"], 4), *_cell(row, "max"), *_cell(row, "min"),
               style="bad" if row["unknown_max"] or row["unknown_min"] else "")
-    blocks = [t, Note(summary_text(record))]
+    blocks = [t, Note(summary_text(record)), Note(bound_note(record))]
     if s != 1:
         blocks.append(Note(f"safety factor {s:g} on friction: a contact counts as slipping grossly once its "
                            f"utilisation F/(μN) reaches 1/{s:g} = {1 / s:.3g}; lost contact and the allowable "
                            "pressure are as without it"))
+    runaways = [f"γ {number(r['gamma_deg'], 4)}°, τ⊥ {'>' if side == 'max' else '<'} 0 at "
+                f"{number(abs(r[f'tau_perp_{side}_Nm']), 4)} N·m" for r in record["capacity"] for side in ("max", "min")
+                if r[f"limit_{side}"] == "runaway"]
+    if runaways:
+        blocks.append(Note(f"{name}: runaway at {'; '.join(runaways)}: there the load has turned the apparent axis "
+                           "γ + α to ±90°, the pole of the speed ratio (ω2/ω1 grows without bound), and beyond it "
+                           "no steady state is left: the output shaft runs away", "warn"))
     if record["unknown"]:
-        blocks.append(Note(f"³ {record['name']}: {record['unknown']} of {2 * len(record['capacity'])} searches ended "
+        blocks.append(Note(f"³ {name}: {record['unknown']} of {2 * len(record['capacity'])} searches ended "
                            f"where the model has no steady solution, so no capacity is given there: "
                            + "; ".join(unknown_texts(record)), "bad"))
+    blocks.append(Note(pivoting_text(record), "warn" if record["pivoting"]["points"] else ""))
     if record["pressure_not_checked"]:
-        blocks.append(Note(f"{record['name']}: allowable pressure not checked at "
+        blocks.append(Note(f"{name}: allowable pressure not checked at "
                            f"{', '.join(record['pressure_not_checked'])} (no allowable_pressure in either material)",
                            "warn"))
     return blocks
 
 
-AXIS_POLE_DEG = 85.0     # [°] an axis angle γ_axis past which a search that stopped is said to near the ratio's pole
+def bound_text(record: dict) -> str:
+    """'usable ratio: |α| ≤ 2°', or that the ratio is not bounded (--max-slip 90deg)."""
+    bound = record["max_slip_deg"]
+    return "usable ratio not bounded" if bound is None or not np.isfinite(bound) else f"usable ratio: |α| ≤ {bound:.4g}°"
+
+
+def bound_note(record: dict) -> str:
+    """What the usable-ratio bound means and how to change it."""
+    bound = record["max_slip_deg"]
+    if bound is None or not np.isfinite(bound):
+        return (f"{record['name']}: {bound_text(record)} (--max-slip 90deg): the capacity is the contacts' limits and "
+                "the runaway alone, at slip angles a cobot could not use")
+    rho = 2 * math.radians(bound) / math.sin(2 * math.atan(0.4)) * 100
+    return (f"{record['name']}: {bound_text(record)}, the slip angle between the shaft speeds and the command, "
+            f"the direction error of a cobot's constraint (about {rho:.3g} % speed-ratio error at ratios 0.4 and 2.5 "
+            "of ω2/ω1 = tan γ; docs/capacity.md); S and D: its steering and drive parts at the capacity; "
+            "--max-slip sets the bound, --max-slip 90deg leaves it out")
+
+
+def pivoting_text(record: dict) -> str:
+    """The drive rollers that pivot on the sphere with no load, or that the law does not model it."""
+    piv, name = record["pivoting"], record["name"]
+    if not piv["modelled"]:
+        return (f"{name}: drive rollers pivoting on the sphere: not modelled (the contact law gives no spin moment; "
+                "the FASTSIM law does)")
+    if not piv["points"]:
+        return f"{name}: no drive roller pivots on the sphere at the envelope's γ (spin moment below {piv['share']:g} μNℓ)"
+    parts = []
+    for p in piv["points"]:
+        one = len(p["contacts"]) == 1
+        parts.append(f"at γ {number(p['gamma_deg'], 4)}° the drive roller{'' if one else 's'} {', '.join(p['contacts'])} "
+                     f"pivot{'s' if one else ''} on the sphere and slide{'s' if one else ''} (spin moment "
+                     f"{min(p['moment_share']):.2f} of μNℓ), losing {number(p['loss_W'], 3)} W of the "
+                     f"{number(p['power_loss_W'], 3)} W lost with no load")
+    return (f"{name}: {'; '.join(parts)}. A loss with no output and wear, not a limit of the load (the roller "
+            "still carries its tangential force)")
 
 
 def unknown_texts(record: dict) -> list[str]:
-    """Where the search ended on no limit of the CVT, and why: 'γ 80°, τ⊥ > 0: not converged beyond 4.473 N·m,
-    where the load has turned the sphere's axis to 89.99° (ω2/ω1 grows without bound towards 90°)'."""
+    """Where the search ended on no limit, and how far the model held: 'γ 60°, τ⊥ > 0: multiple roots beyond
+    7.117 N·m (the sphere's axis at 78.86°)'."""
     out = []
     for row in record["capacity"]:
         for side in ("max", "min"):
@@ -138,17 +225,15 @@ def unknown_texts(record: dict) -> list[str]:
             text = f"γ {number(row['gamma_deg'], 4)}°, τ⊥ {'>' if side == 'max' else '<'} 0: " \
                    + row[f"unknown_{side}"].replace("_", " ")
             if held is not None and np.isfinite(held):
-                text += f" beyond {number(abs(held), 4)} N·m"
-                if abs(axis) > AXIS_POLE_DEG:
-                    text += (f", where the load has turned the sphere's axis to {axis:.3f}° (ω2/ω1 grows without "
-                             "bound towards ±90°)")
+                text += f" beyond {number(abs(held), 4)} N·m (the sphere's axis at {axis:.2f}°)"
             out.append(text)
     return out
 
 
 def summary_text(record: dict) -> str:
-    """'box: smallest capacity 4.267 N·m (γ 0°, τ⊥ > 0: gross slip at B, B_), 4.27× the envelope's largest load
-    1 N·m', or where the model stopped first, that the smallest capacity is not known and where."""
+    """'box: smallest capacity 0.4809 N·m (γ 40°, τ⊥ > 0: usable ratio, steering 1.21°, drive 0.79°), 0.481× the
+    envelope's largest load 1 N·m', or where the model stopped first, that the smallest capacity is not known
+    and where."""
     least, env = record["smallest"], max(abs(v) for v in record["envelope"]["tau_perp_Nm"])
     if least["gamma_deg"] is None:
         return f"{record['name']}: no capacity is known at any γ"
@@ -159,12 +244,12 @@ def summary_text(record: dict) -> str:
         return (f"{record['name']}: smallest capacity not known: at {where} the model stops at "
                 f"{number(abs(row[f'held_{side}_Nm']), 4)} N·m before any limit (³), below every capacity found")
     tau = least["tau_perp_Nm"]
-    return (f"{record['name']}: smallest capacity {number(tau, 4)} N·m ({where}: {LIMIT_WORDS[least['limit']]} "
-            f"at {', '.join(row[f'contacts_{side}'])}), {tau / env:.3g}× the envelope's largest load {number(env, 4)} N·m")
+    return (f"{record['name']}: smallest capacity {number(tau, 4)} N·m ({where}: {LIMIT_WORDS[least['limit']]}, "
+            f"{_where(row, side)}), {tau / env:.3g}× the envelope's largest load {number(env, 4)} N·m")
 
 
 def run(args):
-    safety = check_safety(args.safety)
+    safety, max_slip = check_safety(args.safety), check_max_slip(args.max_slip)
     files = [Path(f) for f in args.variants]
     layouts = [load_variant(f) for f in files]
     names = basis.distinct_names(layouts)
@@ -173,7 +258,7 @@ def run(args):
     with progress_bar(console, "capacity", lambda item: item, transient=True) as progress:
         for i, (L, name) in enumerate(zip(layouts, names)):
             model = compile_model(dataclasses.replace(L, name=name))
-            cap = capacity(model, L.gamma_grid, load_capacity(L), safety,
+            cap = capacity(model, L.gamma_grid, load_capacity(L), safety, max_slip,
                            progress=lambda d, t, item, i=i, n=name: progress(i * t + d, len(layouts) * t,
                                                                              f"{n}: {item or 'done'}"))
             records.append(variant_record(name, model, cap))

@@ -29,7 +29,8 @@ COMMANDS = {     # name -> one-line help; cvtdesign.cli.<name> runs it
     "new": "write a commented variant file from a template (existing, box or unequal) to start from",
     "show": "draw a variant's layout (sphere, rollers, axles, forks, frames) and print its ideal law",
     "compare": "evaluate variants over their envelope and print a side-by-side table",
-    "capacity": "the largest load τ⊥ at each γ before a contact slips grossly, loses contact or is over its pressure",
+    "capacity": "the largest load τ⊥ at each γ before |α| passes a usable bound, the ratio runs away, or a contact "
+                "slips grossly, loses contact or is over its pressure",
     "optimise": "optimise a variant's parameters under slip/efficiency objectives (IPOPT)",
     "study": "run a study's cases (sweeps, multistarts, Pareto fronts) in batch on Dask",
     "export": "write the variant's assembly as STEP (+ SVG, PNG) for mechanical review",
@@ -108,6 +109,10 @@ def _add_capacity(p):
     p.add_argument("--safety", type=float, default=1.0,
                    help="safety factor S ≥ 1 on friction: a contact counts as slipping grossly once its "
                         "utilisation F/(μN) reaches 1/S (default 1)")
+    p.add_argument("--max-slip", metavar="ANGLE",
+                   help="usable-ratio bound: the capacity ends where the CVT slip angle |α| passes it (default "
+                        "2deg, about 10%% speed-ratio error at ratios 0.4 and 2.5; 90deg: no bound; a plain "
+                        "number is in rad)")
 
 
 def _add_optimise(p):

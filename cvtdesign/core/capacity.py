@@ -10,7 +10,17 @@ The limits are the model's own (core.model, `status`), so that capacity and `com
    the smaller allowable_pressure of its roller's and the sphere's materials (core.metrics.allowable_pressures;
    a contact whose materials give none is not checked).
 A point where the model has no number (not_converged, reversed, multiple_roots) is no limit of the CVT but
-a limit of the model: where the search ends on one, the capacity is unknown and no number is returned.
+a limit of the model: where the search ends on one, the capacity is unknown and no number is returned,
+unless the CVT ran away there (below). Two limits are the cobot's:
+ * usable_ratio: at a point that holds, the CVT slip angle |α| passes `max_slip` (MAX_SLIP by default). α is
+   the angle between the shaft-speed vector (ω1, ω2) and the commanded direction (Kim et al., "Causes of
+   microslip in a continuously variable transmission", sec. 2.2), the direction error of the cobot's virtual
+   constraint; it is defined at every γ, where the speed-ratio error is not (the ratio is 0 at γ = 0 and
+   without bound towards ±90°);
+ * runaway: the search ends where the model has no steady state, and at the last load that held the apparent
+   axis γ + α (the axis that turns the shafts at their speeds) was within POLE_TOL of ±90°, the pole of the
+   speed ratio: ω2/ω1 grows without bound as the load approaches it and no steady state is left beyond (the
+   box at γ = 80°: 4.4725 N·m). The capacity is that last load; the output shaft runs away past it.
 
 Method, vectorised over γ and both signs (one `evaluate` call per step): the load is raised from zero in
 steps of `bound`/SCAN_STEPS (a continuation in load: the first step that fails brackets the first limit,
@@ -25,23 +35,39 @@ from __future__ import annotations
 
 import numpy as np
 
+from cvtdesign.core.contact import hertz
+from cvtdesign.core.kinematics import wrap_axis_angle
 from cvtdesign.core.metrics import allowable_pressures
 from cvtdesign.core.model import STATUS, CompiledModel
 
-LIMITS = ("gross_slip", "lost_contact", "pressure")   # the limits of the CVT a capacity can end at
+LIMITS = ("gross_slip", "lost_contact", "pressure", "usable_ratio", "runaway")   # the limits a capacity can end at
 SCAN_STEPS = 128      # steps of the load scan up to the search bound
 SCAN_BLOCK = 16       # load steps evaluated per call of the scan
 RTOL = 1e-6           # relative width of the final bracket
 PRESSURE = len(STATUS)    # code of a point that holds with some contact over its allowable pressure
+USABLE = len(STATUS) + 1  # code of a point that holds with |α| over the usable-ratio bound
+RUNAWAY = len(STATUS) + 2  # code of a search that ended with the speed ratio at its pole (module docstring)
 NO_LIMIT = -1             # code where no limit was met up to the search bound
+MODEL_STOPS = tuple(STATUS.index(s) for s in ("not_converged", "reversed", "multiple_roots"))
+# The default usable-ratio bound |α| ≤ 2°. Brokowski et al. ("Toward improved CVTs: theoretical and experimental
+# results", sec. 5.2.1, eq. 23) judge a resteered CVT by its speed-ratio error over the ratios 0.4–2.5 and accept
+# an average under 10 %. On Kim's law ω2/ω1 = tan γ an error α in the axis gives a relative ratio error
+# 2α/sin 2γ to first order, largest at the ends of that range (sin 2γ = 0.69): 10 % there is α = 1.98°. So 2°
+# keeps the ratio within about 10 % everywhere in 0.4–2.5 (exactly: −9.3 to +11.1 %, 7 % at ratio 1).
+MAX_SLIP = float(np.radians(2.0))
+POLE_TOL = float(np.radians(1.0))   # apparent axis within this of ±90° where the model stops: runaway (on the
+#                                     shipped variants every stop is within 0.12°, ω2/ω1 ≥ 4900)
+PIVOT_SHARE = 0.95    # a drive contact whose spin moment reaches this share of μNℓ pivots (pivoting)
 
 
-def limit_codes(model: CompiledModel, res: dict, allow: np.ndarray, safety: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def limit_codes(model: CompiledModel, res: dict, allow: np.ndarray, safety: float = 1.0,
+                max_slip: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per point of an `evaluate` result: (code, contact). code is 0 where the point holds within every
     limit, its STATUS code where the model flags it, gross_slip too where it holds but a contact's traction
     utilisation |F|/(μN) has reached 1/`safety`, PRESSURE where it holds but a contact's Hertz peak pressure is
-    over its allowable `allow` [Pa] (NaN: not checked); contact is the index of the roller behind gross_slip
-    (the most utilised), lost_contact or pressure (the one most over its allowable), −1 otherwise."""
+    over its allowable `allow` [Pa] (NaN: not checked), USABLE where it holds within those but |α| is over
+    `max_slip` [rad] (None: no bound); contact is the index of the roller behind gross_slip (the most
+    utilised), lost_contact or pressure (the one most over its allowable), −1 otherwise."""
     code, contact = res["status"].copy(), res["failed_contact"].copy()
     shape = (-1, *([1] * code.ndim))
     used = np.where(np.isfinite(res["utilisation"]), res["utilisation"], -np.inf)
@@ -54,26 +80,33 @@ def limit_codes(model: CompiledModel, res: dict, allow: np.ndarray, safety: floa
     pressed = (code == 0) & (over.max(axis=0) > 1)
     code[pressed] = PRESSURE
     contact[pressed] = np.argmax(over[:, pressed], axis=0)
+    if max_slip is not None:
+        with np.errstate(invalid="ignore"):
+            code[(code == 0) & (np.abs(res["alpha"]) > max_slip)] = USABLE
     return code, contact
 
 
-def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, progress=None) -> dict:
+def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, max_slip: float | None = MAX_SLIP,
+             progress=None) -> dict:
     """The load capacity of `model` at each commanded γ [rad] (module docstring), searched up to |τ⊥| =
     `bound` [N m] (e.g. io.limits.load_capacity: all the traction the preloads allow), a contact counted as
-    slipping grossly once its utilisation |F|/(μN) reaches 1/`safety` (safety ≥ 1).
+    slipping grossly once its utilisation |F|/(μN) reaches 1/`safety` (safety ≥ 1), the ratio no longer usable
+    once |α| passes `max_slip` [rad] (None: not bounded).
 
     Returns a dict of arrays over γ, for side in ('max', 'min') (τ⊥ > 0 and τ⊥ < 0):
-     * tau_perp_<side> [N m]: the capacity (NaN where unknown, and where the point fails without load);
-     * tau_1_<side>, tau_2_<side> [N m]: the shaft torques at that load (the model evaluated there);
+     * tau_perp_<side> [N m]: the capacity (NaN where unknown; 0 where a limit is met without load);
+     * tau_1_<side>, tau_2_<side> [N m], alpha_<side>, alpha_steering_<side> [rad]: the shaft torques, the slip
+       angle and its steering part (the sphere's axis off the command) at that load;
      * limit_<side>: a LIMITS name, 'not_converged', 'reversed' or 'multiple_roots' (the model has no number
-       where the search ended: capacity unknown), or 'none' (no limit up to `bound`: capacity unknown);
-     * contact_<side>: the index of the limiting roller (−1 where none), the one the model names;
-       sharing_<side> (contacts × γ): every contact that reaches the limit with it (_sharing);
-     * held_<side> [N m]: where the search ended on no limit of the CVT (limit not in LIMITS), the largest
-       load at which the point was evaluated and held (NaN elsewhere), for saying how far the model went, and
-       held_axis_<side> [rad] the sphere's axis angle γ_axis there: near ±90° the load has turned the axis
-       to the pole of the speed ratio, where ω2/ω1 grows without bound and no steady state is left (the box
-       at γ = 80°: γ_axis 89.99° and ω2/ω1 = 13642 at 4.47 N·m, not converged at 4.48 N·m).
+       where the search ended, and the ratio was not at its pole: capacity unknown), or 'none' (no limit up to
+       `bound`: capacity unknown);
+     * contact_<side>: the index of the limiting roller (−1 where none, as for usable_ratio and runaway, which
+       are the machine's), the one the model names; sharing_<side> (contacts × γ): every contact that
+       reaches the limit with it (_sharing);
+     * held_<side> [N m]: where the search ended on no limit (limit not in LIMITS), the largest load at which
+       the point was evaluated and held (NaN elsewhere), for saying how far the model went, and
+       held_axis_<side> [rad] the sphere's axis angle γ_axis there.
+    Also max_slip (NaN where not bounded) and pivoting (`pivoting`, at zero load).
     `progress(done, total, item)` is called after each evaluation."""
     g = np.atleast_1d(np.asarray(gammas, float))
     n = g.size
@@ -83,22 +116,27 @@ def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, pr
     h = float(bound) / SCAN_STEPS
 
     def judge(loads):
-        return limit_codes(model, model.evaluate(G[:, None], sign[:, None] * np.atleast_2d(loads)), allow, safety)
+        res = model.evaluate(G[:, None], sign[:, None] * np.atleast_2d(loads))
+        return limit_codes(model, res, allow, safety, max_slip)
 
     steps = SCAN_STEPS // SCAN_BLOCK + int(np.ceil(np.log2(1 / RTOL))) + 1
     lo, hi, code, contact = _scan(judge, 2 * n, h, progress, steps)
     lo, hi, code, contact = _bisect(judge, lo, hi, code, contact, progress, steps)
-    limited = np.isin(code, [STATUS.index("gross_slip"), STATUS.index("lost_contact"), PRESSURE])
-    known = limited & (hi > 0)          # failing without load: the limit is named, there is no capacity
     res = model.evaluate(G, sign * lo)      # the last load that held (0 where none)
+    code = np.where(_ran_away(res, code, lo), RUNAWAY, code)
+    limited = np.isin(code, [STATUS.index("gross_slip"), STATUS.index("lost_contact"), PRESSURE, USABLE, RUNAWAY])
+    known = limited & (hi > 0)          # failing without load: the limit is named, there is no capacity
     shared = _sharing(res, code, allow, model.layout) & known
-    names = {**dict(enumerate(STATUS)), PRESSURE: "pressure", NO_LIMIT: "none"}
-    out = {"gamma": g, "bound": float(bound), "safety": float(safety)}
+    names = {**dict(enumerate(STATUS)), PRESSURE: "pressure", USABLE: "usable_ratio", RUNAWAY: "runaway",
+             NO_LIMIT: "none"}
+    out = {"gamma": g, "bound": float(bound), "safety": float(safety),
+           "max_slip": np.nan if max_slip is None else float(max_slip), "pivoting": pivoting(model, g)}
     for side, part in (("max", slice(0, n)), ("min", slice(n, 2 * n))):
         held = known[part] & res["ok"][part]
-        out[f"tau_perp_{side}"] = np.where(held, sign[part] * lo[part], np.nan)
-        for k in ("tau_1", "tau_2"):
-            out[f"{k}_{side}"] = np.where(held, res[k][part], np.nan)
+        at_zero = limited[part] & (hi[part] == 0)        # a limit met without load: the capacity is 0
+        out[f"tau_perp_{side}"] = np.where(held, sign[part] * lo[part], np.where(at_zero, 0.0, np.nan))
+        for k in ("tau_1", "tau_2", "alpha", "alpha_steering"):     # where it held, or holds without load
+            out[f"{k}_{side}"] = np.where(held | (at_zero & res["ok"][part]), res[k][part], np.nan)
         out[f"limit_{side}"] = np.array([names[int(c)] for c in code[part]], dtype=object)
         out[f"contact_{side}"] = np.where(limited[part], contact[part], -1)
         out[f"sharing_{side}"] = shared[:, part]
@@ -108,6 +146,43 @@ def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, pr
     if progress:
         progress(steps, steps, None)
     return out
+
+
+def _ran_away(res: dict, code, lo) -> np.ndarray:
+    """Where the search ended on a model stop (MODEL_STOPS) after holding some load, with the apparent axis
+    γ + α at that load within POLE_TOL of ±90° (an axis is a line: γ + α wrapped to ±90°): the speed ratio's
+    pole, the CVT's runaway (module docstring). Its contact is none."""
+    with np.errstate(invalid="ignore"):
+        pole = np.pi / 2 - np.abs(wrap_axis_angle(res["gamma_cmd"] + res["alpha"]))
+        return np.isin(code, MODEL_STOPS) & (lo > 0) & res["ok"] & (pole < POLE_TOL)
+
+
+def pivoting(model: CompiledModel, gammas) -> dict:
+    """The drive and follower rollers that pivot on the sphere with no load, at each commanded γ [rad]: their
+    spin moment |Mz| at PIVOT_SHARE or more of μNℓ, the moment of a patch that slides all over in pure spin
+    (ℓ the Hertz pressure's mean lever, core.contact.hertz.pivot_lever). Where the shaft of a drive roller
+    stands still (the box's B and B' at γ = 0) the sphere spins about that roller's contact normal; under a
+    law with spin (FASTSIM) the patch then slides, dissipating power that reaches no output at any load.
+    That is a loss and wear, not a limit of the load: the roller still carries its tangential force (the
+    capacity at γ = 0 ends on a limit like elsewhere), so it is reported, not counted as a capacity.
+
+    Returns {'modelled': False} where the law gives no spin moment at any contact although the drive contacts
+    spin (Kim's law: the pivoting is not modelled, which is not 'none'); else {'modelled': True, 'share':
+    (contacts × γ) |Mz|/(μNℓ) of the drive and follower rollers (NaN for steering rollers and where the point
+    fails), 'pivots' (contacts × γ) share ≥ PIVOT_SHARE, 'loss' (contacts × γ) [W] each contact's power loss,
+    'power_loss' (γ) [W] the whole loss}."""
+    g = np.atleast_1d(np.asarray(gammas, float))
+    res = model.evaluate(g, np.zeros_like(g))
+    drive = np.array([r.role != "steering" for r in model.layout.rollers])
+    spins = np.nan_to_num(np.abs(res["spin"][drive])).max(initial=0) > 0
+    if spins and not np.any(np.nan_to_num(res["M_spin"])):
+        return {"modelled": False}
+    lever = np.vectorize(lambda a, b: float(hertz.pivot_lever(a, b)))(res["a"], res["b"])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.abs(res["M_spin"]) / (res["mu"] * res["N"] * lever)
+    share[~drive] = np.nan
+    return {"modelled": True, "share": share, "pivots": np.nan_to_num(share) >= PIVOT_SHARE, "loss": res["loss"],
+            "power_loss": res["power_loss"]}
 
 
 SHARE_TOL = 1e-3      # contacts within this of the limiting one's (normalised) measure reach the limit together

@@ -891,6 +891,13 @@ for id, expect, args in [
     ("--json to a directory", ("--json", "is a directory"), ("--json", "{adir}")),
     ("--plots is a file", ("--plots", "is not a folder"), ("--plots", "{plain}")),
     ("--json is the variant", ("--json", "this command's input"), ("--json", "{v}")),
+    ("--max-slip 0", ("--max-slip", "expected more than 0 deg"), ("--max-slip", "0 deg")),
+    ("--max-slip negative", ("--max-slip", "expected more than 0 deg"), ("--max-slip=-2deg",)),
+    ("--max-slip past 90°", ("--max-slip", "expected at most 90 deg"), ("--max-slip", "91 deg")),
+    ("--max-slip plain number", ("--max-slip", "at most 90 deg", "did you mean '2 deg'"), ("--max-slip", "2")),
+    ("--max-slip not an angle", ("--max-slip", "expected an angle", "2 mm"), ("--max-slip", "2 mm")),
+    ("--max-slip nan", ("--max-slip", "finite"), ("--max-slip", "nan deg")),
+    ("--max-slip not a number", ("--max-slip", "expected an angle"), ("--max-slip", "two degrees")),
 ]:
     case(f"capacity: {id}", expect, cli("capacity", "{v}", "--json", "{out}/c.json", *args), "capacity", "command line")
 case("capacity: missing file", ("nope.yaml", "cannot read file"), cli("capacity", "{in}/nope.yaml"), "capacity",

@@ -1,7 +1,8 @@
 """`cvtdesign capacity`: the largest τ⊥ at each γ before the first contact reaches a limit (core.capacity), on
-small envelopes of the shipped box and existing CVTs; the limit and contact it names checked on the model
-itself just below and just above each capacity; the safety factor on friction; the pressure limit; the
-searches where the model stops before any limit, said and counted, never given a number."""
+small envelopes of the shipped box and existing CVTs, without the usable-ratio bound (--max-slip 90deg; that
+bound, the runaway and the pivoting: test_capacity_cobot.py); the limit and contact it names checked on the
+model itself just below and just above each capacity; the safety factor on friction; the pressure limit; the
+runaway where the load turns the ratio to its pole, named with its load."""
 from __future__ import annotations
 
 import contextlib
@@ -31,7 +32,8 @@ def small(data):
 
 @pytest.fixture(scope="module")
 def box_and_existing(tmp_path_factory):
-    """`capacity box_kim.yaml existing_kim.yaml --json --plots` on γ −80..80° step 40°: (JSON, stdout, plots folder)."""
+    """`capacity box_kim.yaml existing_kim.yaml --json --plots --max-slip 90deg` on γ −80..80° step 40°: (JSON, stdout,
+    plots folder)."""
     tmp = tmp_path_factory.mktemp("capacity")
     files = []
     for name in ("box_kim", "existing_kim"):
@@ -40,37 +42,40 @@ def box_and_existing(tmp_path_factory):
         files.append(write_yaml(tmp / f"{name}.yaml", data))
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        rc = main(["capacity", *map(str, files), "--json", str(tmp / "c.json"), "--plots", str(tmp / "plots")])
+        rc = main(["capacity", *map(str, files), "--json", str(tmp / "c.json"), "--plots", str(tmp / "plots"),
+                   "--max-slip", "90deg"])
     assert rc == 0
     return json.loads((tmp / "c.json").read_text()), out.getvalue(), tmp / "plots"
 
 
 def test_json_interface_and_every_gamma_named(box_and_existing):
     """The interface outside tools rely on: {"variants": [{"name", "capacity": [rows with KEYS]}]}; at every γ
-    and sign either a limit of the CVT with its contact, or no number at all with the reason counted."""
+    and sign a limit with its load: a contact's with its contact, or the runaway of the box at γ ±80° and of
+    existing at −80°, τ⊥ < 0 (the search used to end there on not_converged with no number), which has no
+    contact."""
     rep, out, plots = box_and_existing
     assert [v["name"] for v in rep["variants"]] == ["box_kim", "existing_kim"]
+    runaways = []
     for v in rep["variants"]:
-        assert [r["gamma_deg"] for r in v["capacity"]] == [-80, -40, 0, 40, 80]
-        unknown = 0
+        assert [r["gamma_deg"] for r in v["capacity"]] == [-80, -40, 0, 40, 80] and v["unknown"] == 0
         for row in v["capacity"]:
             assert KEYS <= row.keys()
             for side in ("max", "min"):
-                if row[f"limit_{side}"] is None:
-                    unknown += 1
-                    assert row[f"tau_perp_{side}_Nm"] is None and row[f"contact_{side}"] is None
-                    assert row[f"unknown_{side}"] == "not_converged" and abs(row[f"held_{side}_Nm"]) > 1
+                assert row[f"limit_{side}"] in LIMITS and row[f"unknown_{side}"] is None
+                assert np.sign(row[f"tau_perp_{side}_Nm"]) == (1 if side == "max" else -1)
+                if row[f"limit_{side}"] == "runaway":
+                    runaways.append((v["name"], row["gamma_deg"], side))
+                    assert row[f"contact_{side}"] is None and row[f"contacts_{side}"] == []
                 else:
-                    assert row[f"limit_{side}"] in LIMITS and row[f"contact_{side}"] in row[f"contacts_{side}"]
-                    assert np.sign(row[f"tau_perp_{side}_Nm"]) == (1 if side == "max" else -1)
-        assert unknown == v["unknown"]
+                    assert row[f"contact_{side}"] in row[f"contacts_{side}"]
+    assert runaways == [("box_kim", -80, "min"), ("box_kim", 80, "max"), ("existing_kim", -80, "min")]
     assert (plots / "box_kim+existing_kim_capacity.png").stat().st_size > 10_000
-    assert "box_kim: 2 of 10 searches ended where the model has no steady solution" in " ".join(out.split())
+    assert "box_kim: runaway at γ -80°, τ⊥ < 0 at 4.473 N·m; γ 80°, τ⊥ > 0 at 4.473 N·m" in " ".join(out.split())
 
 
 def test_box_carries_more_than_existing_for_kims_reason(box_and_existing):
-    """At every γ and sign the box carries more than Kim's existing CVT; where the box's model stops first
-    (γ ±80°, the load turning the sphere's axis to the pole) it has held more than existing carries there.
+    """At every γ and sign the box carries more than Kim's existing CVT, also where either runs away (γ ±80°,
+    the load turning the ratio to its pole).
     Why (Kim sec. 5.1): in existing, two steering rollers carry the load's moment, each with the whole lateral
     force, and the moment moves their normal forces in opposite directions, so the unloaded one slips first
     while the drive rollers still have friction to spare; the box's pole rollers act at the full moment arm,
@@ -80,18 +85,18 @@ def test_box_carries_more_than_existing_for_kims_reason(box_and_existing):
     box, existing = rep = box_and_existing[0]["variants"]
     for b, e in zip(box["capacity"], existing["capacity"]):
         for side in ("max", "min"):
-            carried = [abs(r[f"tau_perp_{side}_Nm"] or r[f"held_{side}_Nm"]) for r in (b, e)]
+            carried = [abs(r[f"tau_perp_{side}_Nm"]) for r in (b, e)]
             assert carried[0] > 1.5 * carried[1], (b["gamma_deg"], side, carried)
-            if e[f"limit_{side}"]:
+            if e[f"limit_{side}"] != "runaway":
                 assert e[f"limit_{side}"] == "gross_slip" and e[f"contact_{side}"] in ("S1", "S2")
-            if b[f"limit_{side}"]:
+            if b[f"limit_{side}"] != "runaway":
                 assert b[f"limit_{side}"] == "gross_slip" and b[f"contacts_{side}"] in (["A", "A_"], ["B", "B_"])
     zero = box["capacity"][2]
     np.testing.assert_allclose(zero["tau_2_max_Nm"], 2 * 0.8 * 100 * 0.040, rtol=2 * RTOL)
     states = {}
     for name, v in zip(("box_kim", "existing_kim"), rep):       # the state at each capacity τ⊥ > 0
         m = shipped_model(name)
-        rows = [r for r in v["capacity"] if r["limit_max"]]
+        rows = [r for r in v["capacity"] if r["limit_max"] == "gross_slip"]
         tau = np.array([r["tau_perp_max_Nm"] for r in rows])
         res = m.evaluate(np.radians([r["gamma_deg"] for r in rows]), tau)
         steer = [i for i, r in enumerate(m.layout.rollers) if r.role == "steering"]
@@ -105,7 +110,7 @@ def test_box_carries_more_than_existing_for_kims_reason(box_and_existing):
     other = [steer[1 - steer.index(i)] for i in k]
     assert np.all(res["N"][k, cols] < res["N"][other, cols]) and np.all(res["utilisation"][:2] < 0.96)
     np.testing.assert_allclose(np.abs(res["F_a"][k, cols]), np.abs(res["F_a"][other, cols]), rtol=1e-6)
-    assert np.all(box_lateral < 0.6 * (np.abs(res["F_a"][k, cols]) / tau)[:4])   # γ −80..40 (the box's 80° stops)
+    assert np.all(box_lateral < 0.6 * (np.abs(res["F_a"][k, cols]) / tau)[:4])   # γ −80..40 (the box's 80° runs away)
 
 
 @pytest.mark.parametrize("gamma_deg", [-40, 40])
@@ -113,7 +118,7 @@ def test_the_named_limit_is_met_just_beyond_the_capacity(gamma_deg):
     """Just below each capacity (by RTOL) the point holds, every utilisation below 1; just above (by 2·RTOL)
     the model flags gross slip at the contact named (existing, both signs)."""
     m = shipped_model("existing_kim")
-    cap = capacity(m, [np.radians(gamma_deg)], load_capacity(m.layout))
+    cap = capacity(m, [np.radians(gamma_deg)], load_capacity(m.layout), max_slip=None)
     for side in ("max", "min"):
         tau, k = cap[f"tau_perp_{side}"][0], cap[f"contact_{side}"][0]
         res = m.evaluate(np.radians(gamma_deg), np.array([tau * (1 - RTOL), tau * (1 + 2 * RTOL)]))
@@ -127,7 +132,7 @@ def test_safety_factor_counts_gross_slip_at_one_over_s(cli, make_variant, tmp_pa
     the factor but above that divided by 1.5 (its steering roller's N falls with load)."""
     js = tmp_path / "c.json"
     files = [make_variant(n, small) for n in ("box_kim", "existing_kim")]
-    rc, out, err = cli("capacity", *files, "--safety", "1.5", "--json", js)
+    rc, out, err = cli("capacity", *files, "--safety", "1.5", "--json", js, "--max-slip", "90deg")
     assert rc == 0 and err == ""
     assert "gross slip at F/(μN) = 1/1.5" in out and "reaches 1/1.5 = 0.667" in out
     box, existing = json.loads(js.read_text())["variants"]
@@ -150,7 +155,7 @@ def test_pressure_limit_names_the_contact(cli, make_variant, tmp_path):
         for k in ("urethane_82A", "urethane_84A"):
             d["materials"][k]["allowable_pressure"] = "2.7 MPa"
     js = tmp_path / "c.json"
-    rc, out, err = cli("capacity", make_variant("existing_kim", edit), "--json", js)
+    rc, out, err = cli("capacity", make_variant("existing_kim", edit), "--json", js, "--max-slip", "90deg")
     assert rc == 0 and err == ""
     rows = json.loads(js.read_text())["variants"][0]["capacity"]
     assert {r["limit_max"] for r in rows} == {r["limit_min"] for r in rows} == {"pressure"}
@@ -159,7 +164,7 @@ def test_pressure_limit_names_the_contact(cli, make_variant, tmp_path):
     k = [m.roller_names.index(r["contact_max"]) for r in rows]
     assert set(k) <= {2, 3} and np.all(res["N"][k, range(5)] > 100)
     np.testing.assert_allclose(res["p_max"][k, range(5)], 2.7e6, rtol=1e-5)
-    assert "pressure at S2" in out
+    assert "pressure, S2" in out
 
 
 def test_limit_codes_order_and_safety():
@@ -181,17 +186,22 @@ def test_limit_codes_order_and_safety():
 
 
 def test_smallest_capacity_over_gamma():
-    """The smallest capacity is the least |τ⊥| over γ and sign where every search ended on a limit; where a
-    search ended on no limit below it (the box at ±80°, the axis at the pole), it is not known."""
+    """The smallest capacity is the least |τ⊥| over γ and sign where every search ended on a limit (the box's
+    at its runaway at 80°); where a search ended on no limit below it, it is not known."""
     m = shipped_model("existing_kim")
     g = np.radians([0.0, 40.0, 80.0])
-    cap = capacity(m, g, load_capacity(m.layout))
+    cap = capacity(m, g, load_capacity(m.layout), max_slip=None)
     least = smallest_capacity(cap)
     taus = np.abs(np.concatenate([cap["tau_perp_max"], cap["tau_perp_min"]]))
     assert least["tau_perp"] == np.nanmin(taus) and least["limit"] == "gross_slip" and least["unknown"] == 0
     assert least["gamma"] == g[1] and m.roller_names[least["contact"]] in ("S1", "S2")
     box = shipped_model("box_kim")
-    least = smallest_capacity(capacity(box, np.radians([0.0, 80.0]), load_capacity(box.layout)))
+    cap = capacity(box, np.radians([0.0, 80.0]), load_capacity(box.layout), max_slip=None)
+    least = smallest_capacity(cap)
+    assert least["limit"] == "runaway" and least["unknown"] == 0 and least["contact"] == -1
+    assert least["gamma"] == np.radians(80.0) and least["side"] == "max" and abs(least["tau_perp"] - 4.4725) < 1e-3
+    cap["limit_max"][1], cap["held_max"][1], cap["tau_perp_max"][1] = "not_converged", 4.0, np.nan
+    least = smallest_capacity(cap)       # a search that stopped away from the pole, below every capacity
     assert np.isnan(least["tau_perp"]) and least["limit"] is None and least["unknown"] == 1
     assert least["gamma"] == np.radians(80.0) and least["side"] == "max"
 
@@ -217,7 +227,7 @@ def test_an_optimum_under_min_capacity_carries_it_at_every_gamma(tmp_path, cli):
                      "--out", tmp_path / "o", "--json", tmp_path / "r.json")
     res = json.loads((tmp_path / "r.json").read_text())
     assert code == 0 and res["status"] == "Solve_Succeeded"
-    assert cli("capacity", res["variant_file"], "--safety", 1.25, "--json", tmp_path / "c.json")[0] == 0
+    assert cli("capacity", res["variant_file"], "--safety", 1.25, "--json", tmp_path / "c.json", "--max-slip", "90deg")[0] == 0
     cap = json.loads((tmp_path / "c.json").read_text())["variants"][0]["capacity"]
     assert len(cap) == 5 and all(c["tau_perp_max_Nm"] >= 6 - 1e-6 and c["tau_perp_min_Nm"] <= -6 + 1e-6 for c in cap)
 
