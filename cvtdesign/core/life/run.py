@@ -1,0 +1,256 @@
+"""Heat, wear and life of every contact of a variant over a duty cycle (docs/life.md); units SI.
+
+At each duty point the model (core.model) gives each contact's normal force, patch, rolling speed, and the
+power its creep and spin dissipate. To that this adds the rolling resistance of hysteresis (Johnson;
+core.life.hysteresis), which the motor supplies. Each roller takes its share of both as heat (all of its
+own hysteresis, its effusivity's share of the friction: core.life.thermal), and its lumped temperature over
+the repeated cycle follows. The temperature feeds back: a softer roller creeps more (Hertz + Kalker: the
+creep compliance at a given load goes as E^(−1/3), applied to each side's creep scale at its hottest
+roller), its patch grows (a ∝ E^(−1/3)) and its μ falls; the model is evaluated again until the cycle-mean
+temperatures agree to TOL_K. Where they run away instead (the loss grows with temperature faster than the
+roller sheds it), or the model stops holding at the hot state (gross slip, lost contact), the limit is
+`runaway`. Then, per contact: wear from the frictional work (core.life.wear), the temperature against the
+materials' maximum, and for steel on steel the L10 over the cycle by Miner's rule (core.life.fatigue); its
+life is the hours to the first of these limits.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from cvtdesign.core.effects import CALIBRATION, EFFECTS
+from cvtdesign.core.geometry import pose
+from cvtdesign.core.life import fatigue, hysteresis, thermal, wear
+from cvtdesign.core.life.duty import WEAR_LIMIT_RATIO, DutyCycle
+from cvtdesign.core.life.props import Ageing, friction_factor, modulus_factor
+from cvtdesign.core.model import STATUS, CompiledModel
+
+TOL_K = 1e-3            # [K] the temperatures' change at which the feedback has converged
+MAX_ITER = 100
+RUNAWAY_K = 573.15      # [K] 300 °C: a roller this hot has run away whatever its material
+CREEP_SCALES = {side: f"{effect}.scale" for side, effect in CALIBRATION.items()}   # each side's creep scale
+
+
+class DutyOutsideModel(Exception):
+    """A duty point where the model does not hold at the ambient temperature (its status and contact)."""
+
+
+@dataclass
+class ContactLife:
+    """One contact's figures over the cycle (arrays: one entry per duty point)."""
+    name: str
+    loss: np.ndarray          # [W] creep, spin and hysteresis
+    friction: np.ndarray      # [W] creep and spin
+    hysteresis: np.ndarray    # [W]
+    heat: np.ndarray          # [W] into the roller
+    T_mean: float             # [K] the cycle-mean temperature
+    T_peak: float             # [K] the cycle's highest, with the flash temperature
+    wear_rate: float          # [m/s] mean depth rate
+    wear_limit: float         # [m]
+    life: float               # [s] to the first limit
+    limit: str                # temperature, wear, fatigue or runaway
+    lives: dict               # [s] each limit's own time
+    why: str = ""             # what ran away
+
+
+@dataclass
+class MachineLife:
+    contacts: list
+    life: float               # [s]
+    limit: str
+    contact: str
+    iterations: int
+    power_in: np.ndarray      # [W] per duty point: the shafts' input, hysteresis included
+    power_out: np.ndarray     # [W] per duty point
+    ratio_error: float        # [-] the speed-ratio error the drive rollers' wear causes at the machine's life
+
+
+def rolling_speeds(model: CompiledModel, res: dict) -> np.ndarray:
+    """Each contact's rolling speed R |Ω·a| [m/s] at each point (contacts × points), a the axle at the point's
+    steering angle."""
+    L = model.layout
+    om = np.stack([res["Omega_x"], res["Omega_y"], res["Omega_z"]])
+    out = np.empty((len(L.rollers), om.shape[1]))
+    for k in range(om.shape[1]):
+        for i, r in enumerate(L.rollers):
+            out[i, k] = L.sphere_radius * abs(float(np.dot(om[:, k], pose(r, res["phi"][k])[1])))
+    return out
+
+
+def _theta(model: CompiledModel, scales: dict) -> np.ndarray:
+    th = np.array(model.param_values, float)
+    for side, name in CREEP_SCALES.items():
+        if name in model.param_names:
+            th[model.param_names.index(name)] *= scales[side]
+    return th
+
+
+def _softening(model, ageing, T) -> tuple[dict, np.ndarray]:
+    """Each side's creep-scale factor (its hottest roller's E^(−1/3)) and each roller's E(T)/E factor."""
+    f = np.array([modulus_factor(a[0], t) for a, t in zip(ageing, T)])
+    sides = {"drive": [i for i, r in enumerate(model.layout.rollers) if r.role != "steering"],
+             "steering": [i for i, r in enumerate(model.layout.rollers) if r.role == "steering"]}
+    return {s: float(np.max(f[ix] ** (-1 / 3))) if ix else 1.0 for s, ix in sides.items()}, f
+
+
+def _evaluate(model, duty, theta):
+    res = model.evaluate(duty.gamma, duty.load, speeds=duty.speed, theta=theta)
+    return res, rolling_speeds(model, res) if np.all(res["ok"]) else None
+
+
+def _not_ok(model, res) -> tuple[int, str, str]:
+    k = int(np.flatnonzero(~res["ok"])[0])
+    c = int(res["failed_contact"][k])
+    return k, STATUS[int(res["status"][k])], (model.roller_names[c] if c >= 0 else "")
+
+
+def _heat(model, ageing, res, V, Efac):
+    """Per contact and point: (friction loss, hysteresis loss, heat into the roller) [W]."""
+    L = model.layout
+    fr = np.maximum(np.asarray(res["loss"], float), 0.0)
+    own_resistance = any("resistance" in EFFECTS[e].hooks for e in L.effects)
+    hy, heat = np.zeros_like(fr), np.zeros_like(fr)
+    for i, r in enumerate(L.rollers):
+        ra, sa = ageing[i]
+        s_r, s_s = hysteresis.energy_shares(r.material.E * Efac[i], r.material.nu, L.sphere_material.E,
+                                            L.sphere_material.nu)
+        alpha = hysteresis.contact_loss_fraction(ra["loss_fraction"], s_r, sa["loss_fraction"], s_s)
+        if not own_resistance:              # else the model's own rolling resistance (an effect) holds it
+            a = res["a"][i] * Efac[i] ** (-1 / 3)
+            hy[i] = hysteresis.rolling_resistance(alpha, res["N"][i], a, hysteresis.rolling_radius(
+                L.sphere_radius, r.radius)) * V[i]
+        own = ra["loss_fraction"] * s_r / alpha if alpha > 0 else 1.0
+        e_r = thermal.effusivity(ra["conductivity"], ra["density"], ra["specific_heat"])
+        e_s = thermal.effusivity(sa["conductivity"], sa["density"], sa["specific_heat"])
+        heat[i] = own * hy[i] + thermal.heat_share(e_r, e_s) * fr[i]
+    return fr, hy, heat
+
+
+def _thermal(model, ageing, duty, heat, V):
+    """Per roller: (C, G per point, cycle temperatures (starts, means, mean))."""
+    out = []
+    for i, r in enumerate(model.layout.rollers):
+        ra = ageing[i][0]
+        C = thermal.heat_capacity(ra["density"], ra["specific_heat"], r.radius, r.width, duty.hub_ratio)
+        G = thermal.convection_coefficient(V[i] / r.radius, r.radius) * thermal.surface_area(
+            r.radius, r.width, duty.hub_ratio) + thermal.hub_conductance(ra["conductivity"], r.width, duty.hub_ratio)
+        out.append((C, G, thermal.cycle_temperatures(heat[i], G, duty.seconds, C, duty.ambient)))
+    return out
+
+
+def consistent_state(model: CompiledModel, duty: DutyCycle, ageing: list) -> dict:
+    """Iterate model ⇄ temperatures to the consistent state (module docstring). Returns the state's arrays,
+    with `runaway` (None, or (contact index, why)) and the iterations taken."""
+    T = np.full(len(model.layout.rollers), duty.ambient)
+    runaway, last = None, None
+    for it in range(1, MAX_ITER + 1):
+        scales, Efac = _softening(model, ageing, T)
+        res, V = _evaluate(model, duty, _theta(model, scales))
+        if V is None:
+            k, status, contact = _not_ok(model, res)
+            if it == 1:
+                raise DutyOutsideModel(f"duty point {k + 1}: {status.replace('_', ' ')}"
+                                       + (f" at {contact}" if contact else ""))
+            runaway = (model.roller_names.index(contact) if contact else 0, f"{status} when hot")
+            break
+        fr, hy, heat = _heat(model, ageing, res, V, Efac)
+        th = _thermal(model, ageing, duty, heat, V)
+        last = dict(res=res, V=V, friction=fr, hysteresis=hy, heat=heat, thermal=th, T=T, iterations=it)
+        T_new = np.array([t[2][2] for t in th])
+        mu = np.array([[friction_factor(a[0], t)] for a, t in zip(ageing, T_new)])
+        slips = np.nanmax(res["utilisation"] / mu, axis=1) >= 1
+        if np.any(T_new > RUNAWAY_K) or np.any(slips):
+            i = int(np.argmax(slips)) if np.any(slips) else int(np.argmax(T_new))
+            runaway = (i, "gross slip when hot" if slips[i] else "temperature beyond 300 °C")
+            break
+        if np.max(np.abs(T_new - T)) < TOL_K:
+            break
+        T = T_new
+    else:
+        runaway = (int(np.argmax(T)), f"no consistent temperature in {MAX_ITER} iterations")
+    return {**last, "runaway": runaway}
+
+
+def _contact(model, duty, ageing, state, i) -> ContactLife:
+    """One contact's figures and life from the consistent state."""
+    r, (ra, sa) = model.layout.rollers[i], ageing[i]
+    res, V, s = state["res"], state["V"], duty.shares
+    C, G, (starts, _, T_mean) = state["thermal"][i]
+    e_r = thermal.effusivity(ra["conductivity"], ra["density"], ra["specific_heat"])
+    e_s = thermal.effusivity(sa["conductivity"], sa["density"], sa["specific_heat"])
+    flash = thermal.flash_temperature(thermal.heat_share(e_r, e_s) * state["friction"][i], res["a"][i],
+                                      res["b"][i], V[i], ra["conductivity"], ra["density"], ra["specific_heat"],
+                                      duty.seconds)
+    ends = np.roll(starts, -1)
+    T_peak = float(np.max(np.maximum(starts, ends) + flash))
+    rate = wear.wear_rate(ra["wear_coefficient"], state["friction"][i], r.radius, res["b"][i])
+    mean_rate = float(np.sum(s * rate))
+    limit = duty.wear_limit if duty.wear_limit is not None else WEAR_LIMIT_RATIO * r.radius
+    lives = {"wear": limit / mean_rate if mean_rate > 0 else math.inf}
+    T_max = ra["max_temperature"]
+    G_mean = float(np.sum(s * G))
+    lives["temperature"] = thermal.warm_up_time(T_max - (T_peak - T_mean), T_mean, duty.ambient, C, G_mean)
+    if ra.has("fatigue_pressure") and sa.has("fatigue_pressure"):
+        l10 = np.minimum(*(fatigue.l10_seconds(res["p_max"][i], V[i], r.radius, m["fatigue_pressure"],
+                                               m["fatigue_cycles"], m["fatigue_exponent"]) for m in (ra, sa)))
+        lives["fatigue"] = fatigue.miner_life(l10, s)
+    limit_name = min(lives, key=lives.get)
+    return ContactLife(model.roller_names[i], state["friction"][i] + state["hysteresis"][i], state["friction"][i],
+                       state["hysteresis"][i], state["heat"][i], T_mean, T_peak, mean_rate, limit,
+                       lives[limit_name], limit_name, lives)
+
+
+def machine_life(model: CompiledModel, duty: DutyCycle, ageing: list) -> MachineLife:
+    """Every contact's life over the duty cycle and the machine's: its first contact's (module docstring).
+    `ageing`: per roller, in the layout's order, (its material's Ageing, the sphere's)."""
+    state = consistent_state(model, duty, ageing)
+    contacts = [_contact(model, duty, ageing, state, i) for i in range(len(model.layout.rollers))]
+    if state["runaway"] is not None:
+        i, why = state["runaway"]
+        c = contacts[i]
+        c.life, c.limit, c.lives = 0.0, "runaway", {**c.lives, "runaway": 0.0}
+        c.why = why
+    first = min(contacts, key=lambda c: c.life)
+    res = state["res"]
+    p1, p2 = res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"]
+    hyst = np.sum(state["hysteresis"], axis=0)
+    p_in = np.maximum(p1, 0) + np.maximum(p2, 0) + hyst
+    p_out = -np.minimum(p1, 0) - np.minimum(p2, 0)
+    return MachineLife(contacts, first.life, first.limit, first.name, state["iterations"], p_in, p_out,
+                       _wear_ratio_error(model, contacts, first.life))
+
+
+def _wear_ratio_error(model, contacts, seconds) -> float:
+    """The speed-ratio error (core.life.wear.ratio_error) once the drive and follower rollers have worn for
+    `seconds`, each shaft's rollers by their mean radius lost; NaN where the life is not finite."""
+    if not math.isfinite(seconds):
+        return math.nan
+    lost, radius = {1: [], 2: []}, {1: [], 2: []}
+    for r, c in zip(model.layout.rollers, contacts):
+        if r.role != "steering":
+            lost[r.shaft].append(c.wear_rate * seconds)
+            radius[r.shaft].append(r.radius)
+    return wear.ratio_error(np.mean(lost[1]), np.mean(radius[1]), np.mean(lost[2]), np.mean(radius[2]))
+
+
+def life_interval(model, duty, ageing, base: MachineLife, z: float = 1.96, progress=None) -> tuple:
+    """The machine's life's interval [s] from the materials' uncertainties: each constant with a σ moved by
+    +1σ alone, the changes in log life added in quadrature (first order), ± z of that about the life. Each
+    move re-runs the whole chain (model ⇄ temperature). `progress(done, total)` is told after each."""
+    if not (math.isfinite(base.life) and base.life > 0):
+        return base.life, base.life
+    moves = sorted({(a.material, k, a.std[k]) for pair in ageing for a in pair for k in a.values if a.std.get(k)})
+    var = 0.0
+    for j, (material, key, sd) in enumerate(moves):
+        moved = [tuple(a.scaled(key, 1 + sd) if a.material == material else a for a in pair) for pair in ageing]
+        try:
+            life = machine_life(model, duty, moved).life
+        except DutyOutsideModel:
+            life = 0.0
+        var += (math.log(max(life, 1e-300) / base.life)) ** 2 if math.isfinite(life) else 0.0
+        if progress:
+            progress(j + 1, len(moves))
+    s = math.sqrt(var)
+    return base.life * math.exp(-z * s), base.life * math.exp(z * s)

@@ -1,0 +1,84 @@
+"""core/life/run.py: the chain from the model's contacts to temperatures, wear and life, and its feedback."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, shipped_model
+
+from cvtdesign.core.life import wear
+from cvtdesign.core.life.run import DutyOutsideModel, life_interval, machine_life
+from cvtdesign.io.ageing import roller_ageing
+from cvtdesign.io.duty_file import load_duty
+from cvtdesign.io.variant import load_spec
+
+DUTY = load_duty(ROOT / "studies" / "cobot_duty.yaml")
+
+
+def _ageing(name, model, **changes):
+    f = str(ROOT / "variants" / f"{name}.yaml")
+    ages = roller_ageing(f, load_spec(f), model.roller_names)
+    out = []
+    for n in model.roller_names:
+        pair = ages[n]
+        for key, factor in changes.items():
+            pair = tuple(a.scaled(key, factor) if key in a.values and a.material.startswith("urethane") else a
+                         for a in pair)
+        out.append(pair)
+    return out
+
+
+def test_wear_rate_is_archards_with_the_models_contact():
+    """Each contact's mean wear rate is k·P_f/(4π r b) at the model's friction loss and patch, averaged over
+    the duty's shares."""
+    model = shipped_model("existing")
+    ages = _ageing("existing", model)
+    life = machine_life(model, DUTY, ages)
+    res = model.evaluate(DUTY.gamma, DUTY.load, speeds=DUTY.speed)
+    for i, (r, c) in enumerate(zip(model.layout.rollers, life.contacts)):
+        rate = wear.wear_rate(ages[i][0]["wear_coefficient"], c.friction, r.radius, res["b"][i])
+        assert c.wear_rate == pytest.approx(float(np.sum(DUTY.shares * rate)), rel=1e-3)   # b at the warm state
+        assert c.lives["wear"] == pytest.approx(0.01 * r.radius / c.wear_rate, rel=1e-12)
+    assert life.life == min(c.life for c in life.contacts) and life.limit == "wear"
+
+
+def test_softer_when_hot_loses_more():
+    """A urethane that softens more with temperature creeps more: its losses and temperatures rise, and the
+    feedback takes more than one evaluation to settle."""
+    model = shipped_model("existing")
+    base = machine_life(model, DUTY, _ageing("existing", model))
+    soft = machine_life(model, DUTY, _ageing("existing", model, modulus_factor=0.2))
+    assert soft.iterations > 1
+    assert all(s.T_mean > b.T_mean for s, b in zip(soft.contacts, base.contacts))
+    assert sum(DUTY.shares @ s.loss for s in soft.contacts) > sum(DUTY.shares @ b.loss for b in base.contacts)
+
+
+def test_runaway_is_a_limit():
+    """Rollers that barely shed heat (conductivity 1e-4 of urethane's, so no conduction to the hub) and lose
+    half their modulus every few kelvin: the temperatures find no consistent state, or slip when hot, and the
+    limit is `runaway`, with life 0."""
+    model = shipped_model("existing")
+    hot = machine_life(model, DUTY, _ageing("existing", model, loss_fraction=4.0, conductivity=1e-4,
+                                            hot_temperature=0.82))
+    assert hot.limit == "runaway" and hot.life == 0.0 and hot.contact in model.roller_names
+    assert [c for c in hot.contacts if c.limit == "runaway"][0].why
+
+
+def test_duty_beyond_the_model_is_refused():
+    model = shipped_model("existing")
+    far = dataclasses.replace(DUTY, load=np.full_like(DUTY.load, 5.0))
+    with pytest.raises(DutyOutsideModel, match="duty point 1"):
+        machine_life(model, far, _ageing("existing", model))
+
+
+def test_interval_holds_the_life():
+    model = shipped_model("existing")
+    ages = _ageing("existing", model)
+    life = machine_life(model, DUTY, ages)
+    lo, hi = life_interval(model, DUTY, ages, life)
+    assert lo < life.life < hi and math.isfinite(hi)
+    # wear limits it: ln life moves with the wear coefficient's σ (60 %) at least
+    assert math.log(hi / life.life) >= 1.96 * math.log(1.6) * 0.99
