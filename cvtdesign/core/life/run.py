@@ -52,6 +52,8 @@ class ContactLife:
     life: float               # [s] to the first limit
     limit: str                # temperature, wear, fatigue or runaway
     lives: dict               # [s] each limit's own time
+    curve: tuple = ()         # (times [s], temperatures [K]) over one cycle, the flash left out
+    warm_up: tuple = ()       # (times [s], cycle-mean temperatures [K]) from a cold start
     why: str = ""             # what ran away
 
 
@@ -197,9 +199,11 @@ def _contact(model, duty, ageing, state, i) -> ContactLife:
                                                m["fatigue_cycles"], m["fatigue_exponent"]) for m in (ra, sa)))
         lives["fatigue"] = fatigue.miner_life(l10, s)
     limit_name = min(lives, key=lives.get)
+    curve = thermal.cycle_curve(starts, state["heat"][i], G, duty.seconds, C, duty.ambient)
+    warm = thermal.warm_up_curve(T_mean, duty.ambient, C, G_mean)
     return ContactLife(model.roller_names[i], state["friction"][i] + state["hysteresis"][i], state["friction"][i],
                        state["hysteresis"][i], state["heat"][i], T_mean, T_peak, mean_rate, limit,
-                       lives[limit_name], limit_name, lives)
+                       lives[limit_name], limit_name, lives, curve, warm)
 
 
 def machine_life(model: CompiledModel, duty: DutyCycle, ageing: list) -> MachineLife:
@@ -235,22 +239,26 @@ def _wear_ratio_error(model, contacts, seconds) -> float:
     return wear.ratio_error(np.mean(lost[1]), np.mean(radius[1]), np.mean(lost[2]), np.mean(radius[2]))
 
 
-def life_interval(model, duty, ageing, base: MachineLife, z: float = 1.96, progress=None) -> tuple:
-    """The machine's life's interval [s] from the materials' uncertainties: each constant with a σ moved by
-    +1σ alone, the changes in log life added in quadrature (first order), ± z of that about the life. Each
-    move re-runs the whole chain (model ⇄ temperature). `progress(done, total)` is told after each."""
-    if not (math.isfinite(base.life) and base.life > 0):
-        return base.life, base.life
+def life_interval(model, duty, ageing, base: MachineLife, z: float = 1.96, progress=None) -> dict:
+    """Intervals [s] of the machine's life ('machine') and of each contact's (by name) from the materials'
+    uncertainties: each constant with a σ moved by +1σ alone, the changes in log life added in quadrature
+    (first order), ± z of that about the life. Each move re-runs the whole chain (model ⇄ temperature).
+    `progress(done, total)` is told after each. A life that is 0 or infinite keeps itself as its interval."""
     moves = sorted({(a.material, k, a.std[k]) for pair in ageing for a in pair for k in a.values if a.std.get(k)})
-    var = 0.0
+    names = ["machine"] + [c.name for c in base.contacts]
+    lives0 = [base.life] + [c.life for c in base.contacts]
+    var = np.zeros(len(names))
     for j, (material, key, sd) in enumerate(moves):
         moved = [tuple(a.scaled(key, 1 + sd) if a.material == material else a for a in pair) for pair in ageing]
         try:
-            life = machine_life(model, duty, moved).life
+            m = machine_life(model, duty, moved)
+            lives = [m.life] + [c.life for c in m.contacts]
         except DutyOutsideModel:
-            life = 0.0
-        var += (math.log(max(life, 1e-300) / base.life)) ** 2 if math.isfinite(life) else 0.0
+            lives = [0.0] * len(names)
+        for i, (l0, l1) in enumerate(zip(lives0, lives)):
+            if math.isfinite(l0) and l0 > 0 and math.isfinite(l1):
+                var[i] += math.log(max(l1, 1e-300) / l0) ** 2
         if progress:
             progress(j + 1, len(moves))
-    s = math.sqrt(var)
-    return base.life * math.exp(-z * s), base.life * math.exp(z * s)
+    return {n: (l0 * math.exp(-z * math.sqrt(v)), l0 * math.exp(z * math.sqrt(v))) if math.isfinite(l0) and l0 > 0
+            else (l0, l0) for n, l0, v in zip(names, lives0, var)}

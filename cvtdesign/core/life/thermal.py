@@ -115,3 +115,23 @@ def flash_temperature(Q, a, b, V, k, rho, c, seconds=math.inf):
     pe = np.abs(np.asarray(V, float)) * a_e / (2.0 * kappa)
     steady = 2.0 * q * a_e / (k * np.sqrt(math.pi * (1.273 + pe)))
     return np.minimum(steady, 2.0 * q * np.sqrt(kappa * np.asarray(seconds, float) / math.pi) / k)
+
+
+def cycle_curve(starts, Q, G, seconds, C, T_ambient, samples: int = 12):
+    """The temperature over one periodic cycle, `samples` times a step (cycle_temperatures' exact
+    exponentials): (times [s] from the cycle's start, temperatures [K])."""
+    t, T, t0 = [], [], 0.0
+    for T0, q, g, dt in zip(starts, Q, G, seconds):
+        s = np.linspace(0.0, dt, samples)
+        ss = T_ambient + q / g
+        t.append(t0 + s)
+        T.append(ss + (T0 - ss) * np.exp(-g * s / C))
+        t0 += dt
+    return np.concatenate(t), np.concatenate(T)
+
+
+def warm_up_curve(T_steady, T_ambient, C, G, spans: float = 5.0, samples: int = 60):
+    """A body's temperature from the ambient towards T_steady (time constant C/G) over `spans` time
+    constants: (times [s], temperatures [K])."""
+    t = np.linspace(0.0, spans * C / G, samples)
+    return t, T_ambient + (T_steady - T_ambient) * (1.0 - np.exp(-G * t / C))

@@ -78,7 +78,9 @@ def test_interval_holds_the_life():
     model = shipped_model("existing")
     ages = _ageing("existing", model)
     life = machine_life(model, DUTY, ages)
-    lo, hi = life_interval(model, DUTY, ages, life)
+    intervals = life_interval(model, DUTY, ages, life)
+    lo, hi = intervals["machine"]
     assert lo < life.life < hi and math.isfinite(hi)
+    assert all(intervals[c.name][0] < c.life < intervals[c.name][1] for c in life.contacts)
     # wear limits it: ln life moves with the wear coefficient's σ (60 %) at least
     assert math.log(hi / life.life) >= 1.96 * math.log(1.6) * 0.99
