@@ -1,0 +1,75 @@
+"""constraints.min_life_h (design/life_rows.py): every roller's wear life over a duty cycle, as rows of the
+study's NLP, against the life chain (core.life.wear) on the model's own contacts."""
+from __future__ import annotations
+
+
+import numpy as np
+import pytest
+import yaml
+
+from conftest import ROOT, shipped_model
+
+from cvtdesign.core.life import wear
+from cvtdesign.design.problem import build_problem
+from cvtdesign.design.solve import solve_from, starts
+from cvtdesign.errors import InputError
+from cvtdesign.io.ageing import roller_ageing
+from cvtdesign.io.duty_file import load_duty
+from cvtdesign.io.variant import load_spec
+
+STUDY = ROOT / "studies" / "box_placement_life.yaml"
+
+
+def test_life_rows_are_the_wear_life_at_the_base_design():
+    """At the base design (box.yaml) the row of roller i is L_min · Σ_k s_k k P_f,k/(4π r b_k) / (1 % r), with
+    the model's losses and patch at the duty points (the ambient temperature: no feedback)."""
+    pr = build_problem(STUDY)
+    z = (pr.base_values - pr.lower) / (pr.upper - pr.lower)
+    g = np.asarray(pr.evaluate(np.append(z, 4.0))[1]).ravel()
+    life = np.array([f == "life" for f in pr.g_family])
+    model, duty = shipped_model("box"), load_duty(ROOT / "studies" / "cobot_duty.yaml")
+    ages = roller_ageing(str(ROOT / "variants/box.yaml"), load_spec(ROOT / "variants/box.yaml"), model.roller_names)
+    res = model.evaluate(duty.gamma, duty.load, speeds=duty.speed)
+    expected = []
+    for i, r in enumerate(model.layout.rollers):
+        rate = wear.wear_rate(ages[r.name][0]["wear_coefficient"], res["loss"][i], r.radius, res["b"][i])
+        expected.append(60000 * 3600 * float(duty.shares @ rate) / (0.01 * r.radius))
+    np.testing.assert_allclose(g[life], expected, rtol=1e-6)
+    assert pr.g_ub[life].tolist() == [1.0] * len(expected) and "N1" in pr.g_labels[np.flatnonzero(life)[4]]
+
+
+@pytest.mark.slow
+def test_life_constraint_binds_and_costs_slip():
+    """The placement optimum takes the smallest steering rollers (20 mm), whose wear life on the cobot task is
+    about 27 000 h; with min_life_h 60 000 h the optimum keeps larger ones, at a higher worst |α|."""
+    pr = build_problem(STUDY)
+    sol = solve_from(pr, starts(pr)[0])
+    life = np.array([f == "life" for f in pr.g_family])
+    assert np.max(sol.g[life]) == pytest.approx(1.0, abs=1e-6)
+    free = build_problem(ROOT / "studies" / "box_placement.yaml")
+    base = solve_from(free, starts(free)[0])
+    assert sol.objective > base.objective and sol.design["r_steer"] > base.design["r_steer"] + 1e-3
+    readme = (ROOT / "README.md").read_text()     # the README's figures are these
+    assert f"worst |α| {base.objective:.4g}°" in readme and f"worst |α| {sol.objective:.3g}°" in readme
+    assert f"{1e3 * sol.design['r_steer']:.3g} mm rollers" in readme
+
+
+def test_min_life_needs_its_duty(tmp_path):
+    data = yaml.safe_load(STUDY.read_text())
+    data["base"] = str(ROOT / "variants" / "box.yaml")
+    del data["constraints"]["life_duty"]
+    f = tmp_path / "s.yaml"
+    f.write_text(yaml.safe_dump(data))
+    with pytest.raises(InputError, match="constraints.life_duty: missing"):
+        build_problem(f)
+
+
+def test_min_life_is_a_time(tmp_path):
+    data = yaml.safe_load(STUDY.read_text())
+    data["base"] = str(ROOT / "variants" / "box.yaml")
+    data["constraints"]["life_duty"] = str(ROOT / "studies" / "cobot_duty.yaml")
+    data["constraints"]["min_life_h"] = "60000 N"
+    f = tmp_path / "s.yaml"
+    f.write_text(yaml.safe_dump(data))
+    with pytest.raises(InputError, match="constraints.min_life_h: expected a time"):
+        build_problem(f)
