@@ -45,6 +45,25 @@ def ageing_of(file: Path, model) -> list:
     return [ages[n] for n in model.roller_names]
 
 
+def life_fields(model, duty) -> dict:
+    """compare --duty's fields of one variant: its life [h] on the duty cycle (no interval: `cvtdesign life`
+    gives it), its limit and contact."""
+    try:
+        life = machine_life(model, duty, ageing_of(Path(model.layout.file), model))
+    except DutyOutsideModel as e:
+        raise InputError(f"{duty.file}: {e} of {model.layout.file}; expected duty points where the variant "
+                         f"holds (cvtdesign capacity shows its limits)") from None
+    return {"life_h": _hours(life.life), "life_limit": life.limit, "life_contact": life.contact,
+            "life_duty": duty.name}
+
+
+def life_cell(row: dict) -> str:
+    """The compare table's life cell: '75800 (wear at N1)', '—' without one (the ideal CVT wears nothing)."""
+    if row.get("life_h") is None:
+        return "—"
+    return f"{number(row['life_h'], 3)} ({row['life_limit']} at {row['life_contact']})"
+
+
 def variant_record(name: str, life, intervals: dict, shares) -> dict:
     """One variant's JSON record (the `life --json` interface: docs/life.md); `shares`: the duty points'."""
     contacts = [{"contact": c.name, "loss_mean_W": float(np.sum(shares * c.loss)), "loss_peak_W": float(np.max(c.loss)),

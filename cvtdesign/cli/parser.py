@@ -96,6 +96,8 @@ def _add_compare(p):
                         "and contact; columns in docs/comparing.md), as CSV or Parquet by the extension")
     p.add_argument("--envelope", metavar="VARIANT.yaml",
                    help="evaluate every column on this file's envelope (default: the first file's)")
+    p.add_argument("--duty", help="a duty-cycle file (docs/life.md): adds each variant's life on it, its limit and "
+                                  "contact (cvtdesign life gives the details and the intervals)")
     p.add_argument("--as-written", action="store_true",
                    help="evaluate each file as written, on its own envelope and contact law (refused otherwise "
                         "when the laws differ); each column then says what it used")

@@ -91,3 +91,14 @@ def test_duty_is_required(capsys):
     with pytest.raises(SystemExit) as e:
         main(["life", str(ROOT / "variants" / "box.yaml")])
     assert e.value.code == 2 and "--duty" in capsys.readouterr().err
+
+
+def test_compare_takes_duty(tmp_path, capsys):
+    """compare --duty adds each variant's life, limit and contact (the same as life's), '—' for the ideal CVT."""
+    assert main(["compare", str(ROOT / "variants" / "box.yaml"), "--duty", DUTY, "--out", str(tmp_path / "c"),
+                 "--json", str(tmp_path / "c.json")]) == 0
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if "life on the duty cycle [h]" in line)
+    assert "—" in row and "15700 (wear at S1)" in row and "75800 (wear at N1)" in row
+    rows = json.loads((tmp_path / "c.json").read_text())["variants"]
+    assert [r.get("life_limit") for r in rows] == [None, "wear", "wear"] and rows[2]["life_contact"] == "N1"
