@@ -18,10 +18,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 
 from cvtdesign.core.effects import CALIBRATION, EFFECTS
-from cvtdesign.core.geometry import pose
+from cvtdesign.core.geometry import roller_pose
 from cvtdesign.core.life import fatigue, hysteresis, thermal, wear
 from cvtdesign.core.life.duty import WEAR_LIMIT_RATIO, DutyCycle
 from cvtdesign.core.life.props import Ageing, friction_factor, modulus_factor
@@ -71,14 +72,14 @@ class MachineLife:
 
 def rolling_speeds(model: CompiledModel, res: dict) -> np.ndarray:
     """Each contact's rolling speed R |Ω·a| [m/s] at each point (contacts × points), a the axle at the point's
-    steering angle."""
+    steering angle (core.geometry.roller_pose, mapped over the points)."""
     L = model.layout
-    om = np.stack([res["Omega_x"], res["Omega_y"], res["Omega_z"]])
-    out = np.empty((len(L.rollers), om.shape[1]))
-    for k in range(om.shape[1]):
-        for i, r in enumerate(L.rollers):
-            out[i, k] = L.sphere_radius * abs(float(np.dot(om[:, k], pose(r, res["phi"][k])[1])))
-    return out
+    phi = ca.SX.sym("phi")
+    axles = ca.Function("axles", [phi], [ca.horzcat(*[roller_pose(r, phi)[1] for r in L.rollers])])
+    n = np.size(res["phi"])
+    a = np.asarray(axles.map(n)(np.reshape(res["phi"], (1, n)))).reshape(3, n, len(L.rollers))
+    om = np.stack([np.ravel(res["Omega_x"]), np.ravel(res["Omega_y"]), np.ravel(res["Omega_z"])])
+    return L.sphere_radius * np.abs(np.einsum("jk,jki->ik", om, a))
 
 
 def _theta(model: CompiledModel, scales: dict) -> np.ndarray:

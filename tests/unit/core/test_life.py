@@ -84,3 +84,17 @@ def test_interval_holds_the_life():
     assert all(intervals[c.name][0] < c.life < intervals[c.name][1] for c in life.contacts)
     # wear limits it: ln life moves with the wear coefficient's σ (60 %) at least
     assert math.log(hi / life.life) >= 1.96 * math.log(1.6) * 0.99
+
+
+@pytest.mark.parametrize("name", ["existing", "box"])
+def test_rolling_speeds_are_the_axles_at_each_point(name):
+    """R |Ω·a| with each roller's axle at the point's steering angle, mapped, as core.geometry.pose gives it
+    point by point."""
+    from cvtdesign.core.geometry import pose
+    from cvtdesign.core.life.run import rolling_speeds
+    model = shipped_model(name)
+    res = model.evaluate(DUTY.gamma, DUTY.load, speeds=DUTY.speed)
+    om = np.stack([res["Omega_x"], res["Omega_y"], res["Omega_z"]])
+    ref = [[model.layout.sphere_radius * abs(np.dot(om[:, k], pose(r, res["phi"][k])[1]))
+            for k in range(DUTY.gamma.size)] for r in model.layout.rollers]
+    np.testing.assert_allclose(rolling_speeds(model, res), ref, rtol=1e-12, atol=1e-15)
