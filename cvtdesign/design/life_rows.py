@@ -21,24 +21,27 @@ from cvtdesign.core.geometry import steering_angle_guess, steering_data
 from cvtdesign.core.life.duty import WEAR_LIMIT_RATIO
 from cvtdesign.errors import InputError
 from cvtdesign.io.ageing import roller_ageing
-from cvtdesign.io.duty_file import load_duty
+from cvtdesign.io.duty_file import duty_from_data, load_duty
 from cvtdesign.io.units import to_si
 
 
-def life_duty(nlp):
-    """The duty cycle of constraints.life_duty (relative to the study file)."""
-    cs = nlp.spec.constraints
-    if cs.life_duty is None:
-        raise InputError(f"{nlp.where}: constraints.life_duty: missing; expected the duty-cycle file that "
+def life_duty(spec, where: str):
+    """The duty cycle of a study's constraints.life_duty: a duty file relative to the study, or the duty as
+    data (how it travels to a study's workers: design.cases.study_content)."""
+    duty = spec.constraints.life_duty
+    if duty is None:
+        raise InputError(f"{where}: constraints.life_duty: missing; expected the duty-cycle file that "
                          f"min_life_h holds over (e.g. ../studies/cobot_duty.yaml)")
-    return load_duty(Path(nlp.where).parent / cs.life_duty)
+    if isinstance(duty, dict):
+        return duty_from_data(duty, f"{where}: constraints.life_duty")
+    return load_duty(Path(where).parent / duty)
 
 
 def life_rows(nlp, rows) -> None:
     """Each roller's wear life ≥ constraints.min_life_h over the duty cycle (module docstring), added to
     `rows` as rows that every solve holds (few points, so not worth a working set), family 'life'."""
     min_life_s = to_si(nlp.spec.constraints.min_life_h, "time", f"{nlp.where}: constraints.min_life_h")
-    duty = life_duty(nlp)
+    duty = life_duty(nlp.spec, nlp.where)
     ages = roller_ageing(nlp.base.file, nlp.vspec, nlp.model.roller_names)
     k = np.array([ages[n][0].values.get("wear_coefficient", math.nan) for n in nlp.model.roller_names])
     if not np.all(np.isfinite(k)):

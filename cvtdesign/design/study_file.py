@@ -93,9 +93,10 @@ class Constraints(Strict):
     # every γ of the envelope carries |τ⊥| = this with the traction margin, normal force and Hertz limits
     min_capacity: Num | None = None
     # every roller's wear life over the duty cycle `life_duty` (a duty file, relative to the study) at least
-    # this, a time ('50000 h'; design.life_rows, docs/life.md)
+    # this, a time ('50000 h'; design.life_rows, docs/life.md). A study sends its workers the duty as data
+    # (design.cases.study_content), which life_duty then holds.
     min_life_h: Num | None = None
-    life_duty: str | None = None
+    life_duty: str | dict | None = None
 
 
 class Multistart(Strict):

@@ -21,18 +21,18 @@ import math
 from pathlib import Path
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, ValidationError
 
 from cvtdesign.core.life.duty import DutyCycle
 from cvtdesign.errors import InputError
-from cvtdesign.io.schema import Name, Num, Strict, spec_field
+from cvtdesign.io.schema import Name, Num, Strict, schema_error, spec_field
 from cvtdesign.io.units import check_range, to_si
 from cvtdesign.io.yaml_file import read_spec
 
 LOG_COLUMNS = ("time_s", "gamma_deg", "tau_perp_Nm", "motor_speed_rad_s")
 MAX_ROWS = 1_000_000        # rows of a task log
 MAX_POINTS = 5_000          # duty points after resampling (each is one operating point of the model)
-SHARE_TOL = 1e-6            # |Σ shares − 1| allowed
+SHARE_TOL = 1e-6            # |Σ shares − 1| allowed (relative to 1; shares written as data sum to 1 within 1e-12)
 
 
 class PointSpec(Strict):
@@ -67,8 +67,33 @@ class DutySpec(Strict):
 
 def load_duty(path) -> DutyCycle:
     """Read a duty-cycle file into SI (core.life.duty.DutyCycle)."""
-    where = str(path)
-    spec = read_spec(path, DutySpec, "name, points or log")
+    return _resolve(read_spec(path, DutySpec, "name, points or log"), str(path))
+
+
+def duty_from_data(data, where: str) -> DutyCycle:
+    """A duty cycle given as data (a study's duty as it travels to the workers: `inline`) into SI."""
+    if not isinstance(data, dict):
+        raise InputError(f"{where}: expected a duty cycle (a mapping of name, points)")
+    try:
+        spec = DutySpec.model_validate(data)
+    except ValidationError as err:
+        raise schema_error(err, where, DutySpec) from None
+    if spec.log is not None:
+        raise InputError(f"{where}: log: expected points in a duty cycle given as data (a log is a file)")
+    return _resolve(spec, where)
+
+
+def inline(duty: DutyCycle) -> dict:
+    """A duty cycle as data that `duty_from_data` reads back to the same DutyCycle: its points in SI with
+    their shares, its settings in SI (the content a study sends its workers instead of the file's path)."""
+    points = [{"gamma": float(g), "tau_perp": float(t), "motor_speed": float(w), "share": float(s)}
+              for g, t, w, s in zip(duty.gamma, duty.load, duty.speed, duty.shares)]
+    out = {"name": duty.name, "description": duty.description, "cycle": duty.period, "points": points,
+           "ambient": duty.ambient, "hub_ratio": duty.hub_ratio}
+    return out | ({} if duty.wear_limit is None else {"wear_limit": duty.wear_limit})
+
+
+def _resolve(spec: DutySpec, where: str) -> DutyCycle:
     if bool(spec.points) == (spec.log is not None):
         raise InputError(f"{where}: expected either points or log, got "
                          f"{'both' if spec.points else 'neither'}")

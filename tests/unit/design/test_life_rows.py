@@ -73,3 +73,36 @@ def test_min_life_is_a_time(tmp_path):
     f.write_text(yaml.safe_dump(data))
     with pytest.raises(InputError, match="constraints.min_life_h: expected a time"):
         build_problem(f)
+
+
+def test_duty_travels_as_content(tmp_path):
+    """A study's workers read no input file: the duty file travels as data (design.cases.study_content), which
+    gives the same life rows with the file gone; an edited duty file is a new study (its digest)."""
+    import shutil
+
+    from cvtdesign.design.cases import make_cases, study_content
+    from cvtdesign.design.study_file import load_study
+    from cvtdesign.io.duty_file import duty_from_data, inline
+    duty = load_duty(ROOT / "studies" / "cobot_duty.yaml")
+    back = duty_from_data(inline(duty), "x")
+    for a in ("gamma", "load", "speed", "seconds"):
+        np.testing.assert_allclose(getattr(back, a), getattr(duty, a), rtol=1e-15)
+    assert (back.ambient, back.hub_ratio, back.wear_limit, back.name) == (duty.ambient, duty.hub_ratio, None, duty.name)
+    data = yaml.safe_load(STUDY.read_text())
+    data["base"] = str(ROOT / "variants" / "box.yaml")
+    shutil.copy(ROOT / "studies" / "cobot_duty.yaml", tmp_path / "cobot_duty.yaml")
+    f = tmp_path / "s.yaml"
+    f.write_text(yaml.safe_dump(data))
+    spec, base = load_study(f)
+    content = study_content(f, spec, base, make_cases(f, spec, base))
+    assert isinstance(content.spec.constraints.life_duty, dict)
+    rows = lambda pr: np.asarray(pr.evaluate(np.append(np.full(3, 0.5), 4.0))[1]).ravel()[  # noqa: E731
+        np.array([fam == "life" for fam in pr.g_family])]
+    from_file = rows(build_problem(f, spec, base))
+    (tmp_path / "cobot_duty.yaml").unlink()
+    np.testing.assert_allclose(rows(build_problem(f, content.spec, base)), from_file, rtol=1e-12)   # shares: 1 ulp
+    shutil.copy(ROOT / "studies" / "cobot_duty.yaml", tmp_path / "cobot_duty.yaml")
+    edited = yaml.safe_load((tmp_path / "cobot_duty.yaml").read_text())
+    edited["ambient"] = "30 degC"
+    (tmp_path / "cobot_duty.yaml").write_text(yaml.safe_dump(edited))
+    assert study_content(f, spec, base, make_cases(f, spec, base)).digest != content.digest
