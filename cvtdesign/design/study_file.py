@@ -350,6 +350,9 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
         w = f"{where}: constraints.min_capacity"
         check_range(to_si(cs.min_capacity, "torque", w), cs.min_capacity, w, "load capacity", "torque", 0.0,
                     10000.0, lo_open=True, guess="N*mm")
+    if OBJECTIVES[spec.objective.kind].life and cs.life_duty is None:
+        raise InputError(f"{where}: constraints.life_duty: missing; expected the duty-cycle file the objective "
+                         f"{spec.objective.kind} is taken over (e.g. ../studies/cobot_duty.yaml)")
     if cs.min_life_h is not None:
         w = f"{where}: constraints.min_life_h"
         check_range(to_si(cs.min_life_h, "time", w), cs.min_life_h, w, "minimum life", "time", 0.0, 1e10,

@@ -106,3 +106,42 @@ def test_duty_travels_as_content(tmp_path):
     edited["ambient"] = "30 degC"
     (tmp_path / "cobot_duty.yaml").write_text(yaml.safe_dump(edited))
     assert study_content(f, spec, base, make_cases(f, spec, base)).digest != content.digest
+
+
+def _max_life_study(tmp_path, **constraints):
+    data = yaml.safe_load(STUDY.read_text())
+    data.update(name="maxlife", base=str(ROOT / "variants" / "box.yaml"), objective={"kind": "max_life"})
+    data["constraints"].pop("min_life_h")
+    data["constraints"]["life_duty"] = str(ROOT / "studies" / "cobot_duty.yaml")
+    data["constraints"].update(constraints)
+    data["constraints"] = {k: v for k, v in data["constraints"].items() if v is not None}
+    f = tmp_path / "maxlife.yaml"
+    f.write_text(yaml.safe_dump(data))
+    return f
+
+
+def test_max_life_objective_is_the_worst_inverse_life(tmp_path):
+    """Objective max_life: the p-norm (p = 32) of the rollers' inverse wear lives [1/h], between the largest
+    and 8^(1/32) times it, the largest being the life rows' over min_life_h."""
+    pr = build_problem(_max_life_study(tmp_path))
+    z = (pr.base_values - pr.lower) / (pr.upper - pr.lower)
+    f = float(pr.evaluate(z)[0])
+    rows = build_problem(STUDY)
+    g = np.asarray(rows.evaluate(np.append(z, 4.0))[1]).ravel()[np.array([fam == "life" for fam in rows.g_family])]
+    worst = np.max(g) / 60000.0                   # [1/h]: rows are min_life_h × the inverse life
+    assert worst <= f <= 8 ** (1 / 32) * worst
+    assert 1 / worst == pytest.approx(75800, rel=0.03)     # life's 75 800 h on the box (with its feedback)
+
+
+def test_max_life_needs_its_duty(tmp_path):
+    with pytest.raises(InputError, match="life_duty: missing.*max_life"):
+        build_problem(_max_life_study(tmp_path, life_duty=None))
+
+
+@pytest.mark.slow
+def test_max_life_keeps_larger_steering_rollers(tmp_path, cli):
+    """On the box the longest-lived placement keeps the steering rollers at the envelope's limit (40 mm)."""
+    code, out, err = cli("optimise", _max_life_study(tmp_path), "--out", tmp_path / "o")
+    assert code == 0, err
+    assert "1/h (life" in out
+    assert "40 mm" in [line.split("│")[2].strip() for line in out.splitlines() if "r_steer" in line][0]
