@@ -12,7 +12,7 @@ from rich.console import Console
 
 from cvtdesign.cli.printing import json_text, progress_bar, report_text, show
 from cvtdesign.core import basis
-from cvtdesign.core.life.run import DutyOutsideModel, life_interval, machine_life
+from cvtdesign.core.life.run import DutyOutsideModel, life_interval, machine_life, worn_ratio_error
 from cvtdesign.core.model import compile_model
 from cvtdesign.errors import InputError
 from cvtdesign.io import plots
@@ -74,8 +74,8 @@ def variant_record(name: str, life, intervals: dict, shares) -> dict:
             "limit": life.limit, "contact": life.contact, "contacts": contacts}
 
 
-def life_blocks(record: dict, life, duty) -> list:
-    """A variant's printed table and its notes."""
+def life_blocks(record: dict, life, duty, worn: tuple) -> list:
+    """A variant's printed table and its notes (`worn`: core.life.run.worn_ratio_error)."""
     t = Table(f"{record['name']}: heat, wear and life over the duty cycle {duty.name}",
               ["contact", "loss mean [W]", "loss peak [W]", "T steady [°C]", "T peak [°C]", "wear [µm/h]",
                "life [h]", "limit"])
@@ -90,9 +90,11 @@ def life_blocks(record: dict, life, duty) -> list:
     why = [c for c in life.contacts if c.why]
     if why:
         blocks.append(Note(f"{record['name']}: runaway at {why[0].name}: {why[0].why}", "bad"))
-    if math.isfinite(life.ratio_error):
-        blocks.append(Note(f"{record['name']}: by then the drive rollers' wear has changed the speed ratio by "
-                           f"{100 * life.ratio_error:.3g} % (each shaft's rollers by their mean radius lost)"))
+    err, k = worn
+    if k is not None:
+        blocks.append(Note(f"{record['name']}: by then wear alone has changed the speed ratio ω2/ω1 by up to "
+                           f"{100 * err:+.3g} % (duty point {k + 1}, γ {math.degrees(duty.gamma[k]):g}°: the model "
+                           f"with every roller's worn radius, against the unworn)"))
     hyst, loss = (sum(float(duty.shares @ getattr(c, k)) for c in life.contacts) for k in ("hysteresis", "loss"))
     blocks.append(Note(f"{record['name']}: the temperatures settled in {life.iterations} evaluation(s) of the "
                        f"model; {number(loss, 3)} W lost on average over the cycle, {number(hyst, 3)} W of it "
@@ -118,12 +120,12 @@ def _figures(records, lives, ages, intervals, files, folder: Path) -> list[Path]
     return paths
 
 
-def _evaluate(files, duty, console) -> tuple[list, list, list, list]:
+def _evaluate(files, duty, console) -> tuple[list, list, list, list, list]:
     layouts = [load_variant(f) for f in files]
     names = basis.distinct_names(layouts)
     models = [compile_model(dataclasses.replace(L, name=n)) for L, n in zip(layouts, names)]
     ages = [ageing_of(f, m) for f, m in zip(files, models)]
-    records, lives, intervals = [], [], []
+    records, lives, intervals, worn = [], [], [], []
     with progress_bar(console, "life", lambda item: item, transient=True) as progress:
         for i, (f, m, a) in enumerate(zip(files, models, ages)):
             try:
@@ -135,21 +137,22 @@ def _evaluate(files, duty, console) -> tuple[list, list, list, list]:
                 i * t + d, len(files) * t, f"{n}: intervals"))
             records.append(variant_record(names[i], life, iv, duty.shares))
             lives.append(life)
+            worn.append(worn_ratio_error(m, duty, life))
             intervals.append({k: tuple(_hours(x) for x in v) for k, v in iv.items()})
-    return records, lives, ages, intervals
+    return records, lives, ages, intervals, worn
 
 
 def run(args):
     files = [Path(f) for f in args.variants]
     duty = load_duty(args.duty)
     console = Console(width=140)
-    records, lives, ages, intervals = _evaluate(files, duty, console)
+    records, lives, ages, intervals, worn = _evaluate(files, duty, console)
     # the files first, then the terminal (a reader closing stdout early loses no file)
     written, out, kinds = [], {}, {}
     if args.plots:
         for p in _figures(records, lives, ages, intervals, files, make_folder(args.plots, kind="--plots")):
             written.append(f"plot: {p}")
-    blocks = [_duty_note(duty)] + [b for r, life in zip(records, lives) for b in life_blocks(r, life, duty)]
+    blocks = [_duty_note(duty)] + [b for r, life, w in zip(records, lives, worn) for b in life_blocks(r, life, duty, w)]
     if args.report:
         with tempfile.TemporaryDirectory() as tmp:
             figs = [png_figure(p) for p in _figures(records, lives, ages, intervals, files, Path(tmp))]

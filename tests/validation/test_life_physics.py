@@ -2,7 +2,9 @@
 energy balance of `cvtdesign life` at every duty point."""
 from __future__ import annotations
 
+import dataclasses
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -10,7 +12,7 @@ import pytest
 from conftest import ROOT, shipped_model
 
 from cvtdesign.core.life import fatigue, hysteresis, thermal, wear
-from cvtdesign.core.life.run import machine_life
+from cvtdesign.core.life.run import machine_life, worn_ratio_error
 from cvtdesign.io.ageing import roller_ageing
 from cvtdesign.io.duty_file import load_duty
 from cvtdesign.io.variant import load_spec
@@ -89,10 +91,22 @@ def test_wear_depth_for_known_work():
                                                                      rel=1e-15)
 
 
-def test_ratio_error_of_worn_radii():
-    """Shaft 1's rollers 0.4 mm smaller on 40 mm, shaft 2's unworn: ω2/ω1 falls by 1 %: error 0.01."""
-    assert wear.ratio_error(0.0004, 0.04, 0.0, 0.04) == pytest.approx(0.01, rel=1e-12)
-    assert wear.ratio_error(0.0004, 0.04, 0.0004, 0.04) == pytest.approx(0.0, abs=1e-15)
+@pytest.mark.parametrize("name", ["existing", "box"])
+def test_ratio_error_of_worn_radii(name):
+    """The worn radii fed back into the model (core.life.run.worn_ratio_error): shaft 1's rollers 0.4 mm
+    smaller, the others unworn. A roller rolls at r ω = V, so by hand ω2/ω1 = (V2/V1)(r1/r2) falls by
+    0.4/40 = 1 %: an error of +0.01 exactly without load (no creep); under the duty's loads the worn rollers'
+    creep changes too, which the model adds (here 7–18 % more)."""
+    model = shipped_model(name)
+    hours = 1000.0
+    contacts = [SimpleNamespace(wear_rate=0.0004 / (hours * 3600) if r.role != "steering" and r.shaft == 1 else 0.0)
+                for r in model.layout.rollers]
+    worn = SimpleNamespace(life=hours * 3600, contacts=contacts)
+    duty = load_duty(DUTY)
+    err, k = worn_ratio_error(model, dataclasses.replace(duty, load=0 * duty.load), worn)
+    assert k is not None and err == pytest.approx(0.0004 / 0.040, rel=1e-6)
+    err, k = worn_ratio_error(model, duty, worn)
+    assert k is not None and 0.01 < err < 0.0125
 
 
 def test_l10_of_a_steel_contact():

@@ -15,6 +15,7 @@ life is the hours to the first of these limits.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -25,8 +26,8 @@ from cvtdesign.core.effects import CALIBRATION, EFFECTS
 from cvtdesign.core.geometry import roller_pose
 from cvtdesign.core.life import fatigue, hysteresis, thermal, wear
 from cvtdesign.core.life.duty import WEAR_LIMIT_RATIO, DutyCycle
-from cvtdesign.core.life.props import Ageing, friction_factor, modulus_factor
-from cvtdesign.core.model import STATUS, CompiledModel
+from cvtdesign.core.life.props import friction_factor, modulus_factor
+from cvtdesign.core.model import STATUS, CompiledModel, compile_model
 
 TOL_K = 1e-3            # [K] the temperatures' change at which the feedback has converged
 MAX_ITER = 100
@@ -67,7 +68,6 @@ class MachineLife:
     iterations: int
     power_in: np.ndarray      # [W] per duty point: the shafts' input, hysteresis included
     power_out: np.ndarray     # [W] per duty point
-    ratio_error: float        # [-] the speed-ratio error the drive rollers' wear causes at the machine's life
 
 
 def rolling_speeds(model: CompiledModel, res: dict) -> np.ndarray:
@@ -223,21 +223,32 @@ def machine_life(model: CompiledModel, duty: DutyCycle, ageing: list) -> Machine
     hyst = np.sum(state["hysteresis"], axis=0)
     p_in = np.maximum(p1, 0) + np.maximum(p2, 0) + hyst
     p_out = -np.minimum(p1, 0) - np.minimum(p2, 0)
-    return MachineLife(contacts, first.life, first.limit, first.name, state["iterations"], p_in, p_out,
-                       _wear_ratio_error(model, contacts, first.life))
+    return MachineLife(contacts, first.life, first.limit, first.name, state["iterations"], p_in, p_out)
 
 
-def _wear_ratio_error(model, contacts, seconds) -> float:
-    """The speed-ratio error (core.life.wear.ratio_error) once the drive and follower rollers have worn for
-    `seconds`, each shaft's rollers by their mean radius lost; NaN where the life is not finite."""
-    if not math.isfinite(seconds):
-        return math.nan
-    lost, radius = {1: [], 2: []}, {1: [], 2: []}
-    for r, c in zip(model.layout.rollers, contacts):
-        if r.role != "steering":
-            lost[r.shaft].append(c.wear_rate * seconds)
-            radius[r.shaft].append(r.radius)
-    return wear.ratio_error(np.mean(lost[1]), np.mean(radius[1]), np.mean(lost[2]), np.mean(radius[2]))
+RATIO_RANGE = (0.4, 2.5)   # |ω2/ω1| where a relative ratio error means something (Brokowski's resteering range)
+
+
+def worn_ratio_error(model: CompiledModel, duty: DutyCycle, life: MachineLife) -> tuple[float, int | None]:
+    """The speed ratio's error (requested − achieved)/requested that wear alone causes by the machine's life:
+    the model compiled again with every roller's radius less what it has lost by then (each its own, so
+    rollers of one shaft that wear differently fight, as built), against the unworn model, at the duty
+    points whose ideal |ω2/ω1| lies in RATIO_RANGE. Returns the largest in size and its duty point (NaN,
+    None where the life is not finite or no duty point is in the range)."""
+    T = life.life
+    ideal = np.abs(model.frame.ideal_ratio(duty.gamma))
+    at = np.flatnonzero((ideal >= RATIO_RANGE[0]) & (ideal <= RATIO_RANGE[1]))
+    if not (math.isfinite(T) and T > 0) or at.size == 0:
+        return math.nan, None
+    L = model.layout
+    worn = dataclasses.replace(L, rollers=tuple(dataclasses.replace(r, radius=r.radius - c.wear_rate * T)
+                                                for r, c in zip(L.rollers, life.contacts)))
+    ratios = [m.evaluate(duty.gamma[at], duty.load[at], speeds=duty.speed[at]) for m in
+              (model, compile_model(worn, effects=model.effects))]
+    new, old = (r["omega_2"] / r["omega_1"] for r in ratios[::-1])
+    err = (old - new) / old
+    k = int(np.nanargmax(np.abs(err))) if np.any(np.isfinite(err)) else None
+    return (math.nan, None) if k is None else (float(err[k]), int(at[k]))
 
 
 def life_interval(model, duty, ageing, base: MachineLife, z: float = 1.96, progress=None) -> dict:

@@ -22,10 +22,3 @@ def wear_depth(k, work, r, b):
 def wear_rate(k, power, r, b):
     """Depth worn per second [m/s] at frictional power `power` [W]."""
     return k * power / (4.0 * math.pi * r * b)
-
-
-def ratio_error(lost_1, r_1, lost_2, r_2):
-    """The speed-ratio error [-] (requested − achieved)/requested of ω2/ω1 when shaft 1's rollers have lost
-    lost_1 of their radius r_1 and shaft 2's lost_2 of r_2 [m]: a roller rolls without slip at r ω = V, so
-    ω2/ω1 = (V2/V1)(r_1/r_2) becomes that × (1 − lost_1/r_1)/(1 − lost_2/r_2)."""
-    return 1.0 - (1.0 - lost_1 / r_1) / (1.0 - lost_2 / r_2)
