@@ -8,6 +8,7 @@ from pathlib import Path
 from rich.console import Console
 
 from cvtdesign.cli import compare_report
+from cvtdesign.cli.life import life_cell, life_fields
 from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
 from cvtdesign.core import basis
 from cvtdesign.core.contact.laws import contact_law
@@ -15,6 +16,7 @@ from cvtdesign.core.metrics import ZERO_TORQUE, at_key, envelope, ideal_model, m
 from cvtdesign.core.model import compile_model
 from cvtdesign.core.uncertainty import intervals, point_bands
 from cvtdesign.io import plots
+from cvtdesign.io.duty_file import load_duty
 from cvtdesign.io.limits import check_envelope_limits
 from cvtdesign.io.output import make_folder, named_after, write_file
 from cvtdesign.io.points import check_points_path, contact_points, write_points
@@ -39,6 +41,7 @@ COLUMNS = [
 ]
 
 
+LIFE_LABEL = "life on the duty cycle [h]"      # with --duty (cli.life.life_fields)
 _BASIS_LABELS = [("contact_law", "contact law"), ("calibration", "calibration")]   # the table's first rows
 
 
@@ -48,6 +51,7 @@ def run(args):
     painter = args.painter
     if args.points:
         check_points_path(args.points)
+    life_duty = load_duty(args.duty) if args.duty else None
     files = [Path(f) for f in args.variants]
     layouts = [load_variant(f) for f in files]
     if len(files) == 1:                            # Kim's CVT under the same law, wherever the command runs from
@@ -66,6 +70,8 @@ def run(args):
                                      | {"theory_only": basis.calibration(L)["uncalibrated"]})
                                     for L, m, res in zip(layouts, models, results)], figure)
     rows = [with_intervals(m, res, metrics(m, res) | basis.fields(m.layout)) for m, res in zip(models, results)]
+    if args.duty:
+        rows = [r | life_fields(m, life_duty) for r, m in zip(rows, models)]
     if len(files) == 1:
         ideal = ideal_model(layouts[-1])
         row = metrics(ideal, envelope(ideal)) | basis.fields(ideal.layout)
@@ -83,7 +89,7 @@ def run(args):
     error = painter.wait()
     if args.report and not error:
         labels = {k: label for k, label in _BASIS_LABELS} | {"ok": "operating points ok"} | \
-            {key: label for key, label, _ in COLUMNS}
+            {key: label for key, label, _ in COLUMNS} | ({"life_h": LIFE_LABEL} if args.duty else {})
         report = compare_report.report_blocks(rows, blocks, figure, labels)
         write_file(args.report, report_text(args, "cvtdesign compare", report), kind="--report")
     console = Console(width=max(100, 30 + 22 * len(rows)))
@@ -140,10 +146,16 @@ def comparison_blocks(rows: list[dict]) -> list:
                                            for r, u in zip(rows, under)], style="bad")
     for key, label, fmt in COLUMNS:
         table.add(label, *[figure_cell(r, key, fmt) for r in rows])
+    duty = next((r["life_duty"] for r in rows if "life_duty" in r), None)
+    if duty:
+        table.add(LIFE_LABEL, *[life_cell(r) for r in rows])
     blocks = [table, Note("¹ over the points with |γ| ≥ 5° and |τ⊥| ≥ 25 % of the largest load that deliver power "
                           "(it leaves at one shaft): " + "; ".join(_efficiency_points(r) for r in rows)),
               Note("² the largest power lost at a point that delivers none (zero load, γ = 0, or power entering "
                    "both shafts), where an efficiency means nothing")]
+    if duty:
+        blocks.append(Note(f"life: on the duty cycle {duty}, to the first contact's first limit (docs/life.md; "
+                           "`cvtdesign life --duty` gives each contact's temperature, wear and life, with intervals)"))
     envelopes = {r["envelope"] for r in rows}
     blocks.append(Note(f"envelope: {envelopes.pop()}" if len(envelopes) == 1 else
                        "envelopes differ (--as-written): " + "; ".join(f"{r['name']} {r['envelope']}" for r in rows),

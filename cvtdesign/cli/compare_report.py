@@ -36,6 +36,8 @@ MEANINGS = {
                                          "fork's patch sliding (pivoting about its normal, μNℓ, and dragged across "
                                          "the roller where the fork axis misses the contact), at the envelope's "
                                          "largest normal forces, in N·m",
+    "life_h": "with --duty: the hours to the first limit of the first contact over the duty cycle (temperature, "
+              "wear or fatigue; docs/life.md), with that limit and contact; `cvtdesign life` gives the intervals",
 }
 FIGURE = ("Figure 1", "compare's figure: per quantity a row of panels against the commanded γ: the slip angle α, "
           "its steering part γ_axis − γ_cmd, its drive part and the efficiency P_out/P_in, at the loads τ⊥ = "

@@ -25,7 +25,8 @@ from cvtdesign.io.variant import load_spec, parameter_value
 # a constraint row's unit (design.report.ROW_UNITS) → the kind it is shown as and its factor to SI
 UNIT_KIND = {"deg": ("angle", math.pi / 180), "N": ("force", 1.0), "m": ("length", 1.0), "": ("dimensionless", 1.0)}
 # an objective's unit (design.objectives) → how its value is shown
-SHOW = {"°": degrees, "W": lambda v: engineering(v, "power")}
+SHOW = {"°": degrees, "W": lambda v: engineering(v, "power"),
+        "1/h": lambda v: f"{number(v, 4)} 1/h (life {number(1 / v, 4)} h)" if v else f"{number(v, 4)} 1/h"}
 
 
 def run(args):

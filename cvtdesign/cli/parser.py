@@ -41,6 +41,7 @@ COMMANDS = {     # name -> one-line help; cvtdesign.cli.<name> runs it
     "selfcheck": "prove the diagnosis on rig data with withheld effects; exit 1 if a target is missed",
     "cache": "show the compiled-model cache (its folder and size), or empty it with --clear",
     "tolerance": "Monte Carlo over a variant's manufacturing tolerances on Dask, against the first-order prediction",
+    "life": "heat, wear and life of every contact over a duty cycle, and which contact limits the machine",
 }
 
 # Short commands that draw one figure. A plotting process (args.painter, an io.plots.Background) draws it, started
@@ -63,6 +64,7 @@ def build_parser():
               "resteer": _add_resteer, "selfcheck": _add_selfcheck, "cache": _add_cache}
     adders["capacity"] = _add_capacity
     adders["tolerance"] = _add_tolerance
+    adders["life"] = _add_life
     for name, text in COMMANDS.items():
         adders[name](sub.add_parser(name, help=text, description=text))
     return p
@@ -96,6 +98,8 @@ def _add_compare(p):
                         "and contact; columns in docs/comparing.md), as CSV or Parquet by the extension")
     p.add_argument("--envelope", metavar="VARIANT.yaml",
                    help="evaluate every column on this file's envelope (default: the first file's)")
+    p.add_argument("--duty", help="a duty-cycle file (docs/life.md): adds each variant's life on it, its limit and "
+                                  "contact (cvtdesign life gives the details and the intervals)")
     p.add_argument("--as-written", action="store_true",
                    help="evaluate each file as written, on its own envelope and contact law (refused otherwise "
                         "when the laws differ); each column then says what it used")
@@ -113,6 +117,17 @@ def _add_capacity(p):
                    help="usable-ratio bound: the capacity ends where the CVT slip angle |α| passes it (default "
                         "2deg, about 10%% speed-ratio error at ratios 0.4 and 2.5; 90deg: no bound; a plain "
                         "number is in rad)")
+
+
+def _add_life(p):
+    p.add_argument("variants", nargs="+", help="variant YAML files")
+    p.add_argument("--duty", required=True, help="duty-cycle YAML file: operating points with their share of time, "
+                   "or a task log (docs/life.md; studies/cobot_duty.yaml)")
+    p.add_argument("--json", help="also write each variant's and contact's life to this JSON file (format in "
+                                  "docs/life.md)")
+    p.add_argument("--plots", help="folder for <file stems joined by +>_temperature.png (each roller's temperature "
+                                   "over the cycle) and _life.png (each contact's life with its interval)")
+    p.add_argument("--report", help="also write an HTML report (the tables and both figures) to this file")
 
 
 def _add_optimise(p):
@@ -229,7 +244,7 @@ def _add_cache(p):
                    "compiled again when next needed)")
 
 
-INPUTS = ("variant", "variants", "study", "data", "protocol", "calibration", "tolerances")   # arguments naming files a command reads
+INPUTS = ("variant", "variants", "study", "data", "protocol", "calibration", "tolerances", "duty")   # arguments naming files a command reads
 
 
 def _not_an_input(path: str, kind: str, args) -> None:

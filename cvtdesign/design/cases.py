@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from cvtdesign.design.life_rows import life_duty
 from cvtdesign.design.objectives import objective
 from cvtdesign.design.study_file import (
     StudySpec,
@@ -23,6 +24,7 @@ from cvtdesign.design.study_file import (
     study_variant,
 )
 from cvtdesign.errors import InputError
+from cvtdesign.io.duty_file import inline
 from cvtdesign.io.variant import parameter_value
 
 MAX_CASES = 10_000       # cases of one study (variant files × sweep points × starts): more is a typo, and
@@ -49,7 +51,15 @@ def study_hash(study_file: Path, spec, base: Path) -> str:
         h.update(v.read_bytes())
     if spec.calibration:
         h.update((Path(study_file).parent / spec.calibration).read_bytes())
+    if spec.constraints.life_duty is not None:          # its duty cycle as the workers get it
+        h.update(json.dumps(_duty_data(study_file, spec), sort_keys=True).encode())
     return h.hexdigest()[:16]
+
+
+def _duty_data(study_file, spec) -> dict:
+    """constraints.life_duty as data (a file read and resolved here: its task log too)."""
+    return inline(life_duty(spec, str(study_file))) if isinstance(spec.constraints.life_duty, str) \
+        else spec.constraints.life_duty
 
 
 def variant_files(study_file, spec, base) -> list[Path]:
@@ -102,7 +112,11 @@ def study_content(study_file, spec, base: Path, cases: list[dict]) -> StudyConte
     for c in cases:
         if c["variant"] not in variants:
             variants[c["variant"]] = study_variant(study_file, spec, Path(c["variant"]))
-    return StudyContent(str(study_file), study_hash(study_file, spec, base), spec, variants)
+    digest = study_hash(study_file, spec, base)
+    if spec.constraints.life_duty is not None:      # the duty file's content travels, not its path
+        spec = spec.model_copy(update={"constraints": spec.constraints.model_copy(
+            update={"life_duty": _duty_data(study_file, spec)})})
+    return StudyContent(str(study_file), digest, spec, variants)
 
 
 def check_study(content: StudyContent, cases: list[dict]) -> None:

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from cvtdesign.design.life_rows import worst_inverse_life
+
 DEG = 180 / np.pi
 
 
@@ -29,6 +31,7 @@ class Objective:
     eps_row: bool = False       # adds worst |α| ≤ ε, ε an input of the NLP (the Pareto problem)
     case_column: str | None = None   # the study store's column that holds it too (None: only 'objective')
     robust: bool = False        # a robust study's worst case over the calibration's region is built for it
+    life: bool = False          # taken over constraints.life_duty (design.life_rows)
 
     @property
     def axis(self) -> str:
@@ -66,12 +69,18 @@ class PowerLoss(Objective):
         return nlp.duty_mean("power_loss")
 
 
+class MaxLife(Objective):
+    def value(self, nlp, grid_values):
+        return worst_inverse_life(nlp)
+
+
 OBJECTIVES = {o.kind: o for o in (
     WorstAlpha("worst_alpha", "worst |α|", "°", epigraph=True, case_column="worst_alpha_deg", robust=True),
     RmsAlpha("rms_alpha", "RMS α", "°"),
     PowerLoss("power_loss", "mean power loss", "W", case_column="power_loss_W"),
     PowerLoss("pareto", "mean power loss at the knee", "W", epigraph=True, eps_row=True,
               case_column="power_loss_W"),
+    MaxLife("max_life", "1 / the shortest wear life over the rollers", "1/h", life=True),
 )}
 
 

@@ -29,6 +29,7 @@ import numpy as np
 
 from cvtdesign.core.geometry import roller_pose, steering_angle_guess, steering_data
 from cvtdesign.core.steering import sliding_lever_expr
+from cvtdesign.design.life_rows import life_rows
 from cvtdesign.design.objectives import Objective
 from cvtdesign.design.study_file import StudySpec, duty_cycle
 from cvtdesign.io.variant import parameter_value
@@ -243,7 +244,8 @@ def _clearance_rows(nlp: NLP, c: float) -> tuple[list, list]:
 
 def design_rows(nlp: NLP, rows: Rows) -> None:
     """The rows that depend on the design alone, added to `rows`: clearance and envelope radius (compiled
-    into one function of the design), and for the Pareto problem worst |α| ≤ ε (t − ε ≤ 0)."""
+    into one function of the design), the capacity and life rows (design.life_rows), and for the Pareto
+    problem worst |α| ≤ ε (t − ε ≤ 0)."""
     cs, where = nlp.spec.constraints, nlp.where
     design_rows, design_spec = [], []
     if cs.clearance is not None:
@@ -262,6 +264,8 @@ def design_rows(nlp: NLP, rows: Rows) -> None:
             at += size
     if cs.min_capacity is not None:
         _capacity_rows(nlp, rows, float(parameter_value(cs.min_capacity, f"{where}: constraints.min_capacity", {})))
+    if cs.min_life_h is not None:
+        life_rows(nlp, rows)
     if nlp.objective.eps_row:
         rows.add(nlp.t - nlp.eps, -np.inf, 0, "epsilon", ["worst |α| ≤ ε"])
 

@@ -77,7 +77,8 @@ class ObjectiveSpec(Strict):
 class Constraints(Strict):
     """Constraint settings: `traction_margin` a plain number in [0, 1); `clearance` a length >= 0 (at most
     1 m) between any two rollers; `envelope_radius` a length (0, 10 m]; `min_normal_force` a force > 0;
-    `max_steering_torque` a torque (0, 1000 N·m]; `min_capacity` a torque (0, 10,000 N·m].
+    `max_steering_torque` a torque (0, 1000 N·m]; `min_capacity` a torque (0, 10,000 N·m]; `min_life_h` a
+    time > 0 with `life_duty` the duty file it holds over.
     Each is finite; plain numbers are SI, and an implausible plain length gets the unit it probably meant."""
     hertz_pressure: StrictBool = True
     traction_margin: Num | None = 0.2
@@ -91,6 +92,11 @@ class Constraints(Strict):
     max_steering_torque: Num | None = None
     # every γ of the envelope carries |τ⊥| = this with the traction margin, normal force and Hertz limits
     min_capacity: Num | None = None
+    # every roller's wear life over the duty cycle `life_duty` (a duty file, relative to the study) at least
+    # this, a time ('50000 h'; design.life_rows, docs/life.md). A study sends its workers the duty as data
+    # (design.cases.study_content), which life_duty then holds.
+    min_life_h: Num | None = None
+    life_duty: str | dict | None = None
 
 
 class Multistart(Strict):
@@ -344,6 +350,16 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
         w = f"{where}: constraints.min_capacity"
         check_range(to_si(cs.min_capacity, "torque", w), cs.min_capacity, w, "load capacity", "torque", 0.0,
                     10000.0, lo_open=True, guess="N*mm")
+    if OBJECTIVES[spec.objective.kind].life and cs.life_duty is None:
+        raise InputError(f"{where}: constraints.life_duty: missing; expected the duty-cycle file the objective "
+                         f"{spec.objective.kind} is taken over (e.g. ../studies/cobot_duty.yaml)")
+    if cs.min_life_h is not None:
+        w = f"{where}: constraints.min_life_h"
+        check_range(to_si(cs.min_life_h, "time", w), cs.min_life_h, w, "minimum life", "time", 0.0, 1e10,
+                    lo_open=True, guess="h")
+        if cs.life_duty is None:
+            raise InputError(f"{where}: constraints.life_duty: missing; expected the duty-cycle file that "
+                             f"min_life_h holds over (e.g. ../studies/cobot_duty.yaml)")
     pre0 = np.array([float(r.preload) for r in base.rollers])
     min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
     duty_cycle(spec, gammas, loads, where)

@@ -83,6 +83,38 @@ class Spherical(Strict):
     azimuth: Num = spec_field("angle from +x towards +y about z", kind="angle", plausible="direction_angle")
 
 
+class Aged(Strict):
+    """One ageing constant of a material: its value, its uncertainty and where it comes from."""
+    value: Num = spec_field("the value, in the constant's unit")
+    std: Num = spec_field("its standard deviation (1σ): relative ('30 %') or in the constant's unit")
+    source: str = spec_field("where the value comes from (a measurement, a handbook, an assumption)")
+
+
+AGEING = {   # constant → (kind, meaning); `cvtdesign life` (docs/life.md)
+    "loss_fraction": ("dimensionless", "hysteresis loss fraction α: the share of the elastic work of rolling "
+                                       "lost as heat (Johnson, Contact Mechanics, ch. 9)"),
+    "density": ("density", "density ρ"),
+    "specific_heat": ("specific_heat", "specific heat c"),
+    "conductivity": ("conductivity", "thermal conductivity k"),
+    "max_temperature": ("temperature", "the highest temperature in continuous use (urethane: its bond to the "
+                                       "hub)"),
+    "hot_temperature": ("temperature", "the temperature at which the two factors below are given (25 °C is "
+                                       "1)"),
+    "modulus_factor": ("dimensionless", "Young's modulus at hot_temperature over its value at 25 °C"),
+    "friction_factor": ("dimensionless", "μ at hot_temperature over its value at 25 °C"),
+    "wear_coefficient": ("wear_coefficient", "volume worn per frictional energy (Archard/Grosch, energy form)"),
+    "fatigue_pressure": ("pressure", "steels: the Hertz peak pressure of a rolling-contact fatigue test"),
+    "fatigue_cycles": ("dimensionless", "steels: the L10 life in stress cycles at fatigue_pressure"),
+    "fatigue_exponent": ("dimensionless", "steels: the stress-life exponent n, L10 ∝ p_max^-n "
+                                          "(Lundberg–Palmgren, point contact: 9)"),
+}
+AgeingSpec = type("AgeingSpec", (Strict,), {
+    "__doc__": "How a material heats, wears and tires (`cvtdesign life`, docs/life.md); every constant optional.",
+    "__annotations__": {k: Aged | None for k in AGEING},
+    **{k: spec_field(f"{meaning}; {{value, std, source}}; value: {unit_text(kind)}", None)
+       for k, (kind, meaning) in AGEING.items()}})
+
+
 class MaterialSpec(Strict):
     """A material the sphere or a roller is made of (Hertz contact, friction, allowable pressure)."""
     youngs_modulus: Num = spec_field("Young's modulus E (urethane 82A ≈ 10.7 MPa)", kind="pressure",
@@ -97,6 +129,9 @@ class MaterialSpec(Strict):
         "relative 1σ of youngs_modulus, e.g. '25 %' (omitted: 25 %, the spread of a modulus read from a Shore A "
         "hardness; an interval says it was assumed)", None, kind="dimensionless")
     description: str = spec_field("what the material is (free text)", "")
+    ageing: AgeingSpec | None = spec_field(
+        "how it heats, wears and tires (`cvtdesign life`); omitted, or a constant omitted: the library's "
+        "material of the same name gives it", None)
 
 
 class PairSpec(Strict):

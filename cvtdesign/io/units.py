@@ -72,6 +72,13 @@ KINDS = {
     "torque": ("N*m", "'1 N*m'"),
     "speed": ("rad/s", "'10 rad/s'"),
     "dimensionless": ("", "'0.8'"),
+    # the materials' ageing and the duty cycle (cvtdesign life)
+    "temperature": ("K", "'25 degC'"),
+    "time": ("s", "'60 s'"),
+    "density": ("kg/m**3", "'1100 kg/m**3'"),
+    "specific_heat": ("J/(kg*K)", "'1800 J/(kg*K)'"),
+    "conductivity": ("W/(m*K)", "'0.2 W/(m*K)'"),
+    "wear_coefficient": ("m**3/J", "'5e-14 m**3/J'"),
 }
 # units a kind also takes besides its SI unit's dimension: a creep constant is a slip ratio (drive) or a slip
 # angle (steering) per newton
@@ -328,7 +335,7 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
 ENGINEERING = {
     "length": ("mm", 1e3), "force": ("N", 1.0), "torque": ("N·m", 1.0), "angle": ("°", 180 / math.pi),
     "pressure": ("MPa", 1e-6), "power": ("W", 1.0), "compliance": ("1/N", 1.0), "stiffness": ("N/mm", 1e-3),
-    "speed": ("rad/s", 1.0), "dimensionless": ("", 1.0),
+    "speed": ("rad/s", 1.0), "dimensionless": ("", 1.0), "time": ("h", 1 / 3600),
 }
 
 

@@ -18,9 +18,10 @@ from cvtdesign.io.plots.compare import (
 from cvtdesign.io.plots.contact import contact_figures
 from cvtdesign.io.plots.design import pareto_figure, tolerance_figure
 from cvtdesign.io.plots.diagnosis import diagnosis_fit_figure, residual_map_figure, resteer_figure
+from cvtdesign.io.plots.life import life_figure, temperature_figure
 from cvtdesign.io.plots.process import Background, Forked, describe, worker
 
 __all__ = ["Background", "COMPARE_KEYS", "Forked", "describe", "EXISTING_COLOUR", "IDEAL_COLOUR", "PANELS_MAX", "cad_picture",
            "capacity_figure", "compare_figure", "contact_figures", "diagnosis_fit_figure", "figure_parts",
-           "pareto_figure", "place_labels", "residual_map_figure", "resteer_figure", "save", "scale_bar",
-           "tolerance_figure", "variant_colours", "worker"]
+           "life_figure", "pareto_figure", "place_labels", "residual_map_figure", "resteer_figure", "save", "scale_bar",
+           "temperature_figure", "tolerance_figure", "variant_colours", "worker"]

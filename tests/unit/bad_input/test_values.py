@@ -28,7 +28,9 @@ BOX = ROOT / "variants" / "box_kim.yaml"
 UNEQUAL = ROOT / "variants" / "unequal_kim.yaml"
 # the shipped studies: optimisation studies, and tolerance studies (a `tolerances:` list; cvtdesign tolerance)
 TOLERANCE_STUDIES = [f for f in sorted((ROOT / "studies").glob("*.yaml")) if "tolerances" in yaml.safe_load(f.read_text())]
-STUDIES = [f for f in sorted((ROOT / "studies").glob("*.yaml")) if f not in TOLERANCE_STUDIES]
+# duty cycles (points or a task log; cvtdesign life --duty) are read by io.duty_file, not as studies
+DUTY_FILES = [f for f in sorted((ROOT / "studies").glob("*.yaml")) if {"points", "log"} & set(yaml.safe_load(f.read_text()))]
+STUDIES = [f for f in sorted((ROOT / "studies").glob("*.yaml")) if f not in TOLERANCE_STUDIES + DUTY_FILES]
 INF, NAN = float("inf"), float("nan")
 
 
@@ -282,6 +284,12 @@ def test_shipped_studies_build(tmp_path):
         for v in (spec.batch.variants or [spec.base]):
             problem = build_problem(f, spec, (f.parent / v).resolve())
             assert np.all(problem.lower < problem.upper) and np.all(np.isfinite(problem.upper))
+
+
+def test_shipped_duty_files_load():
+    from cvtdesign.io.duty_file import load_duty
+    assert [f.name for f in DUTY_FILES] == ["cobot_duty.yaml"]
+    assert all(load_duty(f).period > 0 for f in DUTY_FILES)
 
 
 def test_shipped_tolerance_studies_load():

@@ -1,0 +1,147 @@
+"""Heat, wear and life (core/life) against hand calculations, each with its source written here, and the
+energy balance of `cvtdesign life` at every duty point."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, shipped_model
+
+from cvtdesign.core.life import fatigue, hysteresis, thermal, wear
+from cvtdesign.core.life.run import machine_life, worn_ratio_error
+from cvtdesign.io.ageing import roller_ageing
+from cvtdesign.io.duty_file import load_duty
+from cvtdesign.io.variant import load_spec
+
+DUTY = ROOT / "studies" / "cobot_duty.yaml"
+
+
+def test_rolling_resistance_is_johnsons():
+    """Johnson, Contact Mechanics (1985), sec. 9.2: a sphere rolling on a viscoelastic body meets
+    F_R = α·3Wa/(16R). By hand: α = 0.2, W = 100 N, a = 3 mm, R = 24.5 mm:
+    F_R = 0.2 × 3 × 100 × 0.003 / (16 × 0.0245) = 0.18 / 0.392 = 0.459184 N."""
+    assert hysteresis.rolling_resistance(0.2, 100.0, 0.003, 0.0245) == pytest.approx(0.459184, rel=1e-5)
+
+
+@pytest.mark.parametrize("b_over_a", [1.0, 0.4, 2.5])
+def test_leading_half_work_of_an_ellipse(b_over_a):
+    """The work on the leading half per unit distance rolled is ∫_{x>0} p x dA / R, with Hertz's
+    p = 3W/(2πab) √(1 − x²/a² − y²/b²): for the circle (Johnson's case) 3Wa/16, and for any ellipse the same
+    (module docstring of core.life.hysteresis). Summed numerically on a fine grid, within 1 %."""
+    W, a = 100.0, 0.003
+    b = b_over_a * a
+    n = 1201
+    x = (np.arange(n) + 0.5) / n * a
+    y = np.linspace(-b, b, 2 * n + 1)
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    p = 3 * W / (2 * math.pi * a * b) * np.sqrt(np.clip(1 - X ** 2 / a ** 2 - Y ** 2 / b ** 2, 0, None))
+    moment = np.sum(p * X) * (a / n) * (y[1] - y[0])
+    assert moment == pytest.approx(3 * W * a / 16, rel=0.01)
+
+
+def test_steady_lumped_temperature():
+    """A 40 mm roller, tread 24 mm wide, hub at 0.6 r, urethane k = 0.21 W/(m K), turning at 20 rad/s in
+    still air, taking 0.5 W. By hand (Incropera and DeWitt, rotating cylinder: Nu = 0.133 Re^(2/3) Pr^(1/3)):
+    Re = 20 × 0.08² / 1.6e-5 = 8000; Nu = 0.133 × 400 × 0.71^(1/3) = 0.133 × 400 × 0.892112 = 47.4604;
+    h = 47.4604 × 0.026 / 0.08 = 15.4246 W/(m² K); A = 2π 0.04 × 0.024 + 2π 0.04² (1 − 0.36) = 0.00603186 +
+    0.00643398 = 0.0124658 m²; hA = 0.192282 W/K; G_hub = 2π 0.21 × 0.024 / ln(1/0.6) = 0.0316673 / 0.510826
+    = 0.0619923 W/K; G = 0.254274 W/K; T − T_amb = 0.5 / 0.254274 = 1.96638 K."""
+    r, w, hub, k = 0.04, 0.024, 0.6, 0.21
+    h = thermal.convection_coefficient(20.0, r)
+    G = h * thermal.surface_area(r, w, hub) + thermal.hub_conductance(k, w, hub)
+    rise = thermal.steady_temperature(0.5, G, 298.15) - 298.15
+    assert rise == pytest.approx(1.96638, rel=0.01)
+    assert rise == pytest.approx(1.96638, rel=1e-4)
+    C = thermal.heat_capacity(1100.0, 1800.0, r, w, hub)       # a steady cycle's mean is the steady temperature
+    _, _, mean = thermal.cycle_temperatures([0.5, 0.5], [G, G], [3.0, 9.0], C, 298.15)
+    assert mean - 298.15 == pytest.approx(rise, rel=1e-9)
+
+
+def test_cycle_is_the_exact_exponential():
+    """Two steps of a square wave (Q 1 W for τ, 0 for τ; G = 0.25 W/K, C = 200 J/K, so τ_th = 800 s): in the
+    periodic state T_start of the heating step is ΔT_ss·e/(1 + e) with e = exp(−τ/τ_th), by hand for τ =
+    800 s: ΔT_ss = 4 K, e = 0.367879, θ0 = 4 × 0.367879 / 1.367879 = 1.075766 K."""
+    starts, _, _ = thermal.cycle_temperatures([1.0, 0.0], [0.25, 0.25], [800.0, 800.0], 200.0, 0.0)
+    assert starts[0] == pytest.approx(1.075766, rel=1e-6)
+    assert starts[1] == pytest.approx(4 - (4 - 1.075766) * 0.367879, rel=1e-6)
+
+
+def test_flash_temperature_limits():
+    """Jaeger's uniform circular source: at rest its centre rises q a / k (Tian and Kennedy's fit at Pe = 0:
+    2qa/(k√(4.0)) = 1.0025 qa/k); for a short time t it rises 2q√(κt/π)/k (a flux on a half-space)."""
+    Q, a, k, rho, c = 1.0, 0.002, 0.21, 1100.0, 1800.0
+    q = Q / (math.pi * a * a)
+    assert thermal.flash_temperature(Q, a, a, 0.0, k, rho, c) == pytest.approx(q * a / k, rel=0.01)
+    t, kappa = 0.01, k / (rho * c)
+    assert thermal.flash_temperature(Q, a, a, 0.0, k, rho, c, t) == pytest.approx(
+        2 * q * math.sqrt(kappa * t / math.pi) / k, rel=1e-12)
+
+
+def test_wear_depth_for_known_work():
+    """Archard's law, energy form: 1 W of friction for an hour (3600 J), k = 5e-14 m³/J, over a 40 mm
+    roller's track of half-width 2 mm: V = 1.8e-10 m³ spread over 2π × 0.04 × 0.004 = 1.005310e-3 m²:
+    h = 1.8e-10 / (2π × 0.04 × 0.004) m, exactly."""
+    assert wear.wear_depth(5e-14, 3600.0, 0.04, 0.002) == 5e-14 * 3600.0 / (4 * math.pi * 0.04 * 0.002)
+    assert wear.wear_depth(5e-14, 3600.0, 0.04, 0.002) == pytest.approx(1.790493e-7, rel=1e-6)
+    assert wear.wear_rate(5e-14, 1.0, 0.04, 0.002) * 3600.0 == pytest.approx(wear.wear_depth(5e-14, 3600.0, 0.04, 0.002),
+                                                                     rel=1e-15)
+
+
+@pytest.mark.parametrize("name", ["existing_kim", "box_kim"])
+def test_ratio_error_of_worn_radii(name):
+    """The worn radii fed back into the model (core.life.run.worn_ratio_error): shaft 1's rollers 0.4 mm
+    smaller, the others unworn. A roller rolls at r ω = V, so by hand ω2/ω1 = (V2/V1)(r1/r2) falls by
+    0.4/40 = 1 %: an error of +0.01 exactly without load (no creep); under the duty's loads the worn rollers'
+    creep changes too, which the model adds (here 7–18 % more)."""
+    model = shipped_model(name)
+    hours = 1000.0
+    contacts = [SimpleNamespace(wear_rate=0.0004 / (hours * 3600) if r.role != "steering" and r.shaft == 1 else 0.0)
+                for r in model.layout.rollers]
+    worn = SimpleNamespace(life=hours * 3600, contacts=contacts)
+    duty = load_duty(DUTY)
+    err, k = worn_ratio_error(model, dataclasses.replace(duty, load=0 * duty.load), worn)
+    assert k is not None and err == pytest.approx(0.0004 / 0.040, rel=1e-6)
+    err, k = worn_ratio_error(model, duty, worn)
+    assert k is not None and 0.01 < err < 0.0125
+
+
+def test_l10_of_a_steel_contact():
+    """Lundberg–Palmgren, point contact (Loewenthal and Zaretsky, "Design of traction drives"): L10 ∝
+    p_max^−9. By hand, from 1e7 cycles at 5.52 GPa to 1.5 GPa: (5.52/1.5)^9 = 3.68^9 = 123 774.3; L10 =
+    1.237743e12 cycles. A 20 mm roller rolling at 2 m/s is stressed 2/(2π 0.02) = 15.9155 times a second:
+    7.776967e10 s."""
+    assert fatigue.l10_cycles(1.5e9, 5.52e9, 1e7, 9) == pytest.approx(1.237743e12, rel=1e-6)
+    assert fatigue.l10_seconds(1.5e9, 2.0, 0.02, 5.52e9, 1e7, 9) == pytest.approx(7.776967e10, rel=1e-6)
+
+
+def test_miner_published_example():
+    """Modarres, Amiri and Jackson, "Probabilistic physics of failure approach to reliability" (2017), pp.
+    33-37, as the `reliability` package's palmgren_miner_linear_damage documents it: parts that fail after
+    50 000, 6 500 and 1 000 h at three loads, used 40, 15 and 5 min an hour, last 7400.38 one-hour cycles."""
+    life = fatigue.miner_life([50000.0, 6500.0, 1000.0], np.array([40.0, 15.0, 5.0]) / 60.0)
+    assert life == pytest.approx(7400.38, abs=0.01)
+
+
+@pytest.mark.parametrize("name", ["box_kim", "existing_kim", pytest.param("box", marks=pytest.mark.slow),
+                                  "existing"])
+def test_energy_balance_at_every_duty_point(name):
+    """Σ contact losses (creep, spin and hysteresis) = P_in − P_out at every duty point, and the model's
+    own: Σ creep and spin losses = τ1 ω1 + τ2 ω2. The hysteresis each contact loses is Johnson's with the
+    model's normal force, patch and rolling speed at the consistent temperature."""
+    model = shipped_model(name)
+    f = str(ROOT / "variants" / f"{name}.yaml")
+    ages = roller_ageing(f, load_spec(f), model.roller_names)
+    duty = load_duty(DUTY)
+    life = machine_life(model, duty, [ages[n] for n in model.roller_names])
+    loss = sum(c.loss for c in life.contacts)
+    assert np.all(np.isfinite(loss)) and np.all(loss > 0)
+    np.testing.assert_allclose(loss, life.power_in - life.power_out, rtol=1e-9)
+    friction = sum(c.friction for c in life.contacts)
+    assert np.all(np.isfinite(friction)) and np.max(friction) > 0.05
+    hyst = sum(c.hysteresis for c in life.contacts)
+    np.testing.assert_allclose(loss - hyst, friction, rtol=1e-12)
+    assert life.limit in ("temperature", "wear", "fatigue", "runaway") and life.contact in model.roller_names
