@@ -13,8 +13,8 @@ from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
 from cvtdesign.core import basis
 from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.core.metrics import ZERO_TORQUE, at_key, envelope, ideal_model, metrics
-from cvtdesign.core.model import compile_model
-from cvtdesign.core.uncertainty import intervals, point_bands
+from cvtdesign.core.inputs import uncertain_model
+from cvtdesign.core.uncertainty import intervals, orderings, point_bands, spread
 from cvtdesign.io import plots
 from cvtdesign.io.duty_file import load_duty
 from cvtdesign.io.limits import check_envelope_limits
@@ -61,7 +61,7 @@ def run(args):
     layouts = one_basis(layouts, layouts[-1] if len(files) == 1 else layouts[0], args)
     names = basis.distinct_names(layouts)
     layouts = [dataclasses.replace(L, name=n) for L, n in zip(layouts, names)]
-    models = [compile_model(L) for L in layouts]
+    models = [uncertain_model(L) for L in layouts]
     results = [envelope(m) for m in models]
     figure = make_folder(args.out, kind="--out") / named_after(files, ".png")     # another set, another file
     replaced = figure.exists()
@@ -69,7 +69,9 @@ def run(args):
     painter.draw(plots.compare_figure, [(L.name, {k: res[k] for k in plots.COMPARE_KEYS} | point_bands(m, res)
                                      | {"theory_only": basis.calibration(L)["uncalibrated"]})
                                     for L, m, res in zip(layouts, models, results)], figure)
-    rows = [with_intervals(m, res, metrics(m, res) | basis.fields(m.layout)) for m, res in zip(models, results)]
+    spreads = [spread(m, res) for m, res in zip(models, results)]
+    rows = [with_intervals(s, metrics(m, res) | basis.fields(m.layout)) for m, res, s in zip(models, results, spreads)]
+    ranked = orderings(rows, spreads)
     if args.duty:
         rows = [r | life_fields(m, life_duty) for r, m in zip(rows, models)]
     if len(files) == 1:
@@ -82,15 +84,15 @@ def run(args):
 
     if args.points:
         write_points(args.points, [contact_points(L.name, L, res) for L, res in zip(layouts, results)])
-    blocks = comparison_blocks(rows)
+    blocks = comparison_blocks(rows, ranked)
     # the files first, then the terminal: a reader that closes stdout early (`| head`) loses no file
     if args.json:
-        write_file(args.json, json_text({"variants": rows}), kind="--json")
+        write_file(args.json, json_text({"variants": rows, "orderings": ranked}), kind="--json")
     error = painter.wait()
     if args.report and not error:
         labels = {k: label for k, label in _BASIS_LABELS} | {"ok": "operating points ok"} | \
             {key: label for key, label, _ in COLUMNS} | ({"life_h": LIFE_LABEL} if args.duty else {})
-        report = compare_report.report_blocks(rows, blocks, figure, labels)
+        report = compare_report.report_blocks(rows, blocks, figure, labels, ranked)
         write_file(args.report, report_text(args, "cvtdesign compare", report), kind="--report")
     console = Console(width=max(100, 30 + 22 * len(rows)))
     show(console, blocks)
@@ -107,9 +109,9 @@ def run(args):
     return 0
 
 
-def with_intervals(model, res: dict, row: dict) -> dict:
-    """The row with a 95 % interval on each figure from the calibration's uncertainty (core.uncertainty)."""
-    return row | intervals(model, res, row)
+def with_intervals(spread, row: dict) -> dict:
+    """The row with a 95 % interval and a budget on each figure from every uncertain input (core.uncertainty)."""
+    return row | intervals(spread, row)
 
 
 def one_basis(layouts: list, first, args) -> list:
@@ -132,7 +134,7 @@ def one_basis(layouts: list, first, args) -> list:
     return out
 
 
-def comparison_blocks(rows: list[dict]) -> list:
+def comparison_blocks(rows: list[dict], ranked: list[dict] | None = None) -> list:
     """The comparison table (one column per variant, the figures of COLUMNS as rows) and, per variant, its
     ideal law, the operating points left out of the figures and the contacts over their allowable pressure.
     The table never looks better than the run: when a variant has fewer than half its points ok, a first
@@ -156,6 +158,13 @@ def comparison_blocks(rows: list[dict]) -> list:
     if duty:
         blocks.append(Note(f"life: on the duty cycle {duty}, to the first contact's first limit (docs/life.md; "
                            "`cvtdesign life --duty` gives each contact's temperature, wear and life, with intervals)"))
+    sentences = compare_report.ordering_sentences(ranked or [])
+    if sentences:
+        blocks.append(Note("orderings at 95 %: " + "; ".join(sentences)))
+    budgets = [f"{r['name']}: " + ", ".join(f"{k} {v:.0%}" for k, v in list(r["max_abs_alpha_deg_budget"].items())[:3])
+               for r in rows if r.get("max_abs_alpha_deg_budget")]
+    if budgets:
+        blocks.append(Note("what max |α|'s interval rests on (measure the first first): " + "; ".join(budgets)))
     envelopes = {r["envelope"] for r in rows}
     blocks.append(Note(f"envelope: {envelopes.pop()}" if len(envelopes) == 1 else
                        "envelopes differ (--as-written): " + "; ".join(f"{r['name']} {r['envelope']}" for r in rows),
@@ -195,6 +204,8 @@ def where_text(r: dict) -> str:
 def figure_cell(r: dict, key: str, fmt: str) -> str:
     """A variant's figure as the table shows it: '—' where no point is ok to take it over; with its 95 %
     interval where the calibration's uncertainty is known; a Hertz pressure over the allowable marked with it."""
+    if key in r.get("not_modelled", ()):
+        return "not modelled"
     if r[key] is None or not r["ok"]:
         return "—"
     text = fmt.format(r[key])

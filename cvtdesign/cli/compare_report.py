@@ -74,8 +74,10 @@ def basis_text(rows: list[dict]) -> str:
                  f"{'its' if len(theory) == 1 else 'their'} slip is likely underestimated. ")
     with_ci = [r["name"] for r in real if r.get("max_abs_alpha_deg_interval")]
     if with_ci:
-        text += ("The brackets are 95 % intervals from the calibration's uncertainty (" +
-                 "; ".join(f"{r['name']}: {r['calibration']['text']}" for r in real if r["name"] in with_ci) + ").")
+        text += ("The brackets are 95 % intervals from every uncertain input we know of: the calibration (" +
+                 "; ".join(f"{r['name']}: {r['calibration']['text']}" for r in real if r["name"] in with_ci) +
+                 "), the preload, each material's modulus, each pair's friction and the contact law's own error; "
+                 "each figure's budget (the JSON's <figure>_budget) says which input to measure first.")
     return text
 
 
@@ -88,28 +90,41 @@ def _ok_text(rows: list[dict]) -> str:
     return "points left out of the figures (see the notes): " + "; ".join(lost)
 
 
-def summary(rows: list[dict]) -> Summary:
-    """The answer (which variant slips least, and which keeps the best worst efficiency, against Kim's
-    existing CVT when it is compared) and how sure it is (the points the figures cover, their basis)."""
+WORDS = {"max_abs_alpha_deg": ("slips less than", "largest slip angle"),
+         "min_efficiency": ("keeps a higher worst-case efficiency than", "worst-case efficiency")}
+
+
+def ordering_sentences(ranked: list[dict]) -> list[str]:
+    """One sentence per ordering of the figures in WORDS: stated only where the difference is resolved at 95 %
+    (core.uncertainty.orderings), otherwise 'cannot tell' with the input that would settle it."""
+    out = []
+    for o in ranked:
+        if o["figure"] not in WORDS:
+            continue
+        verb, noun = WORDS[o["figure"]]
+        if o["resolved"]:
+            out.append(f"{o['better']} {verb} {o['worse']} (P = {o['p_better']:.3f})")
+        else:
+            settle = f"; {o['settle']} would settle it" if o.get("settle") else ""
+            out.append(f"cannot tell {o['better']} from {o['worse']} by {noun} at this uncertainty "
+                       f"(P = {o['p_better']:.2f} that {o['better']} is better{settle})")
+    return out
+
+
+def summary(rows: list[dict], ranked: list[dict] | None = None) -> Summary:
+    """The answer (the orderings of slip and worst efficiency that the intervals resolve, and those they do
+    not) and how sure it is (the points the figures cover, their basis)."""
     real = [r for r in rows if not r["name"].startswith("ideal") and r["ok"] and r["max_abs_alpha_deg"] is not None]
     if not real:
         return Summary("No variant has an ok operating point: nothing can be compared.", _ok_text(rows) + ".")
-    least = min(real, key=lambda r: r["max_abs_alpha_deg"])
-    answer = f"{least['name']} slips least: its largest slip angle is {least['max_abs_alpha_deg']:.3f}°"
-    ref = next((r for r in real if r["name"] == "existing" and r is not least), None)
-    if ref:
-        answer += (f", against {ref['max_abs_alpha_deg']:.3f}° for Kim's existing CVT "
-                   f"({ref['max_abs_alpha_deg'] / least['max_abs_alpha_deg']:.1f} times less)")
-    eff = [r for r in real if r["min_efficiency"] is not None]
-    if eff:
-        best = max(eff, key=lambda r: r["min_efficiency"])
-        who = "It also" if best is least else best["name"]
-        answer += f". {who} keeps the highest worst-case efficiency, {best['min_efficiency']:.3f}"
-        if ref and ref is not best and ref["min_efficiency"] is not None:
-            answer += f" (existing {ref['min_efficiency']:.3f})"
+    figures = "; ".join(f"{r['name']} {r['max_abs_alpha_deg']:.3f}°" for r in real)
+    answer = f"Largest slip angle: {figures}."
+    sentences = ordering_sentences(ranked or [])
+    if sentences:
+        answer += " " + "; ".join(s[0].upper() + s[1:] for s in sentences) + "."
     sure = (f"How sure: each figure is taken over the variant's whole operating envelope; {_ok_text(rows)}. "
             + basis_text(rows))
-    return Summary(answer + ".", sure)
+    return Summary(answer, sure)
 
 
 def glossary(table_labels: dict) -> Glossary:
@@ -118,9 +133,9 @@ def glossary(table_labels: dict) -> Glossary:
                     + TERMS)
 
 
-def report_blocks(rows: list[dict], blocks: list, figure, table_labels: dict) -> list:
+def report_blocks(rows: list[dict], blocks: list, figure, table_labels: dict, ranked: list[dict] | None = None) -> list:
     """The report: summary, figure, the printed blocks (table and notes), glossary."""
     caption = "Figure 1. The variants over their envelope: slip angle α, its steering and drive parts and " \
               "efficiency against commanded γ, and each variant's efficiency map (see the glossary)."
-    return [summary(rows), Heading("Figure"), png_figure(figure, caption), Heading("Table"), *blocks,
+    return [summary(rows, ranked), Heading("Figure"), png_figure(figure, caption), Heading("Table"), *blocks,
             glossary(table_labels)]

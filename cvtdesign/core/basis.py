@@ -15,6 +15,7 @@ from cvtdesign.core.layout import Layout
 
 ROLES = ("drive", "steering")      # drive and follower contacts; steering contacts
 WORDS = {"library": "materials library", "fitted": "the variant's fitted creep constants",
+         "transferred": "a calibration TRANSFERRED from materials of the same family (a best estimate)",
          "factor": "the variant's calibration factors"}
 
 
@@ -58,7 +59,8 @@ def calibration_cell(layout: Layout) -> str:
     cal = calibration(layout)
     if cal["uncalibrated"]:
         return "THEORY ONLY"
-    short = {"library": "materials library", "fitted": "own ε (fitted)", "factor": "own factors"}
+    short = {"library": "materials library", "fitted": "own ε (fitted)", "factor": "own factors",
+             "transferred": "TRANSFERRED"}
     text = " + ".join(short[k] for k in sorted({r.creep.kind for r in layout.rollers}))
     return text + (" (σ not stated)" if None in cal["std"].values() else "")
 

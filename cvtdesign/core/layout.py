@@ -15,6 +15,9 @@ class Material:
     E: object          # Young's modulus [Pa]
     nu: object         # Poisson's ratio [-]
     p_allow: object    # allowable Hertz peak pressure [Pa] (None: not checked)
+    name: str = ""     # its name in the variant or the materials library
+    E_std: float = 0.25         # relative 1σ of E [-]
+    E_std_assumed: bool = True  # True: no σ stated (that of a modulus read from a Shore A hardness)
 
 
 @dataclass(frozen=True)
@@ -30,11 +33,13 @@ class Friction:
 @dataclass(frozen=True)
 class CreepSource:
     """Where a contact's creep compliance comes from (io.materials decides it from the variant and the library)."""
-    kind: str                     # 'library', 'fitted' (kim's creep constants), 'factor' (kalker's), 'theory'
+    kind: str                     # 'library', 'transferred' (a library calibration of a material of the same
+                                  # family), 'fitted' (kim's creep constants), 'factor' (kalker's), 'theory'
     source: str                   # in words, with its provenance
     std: float | None = None      # relative 1σ of the compliance (None: not stated)
     creep_modulus: object = None  # the roller's Young's modulus in tangential creep [Pa], for kind 'library'
     materials: tuple = ()         # (roller material, sphere material) by name
+    preload: float | None = None  # the normal force [N] on the measured machine the calibration was fitted at
 
     @property
     def uncalibrated(self) -> bool:
@@ -96,6 +101,9 @@ class Layout:
                                               # (fork k + 1 is forks[k]; its axis and ratio: Roller.fork_*)
     frame: Frame | None = None     # the mounting plate, if the variant has one
     kim_vectors: tuple[str, ...] = ()     # Kim's frame vectors (core.geometry.KIM_FRAME) its file names ('d1')
+    preload_std: float = 0.20      # relative 1σ of every preload as built [-]
+    preload_std_assumed: bool = True   # True: no σ stated (no paper states Kim et al.'s preload)
+    spin_factor: object = 1.0      # factor on the spin moment a law computes (its own error: core.uncertainty)
 
     def with_effects(self, effects, parameters=None) -> "Layout":
         params = {k: dict(v) for k, v in self.effect_parameters.items()}

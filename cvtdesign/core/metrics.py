@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cvtdesign.core.contact.laws import IDEAL
+from cvtdesign.core.contact.laws import IDEAL, contact_law
 from cvtdesign.core.model import CompiledModel, compile_model, status_counts
 from cvtdesign.core.steering import standstill_torques
 
@@ -55,10 +55,29 @@ def envelope(model: CompiledModel, theta=None, design=None) -> dict:
     model's own and none); arrays have shape (n_gamma, n_load)."""
     L = model.layout
     G, T = np.meshgrid(L.gamma_grid, L.load_grid, indexing="ij")
-    res = model.evaluate(G, T, theta=theta, design=design)
+    return with_derived(model, model.evaluate(G, T, theta=theta, design=design))
+
+
+def envelopes(model: CompiledModel, theta: np.ndarray, design: np.ndarray) -> list[dict]:
+    """`envelope` at each of several (θ, design) samples (rows of `theta` and `design`), in one evaluation
+    of every sample's every point."""
+    L = model.layout
+    G, T = np.meshgrid(L.gamma_grid, L.load_grid, indexing="ij")
+    n, m = theta.shape[0], G.size
+    rep = lambda a: np.repeat(a, m, axis=0)
+    res = model.evaluate(np.tile(G.ravel(), n), np.tile(T.ravel(), n), theta=rep(theta), design=rep(design))
+    out = []
+    for s in range(n):
+        part = {k: (v[..., s * m:(s + 1) * m].reshape(v.shape[:-1] + G.shape)) for k, v in res.items()}
+        out.append(with_derived(model, part))
+    return out
+
+
+def with_derived(model: CompiledModel, res: dict) -> dict:
+    """An envelope result with its efficiency and standstill steering torques added."""
     res["efficiency"] = efficiency(res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"])
     res["T_fork_standstill"], res["steering_torque_standstill"] = standstill_torques(
-        res, [r.fork_ratio for r in L.rollers])
+        res, [r.fork_ratio for r in model.layout.rollers])
     return res
 
 
@@ -151,6 +170,16 @@ def where_text(model: CompiledModel, res: dict, e: Extreme) -> dict | None:
             "contact": None if e.contact is None else model.roller_names[e.contact]}
 
 
+SPIN_FIGURES = ("max_steering_torque_Nm",)   # figures made of the contacts' spin moments
+
+
+def not_modelled(layout, effects) -> list[str]:
+    """The figures the layout's contact law cannot produce: under a law without spin moment (Kim's) the
+    rolling steering torque, whose main part is the spin moment about each fork's axis, is not a 0 but
+    not modelled (the ideal CVT, with no effect on, has none to model)."""
+    return list(SPIN_FIGURES) if contact_law(layout.contact_law).spin_error is None and effects else []
+
+
 def metrics(model: CompiledModel, res: dict) -> dict:
     """The figures of merit of an `envelope` result (module docstring), where each extreme is taken
     (`<figure>_at`: γ, τ⊥ and the contact; `not_converged_at`: the points that did not converge), and the
@@ -162,9 +191,10 @@ def metrics(model: CompiledModel, res: dict) -> dict:
         (np.abs(res["load"]) >= 0.25 * np.max(np.abs(L.load_grid)))
     delivers = delivers_power(res)
     failed = np.flatnonzero(np.ravel(res["status"]) == 1)
+    missing = not_modelled(L, model.effects)
     return {
         "name": L.name, "file": L.file, "ideal_law": model.frame.law_text(),
-        **{k: e.value for k, e in ext.items()},
+        **{k: None if k in missing else e.value for k, e in ext.items()}, "not_modelled": missing,
         "rms_alpha_deg": float(np.sqrt(np.nanmean(a ** 2))) if np.any(np.isfinite(a)) else None,
         "efficiency_points": int(np.sum(eff_range & delivers)),
         "no_output_points": int(np.sum(eff_range & res["ok"] & ~delivers)),

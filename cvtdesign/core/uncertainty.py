@@ -1,62 +1,57 @@
-"""An interval on every figure: the calibration's uncertainty carried to the figures `compare` prints, to first
-order, with the model's exact derivatives.
+"""An interval on every figure: every uncertain input we know of (core.inputs: the calibration, the preload,
+each material's modulus, each pair's friction, the law's own error, fitted effect parameters) carried to the
+figures `compare` prints, to first order, with the model's exact derivatives; and each figure's budget, which
+input contributes how much.
 
-What is uncertain. Each contact's creep compliance rests on a calibration (core.basis): a library
-calibration, the variant's fitted constants or its calibration factors, each with a relative standard
-deviation σ (docs/materials.md). It enters the model as the scales of `drive_longitudinal_creep` and
-`steering_lateral_creep` (θ = (s_D, s_S), nominal 1: under Kim's law the compliance is s·ε, under Kalker's the
-calibration multiplies it by s), with covariance Σ = diag(σ_D, σ_S) R diag(σ_D, σ_S), R's correlation 1 where
-both roles rest on one calibration and 0 otherwise. Effect parameters fitted to measurements add their own
-σ (the variant's effect_uncertainty, as `cvtdesign diagnose` reports them), independent of the calibration.
+How. Each figure is an extreme or a mean over the envelope (core.metrics.extremes): its derivative in each
+input is that of the output at the point (and contact) where it is taken, through the model's Newton solve by
+the implicit function theorem (calibration and effect inputs are θ entries of the model; the physical ones its
+design vector, core.inputs.uncertain_model); RMS α takes every point's. Inputs of one key are one quantity
+(their derivatives add); different keys are independent. So σ_f² = Σ_key (g_key σ_key)², the interval is
+f ± Z σ_f (95 %, Z = 1.96), and the budget gives each input its share (g_key σ_key)²/σ_f², summing to 1. The
+difference of two variants' figures has its own σ over the union of their keys, shared keys cancelling
+(`difference`). tests/unit/core/test_uncertainty.py checks the intervals against sampling the same inputs.
 
-How. Each figure is an extreme or a mean over the envelope (core.metrics.extremes): its derivative in θ is
-that of the output at the point (and contact) where it is taken, dα/dθ through the model's Newton solve by the
-implicit function theorem; RMS α takes every point's. To first order σ_f² = gᵀ Σ g, and the interval is
-f ± Z σ_f (95 %, Z = 1.96). tests/unit/core/test_uncertainty.py checks it against sampling θ from N(1, Σ); the
-docs say up to which σ the first order holds.
-
-Contacts with the theory alone (uncalibrated) have no stated σ: their figures get no interval (their
-uncertainty is the theory's gap to a measurement, 3.1–3.6× on Kim's CVT, not a statistical one).
+Contacts with the theory alone (uncalibrated) have no stated σ for their creep: their figures carry the other
+inputs' spread and say that the theory's own gap (3.1–3.6× on Kim's CVT) is not in it.
 """
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
-from cvtdesign.core import basis
-from cvtdesign.core.effects import CALIBRATION
-from cvtdesign.core.metrics import extremes
 from cvtdesign.core import steering
+from cvtdesign.core.inputs import Input, model_inputs
+from cvtdesign.core.metrics import extremes
 from cvtdesign.core.model import CompiledModel
+from cvtdesign.core import basis
 
 Z95 = 1.959963984540054
-SCALES = {side: f"{effect}.scale" for side, effect in CALIBRATION.items()}
 OUTPUTS = ("alpha", "alpha_steering", "alpha_drive", "omega_2", "tau_1", "tau_2", "power_loss", "utilisation",
            "p_max", "steering_torque", *steering.INPUTS)
 
 
 def covariance(model: CompiledModel) -> tuple[list[int], np.ndarray] | None:
-    """(indices of the model's θ entries that are uncertain, their covariance): the calibration's scales, and
-    the effect parameters whose σ the variant gives (effect_uncertainty, independent of the rest); None where
-    some contact's σ is unknown (uncalibrated, or not stated) or no θ entry is uncertain."""
+    """(indices of the model's θ entries that are uncertain, their covariance): the calibration's scales (fully
+    correlated where both roles rest on one calibration) and the fitted effect parameters with a stated σ; None
+    where some contact's σ is unknown or no θ entry is uncertain. The θ part of the inputs, for a study that is
+    robust to the calibration (design.robust)."""
     cal = basis.calibration(model.layout)
     if cal["uncalibrated"]:
         return None
-    roles = [r for r in basis.ROLES if any(basis.role_of(x) == r for x in model.layout.rollers)]
-    if any(cal["std"][r] is None for r in roles):
+    inputs = [i for i in model_inputs(model) if i.in_theta]
+    if not inputs:
         return None
-    roles = [r for r in roles if SCALES[r] in model.param_names]
-    s = np.array([cal["std"][r] for r in roles])
-    corr = np.ones((len(roles), len(roles))) if cal["same_source"] else np.eye(len(roles))
-    fitted = {f"{e}.{p}": v for e, ps in model.layout.effect_uncertainty.items() for p, v in ps.items()
-              if f"{e}.{p}" in model.param_names}
-    idx = [model.param_names.index(SCALES[r]) for r in roles] + [model.param_names.index(k) for k in fitted]
-    if not idx:
-        return None
-    cov = np.zeros((len(idx), len(idx)))
-    cov[:len(roles), :len(roles)] = np.outer(s, s) * corr
-    cov[len(roles):, len(roles):] = np.diag(np.square(list(fitted.values())))
-    return idx, cov
+    idx, s = [], []
+    for i in inputs:
+        idx.append(model.param_names.index(i.target))
+        s.append(i.std)
+    keys = [i.key for i in inputs]
+    corr = np.array([[1.0 if a == b else 0.0 for b in keys] for a in keys])
+    return idx, np.outer(s, s) * corr
 
 
 def sensitivities(model: CompiledModel, res: dict, points: np.ndarray, theta_idx: list[int],
@@ -83,12 +78,23 @@ def sensitivities(model: CompiledModel, res: dict, points: np.ndarray, theta_idx
     return out
 
 
-def figure_gradients(model: CompiledModel, res: dict, theta_idx: list[int]) -> dict:
-    """{figure key: d figure/dθ (k,)} for every figure of core.metrics.extremes and RMS α."""
+def jacobians(model: CompiledModel, res: dict, points: np.ndarray, inputs: list[Input], outputs=OUTPUTS) -> dict:
+    """d(output)/d(input) at the given flat point indices for every input of `inputs` (core.inputs, θ ones
+    first): {output: array (points, [contacts,] k)}."""
+    theta = [model.param_names.index(i.target) for i in inputs if i.in_theta]
+    out = sensitivities(model, res, points, theta, outputs) if theta else {}
+    if model.design.numel():
+        d = sensitivities(model, res, points, list(range(model.design.numel())), outputs, wrt="design")
+        out = {n: np.concatenate([out[n], d[n]], axis=-1) if out else d[n] for n in outputs}
+    return out
+
+
+def figure_gradients(model: CompiledModel, res: dict, inputs: list[Input]) -> dict:
+    """{figure key: d figure/d input (k,)} for every figure of core.metrics.extremes and RMS α."""
     ext = extremes(model, res)
     ok = np.flatnonzero(np.ravel(res["ok"]))
     at = sorted({e.point for e in ext.values() if e.point is not None})
-    d = sensitivities(model, res, np.array(at, int), theta_idx)     # every output where an extreme is taken
+    d = jacobians(model, res, np.array(at, int), inputs)            # every output where an extreme is taken
     row = {p: i for i, p in enumerate(at)}
     val = {n: np.ravel(res[n]) if np.ndim(res[n]) == np.ndim(res["ok"]) else np.asarray(res[n]).reshape(
         np.shape(res[n])[0], -1) for n in OUTPUTS}
@@ -98,9 +104,55 @@ def figure_gradients(model: CompiledModel, res: dict, theta_idx: list[int]) -> d
         if e.point is not None:
             grads[key] = _gradient(model, key, e, row[e.point], d, val, res) * (deg if "alpha" in key else 1.0)
     a = val["alpha"][ok]                                           # α at every ok point, for RMS α
-    d_alpha = sensitivities(model, res, ok, theta_idx, ("alpha",))["alpha"]
+    d_alpha = jacobians(model, res, ok, inputs, ("alpha",))["alpha"]
     grads["rms_alpha_deg"] = deg * np.mean(a[:, None] * d_alpha, axis=0) / np.sqrt(np.mean(a ** 2))
     return grads
+
+
+@dataclass
+class Spread:
+    """A layout's figures' first-order spread: {figure: {input key: d figure / d input}}, each key's relative
+    σ and its label (in a budget) and whether its σ was assumed."""
+    gradients: dict
+    std: dict
+    labels: dict
+    assumed: dict
+
+    def sigma(self, figure: str) -> float:
+        g = self.gradients[figure]
+        return math.sqrt(sum((g[k] * self.std[k]) ** 2 for k in g))
+
+    def budget(self, figure: str) -> dict:
+        """{input label: share of the figure's variance}, largest first; the shares sum to 1."""
+        g = self.gradients[figure]
+        var = {self.labels[k]: (g[k] * self.std[k]) ** 2 for k in g}
+        total = sum(var.values())
+        if total <= 0:
+            return {}
+        return dict(sorted(((k, v / total) for k, v in var.items()), key=lambda kv: -kv[1]))
+
+
+def spread(model: CompiledModel, res: dict) -> Spread | None:
+    """The first-order spread of every figure of the model (an uncertain_model's, or a plain one's θ inputs
+    alone), or None where no point is ok."""
+    inputs = model_inputs(model)
+    if not inputs or not res["ok"].any():
+        return None
+    grads = figure_gradients(model, res, inputs)
+    by_key = {}
+    for figure, g in grads.items():
+        by_key[figure] = {}
+        for inp, v in zip(inputs, g):
+            by_key[figure][inp.key] = by_key[figure].get(inp.key, 0.0) + float(v)
+    return Spread(by_key, {i.key: i.std for i in inputs}, {i.key: i.label for i in inputs},
+                  {i.key: i.assumed for i in inputs})
+
+
+def difference(a: Spread, b: Spread, figure: str) -> float:
+    """σ of (figure of a − figure of b) over the union of their inputs, shared keys moving together."""
+    ga, gb = a.gradients[figure], b.gradients[figure]
+    std = a.std | b.std
+    return math.sqrt(sum(((ga.get(k, 0.0) - gb.get(k, 0.0)) * std[k]) ** 2 for k in set(ga) | set(gb)))
 
 
 def _gradient(model: CompiledModel, key: str, e, i: int, d: dict, val: dict, res: dict) -> np.ndarray:
@@ -142,19 +194,18 @@ def standstill_gradient(model: CompiledModel, res: dict, k: int, d: dict) -> np.
                      for j in range(next(iter(d.values())).shape[1])])
 
 
-def intervals(model: CompiledModel, res: dict, row: dict) -> dict:
-    """{'<figure>_interval': [lo, hi]} (95 %, first order) for every figure of `row` that has a value, or {}
-    where the calibration's uncertainty is not known (module docstring)."""
-    cov = covariance(model)
-    if cov is None or not res["ok"].any():
+def intervals(spread_: Spread | None, row: dict) -> dict:
+    """{'<figure>_interval': [lo, hi], '<figure>_budget': {input: share}} (95 %, first order) for every figure
+    of `row` that has a value, or {} where there is no spread (module docstring)."""
+    if spread_ is None:
         return {}
-    idx, sigma = cov
     out = {}
-    for key, g in figure_gradients(model, res, idx).items():
+    for key in spread_.gradients:
         if row.get(key) is None:
             continue
-        half = Z95 * float(np.sqrt(max(g @ sigma @ g, 0.0)))
+        half = Z95 * spread_.sigma(key)
         out[f"{key}_interval"] = [row[key] - half, row[key] + half]
+        out[f"{key}_budget"] = spread_.budget(key)
     return out
 
 
@@ -167,12 +218,13 @@ def point_bands(model: CompiledModel, res: dict) -> dict:
     the compare figure's bands. First order, as `intervals`."""
     shape = np.shape(res["ok"])
     out = {f"{k}_band": np.full(shape, np.nan) for k in BAND_KEYS}
-    cov = covariance(model)
+    inputs = model_inputs(model)
     ok = np.flatnonzero(np.ravel(res["ok"]))
-    if cov is None or ok.size == 0:
+    if not inputs or ok.size == 0:
         return out
-    idx, sigma = cov
-    d = sensitivities(model, res, ok, idx, ("alpha", "alpha_steering", "alpha_drive", "omega_2", "tau_1", "tau_2"))
+    s, keys = np.array([i.std for i in inputs]), [i.key for i in inputs]
+    sigma = np.outer(s, s) * np.array([[a == b for b in keys] for a in keys], float)   # one key: one quantity
+    d = jacobians(model, res, ok, inputs, ("alpha", "alpha_steering", "alpha_drive", "omega_2", "tau_1", "tau_2"))
     w1, w2 = np.ravel(res["omega_1"])[ok], np.ravel(res["omega_2"])[ok]
     t1, t2 = np.ravel(res["tau_1"])[ok], np.ravel(res["tau_2"])[ok]
     p1, p2 = t1 * w1, t2 * w2
@@ -190,3 +242,88 @@ def point_bands(model: CompiledModel, res: dict) -> dict:
     out["efficiency_band"][~(np.asarray(res["efficiency"]) > 0)] = np.nan     # no power in, or none out
     return out
 
+
+
+BETTER = {"max_abs_alpha_deg": -1, "rms_alpha_deg": -1, "ratio_error_pct_at_max_load": -1, "min_efficiency": 1,
+          "max_loss_no_output_W": -1}     # the figures an ordering is stated for, and which way is better
+
+
+def orderings(rows: list[dict], spreads: list[Spread | None]) -> list[dict]:
+    """For every pair of variants (rows with a Spread) and each figure of BETTER: which is better, whether the
+    difference is resolved (|Δ| > 1.96 σ_Δ, σ_Δ over both variants' inputs with shared inputs cancelling),
+    P(better is better) = Φ(|Δ|/σ_Δ) and the input that contributes most to σ_Δ (what would settle it)."""
+    out = []
+    have = [(r, s) for r, s in zip(rows, spreads) if s is not None]
+    for i, (ra, sa) in enumerate(have):
+        for rb, sb in have[i + 1:]:
+            for fig, sign in BETTER.items():
+                if ra.get(fig) is None or rb.get(fig) is None or fig not in sa.gradients or fig not in sb.gradients:
+                    continue
+                delta = ra[fig] - rb[fig]
+                sigma = difference(sa, sb, fig)
+                a_better = sign * delta > 0
+                better, worse = (ra, rb) if a_better else (rb, ra)
+                p = 0.5 * (1 + math.erf(abs(delta) / (sigma * math.sqrt(2)))) if sigma > 0 else 1.0
+                out.append({"figure": fig, "better": better["name"], "worse": worse["name"],
+                            "resolved": bool(abs(delta) > Z95 * sigma), "p_better": p,
+                            "difference": abs(delta), "difference_sigma": sigma,
+                            "settle": _largest_share(sa, sb, fig)})
+    return out
+
+
+def _largest_share(a: Spread, b: Spread, figure: str) -> str | None:
+    """The label of the input that contributes most to the variance of a's figure minus b's."""
+    ga, gb, std = a.gradients[figure], b.gradients[figure], a.std | b.std
+    var = {k: ((ga.get(k, 0.0) - gb.get(k, 0.0)) * std[k]) ** 2 for k in set(ga) | set(gb)}
+    if not var or max(var.values()) <= 0:
+        return None
+    k = max(var, key=var.get)
+    return (a.labels | b.labels)[k]
+
+
+SAMPLE_TOLERANCE = 0.15   # a linear interval whose ends miss the sampled ones by more than this share of its
+                          # width is replaced by the sampled one (the linearisation no longer holds there)
+
+
+def draw(inputs: list[Input], n: int, rng: np.random.Generator) -> np.ndarray:
+    """n samples of the inputs' deviations, (n, len(inputs)): normal for calibrations, effects, preloads and
+    moduli, uniform (±σ√3) for friction and the law's error; inputs of one key get one draw."""
+    by_key = {}
+    for i in inputs:
+        if i.key not in by_key:
+            uniform = i.kind in ("friction", "spin")
+            by_key[i.key] = (rng.uniform(-1, 1, n) * i.std * math.sqrt(3)) if uniform else rng.normal(0, i.std, n)
+    return np.column_stack([by_key[i.key] for i in inputs]) if inputs else np.zeros((n, 0))
+
+
+def sampled_figures(model: CompiledModel, n: int, seed: int = 0) -> list[dict]:
+    """The figures (core.metrics.metrics) of n samples of every uncertain input of an uncertain_model."""
+    from cvtdesign.core.metrics import envelopes, metrics        # metrics is below this module's users only
+    inputs = model_inputs(model)
+    x = draw(inputs, n, np.random.default_rng(seed))
+    theta = np.tile(np.asarray(model.param_values, float), (n, 1))
+    for j, i in enumerate(inputs):
+        if i.in_theta:
+            theta[:, model.param_names.index(i.target)] += x[:, j]
+    design = x[:, [j for j, i in enumerate(inputs) if not i.in_theta]]
+    return [metrics(model, r) for r in envelopes(model, theta, design)]
+
+
+def checked_by_sampling(row: dict, samples: list[dict]) -> dict:
+    """The row's intervals checked against the samples' 2.5–97.5 % range: where an end misses by more than
+    SAMPLE_TOLERANCE of the linear interval's width (or a sample has no value: the figure left the physics),
+    the sampled range replaces it, with `<figure>_interval_method` 'sampled'; elsewhere 'first order, checked'."""
+    out = {}
+    for key in [k.removesuffix("_interval") for k in row if k.endswith("_interval")]:
+        values = np.array([s[key] for s in samples if s.get(key) is not None], float)
+        lo, hi = row[f"{key}_interval"]
+        if values.size < 0.9 * len(samples):
+            out[f"{key}_interval_method"] = f"left the physics in {len(samples) - values.size} of {len(samples)} samples"
+            continue
+        s_lo, s_hi = np.percentile(values, [2.5, 97.5])
+        if max(abs(s_lo - lo), abs(s_hi - hi)) > SAMPLE_TOLERANCE * (hi - lo):
+            out[f"{key}_interval"] = [float(min(s_lo, row[key])), float(max(s_hi, row[key]))]
+            out[f"{key}_interval_method"] = f"sampled ({len(samples)})"
+        else:
+            out[f"{key}_interval_method"] = f"first order, checked by {len(samples)} samples"
+    return out

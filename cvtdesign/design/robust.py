@@ -19,7 +19,8 @@ from statistics import NormalDist
 
 import numpy as np
 
-from cvtdesign.core.uncertainty import SCALES, covariance
+from cvtdesign.core.inputs import SCALES
+from cvtdesign.core.uncertainty import covariance
 from cvtdesign.errors import InputError
 
 

@@ -37,6 +37,8 @@ class CalibrationSpec(Strict):
     sphere: str = spec_field("the sphere's material, a name in the library")
     creep_modulus: Num = spec_field("the roller's Young's modulus in tangential creep", kind="pressure")
     std: Num = spec_field("its relative standard deviation (1σ), e.g. '1.3 %'", kind="dimensionless")
+    preload: Num | None = spec_field("the normal force the measured machine ran at (its assumed value where the "
+                                     "source states none)", None, kind="force")
     machine: str = spec_field("the machine it was measured on")
     data: str = spec_field("the data it was fitted to")
     fit: str = spec_field("how it was fitted")
@@ -162,6 +164,10 @@ def contact_calibration(variant_file: str, spec: VariantSpec, role: str, roller_
         return source("factor", f"the variant's contact.calibration.{side} = {factor}", std)
     found, reason = library_calibration(variant_file, spec, roller_material, sphere_material)
     if found is None:
+        moved = transferred(variant_file, spec, roller_material) if not reason else None
+        if moved is not None:
+            return source("transferred", moved["source"], moved["std"], moved["creep_modulus"],
+                          preload=moved["preload"])
         why = f"; {reason}" if reason else ""
         return source("theory", f"theory only: no calibration of {roller_material} on {sphere_material}{why} "
                                 f"({THEORY_GAP})")
@@ -169,7 +175,43 @@ def contact_calibration(variant_file: str, spec: VariantSpec, role: str, roller_
     E = to_si(cal.creep_modulus, "pressure", f"{at}.creep_modulus")
     s = to_si(cal.std, "dimensionless", f"{at}.std")
     return source("library", f"{roller_material} on {sphere_material}: creep modulus {cal.creep_modulus} "
-                             f"± {s:.1%} ({cal.machine}; {at})", s, E)
+                             f"± {s:.1%} ({cal.machine}; {at})", s, E,
+                  preload=None if cal.preload is None else to_si(cal.preload, "force", f"{at}.preload"))
+
+
+TRANSFER_STD = 0.10   # the least relative 1σ of a transferred calibration: its 95 % interval (±20 %) holds the
+                      # spread of the correction on Kim's machine (3.1× at the drive rollers, 3.6× at the steering)
+
+
+def transferred(variant_file: str, spec: VariantSpec, roller_material: str) -> dict | None:
+    """A best estimate for a roller material with no calibration of its own: the ratio of nominal to creep
+    modulus that the library's calibrations of materials of the same `family` give (their geometric mean),
+    applied to its own modulus, with σ the larger of TRANSFER_STD and half their spread (in log); None where
+    the material has no family or no calibration of its family exists."""
+    specs = material_specs(variant_file, spec)
+    family = specs[roller_material][0].family if roller_material in specs else None
+    if family is None:
+        return None
+    ratios, preloads, names = [], set(), []
+    for origin, lib in library(variant_file, spec):
+        for i, c in enumerate(lib.calibrations):
+            own = specs.get(c.roller)
+            if own is None or own[0].family != family:
+                continue
+            at = f"{origin}: calibrations[{i}]"
+            ratios.append(to_si(own[0].youngs_modulus, "pressure", f"{own[1]}.youngs_modulus")
+                          / to_si(c.creep_modulus, "pressure", f"{at}.creep_modulus"))
+            preloads.add(None if c.preload is None else to_si(c.preload, "force", f"{at}.preload"))
+            names.append(f"{c.roller} on {c.sphere}")
+    if not ratios:
+        return None
+    logs = np.log(ratios)
+    r = float(np.exp(np.mean(logs)))
+    std = max(TRANSFER_STD, float(np.ptp(logs)) / 2)
+    E = to_si(specs[roller_material][0].youngs_modulus, "pressure", f"{specs[roller_material][1]}.youngs_modulus")
+    return {"creep_modulus": E / r, "std": std, "preload": preloads.pop() if len(preloads) == 1 else None,
+            "source": f"TRANSFERRED to {roller_material}: its modulus / {r:.3g}, the {family} correction that "
+                      f"calibrates {', '.join(names)} (± {std:.0%}, a best estimate, not a measurement)"}
 
 
 def fitted_calibrations(layout: Layout, scales: dict, machine: str, data: str, fit: str) -> list[dict]:

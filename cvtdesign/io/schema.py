@@ -128,6 +128,9 @@ class MaterialSpec(Strict):
     youngs_modulus_std: Num | None = spec_field(
         "relative 1σ of youngs_modulus, e.g. '25 %' (omitted: 25 %, the spread of a modulus read from a Shore A "
         "hardness; an interval says it was assumed)", None, kind="dimensionless")
+    family: str | None = spec_field(
+        "the class of material ('polyurethane'): a material with no calibration of its own takes its family's "
+        "(transferred, with a wider interval; docs/materials.md)", None)
     description: str = spec_field("what the material is (free text)", "")
     ageing: AgeingSpec | None = spec_field(
         "how it heats, wears and tires (`cvtdesign life`); omitted, or a constant omitted: the library's "

@@ -221,6 +221,8 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         motor_speed=quantity(env.motor_speed, "motor_speed", f"{where}: envelope.motor_speed", None, "a positive value"),
         parameters=names, contact_law=law, calibration=calibration, forks=forks,
         frame=None if spec.frame is None else _frame(spec.frame, f"{where}: frame", names),
+        preload_std=DEFAULT_STD["preload"] if spec.preload_std is None else
+        relative_std(spec.preload_std, f"{where}: preload_std"), preload_std_assumed=spec.preload_std is None,
         kim_vectors=_kim_vectors(spec))
     check_envelope_limits(layout, f"{where}: envelope")
     return layout
@@ -253,7 +255,9 @@ def _materials(spec: VariantSpec, where: str, names: dict) -> dict:
             E=quantity(m.youngs_modulus, "youngs_modulus", f"{w}.youngs_modulus", names, "a positive value"),
             nu=to_si(m.poisson_ratio, "dimensionless", f"{w}.poisson_ratio", names),
             p_allow=None if m.allowable_pressure is None else quantity(
-                m.allowable_pressure, "allowable_pressure", f"{w}.allowable_pressure", names, "a positive pressure"))
+                m.allowable_pressure, "allowable_pressure", f"{w}.allowable_pressure", names, "a positive pressure"),
+            name=k, E_std=DEFAULT_STD["modulus"] if m.youngs_modulus_std is None else
+            relative_std(m.youngs_modulus_std, f"{w}.youngs_modulus_std"), E_std_assumed=m.youngs_modulus_std is None)
         if m.friction is not None:
             raise InputError(f"{w}.friction: friction belongs to a pair of materials, not to one; expected it under "
                              f"pairs: [{{materials: [{k}, OTHER], friction: μ, range: [low, high], source: ...}}] "
@@ -261,6 +265,17 @@ def _materials(spec: VariantSpec, where: str, names: dict) -> dict:
         if isinstance(mats[k].nu, float) and not 0 <= mats[k].nu < 0.5:
             raise InputError(f"{w}.poisson_ratio: expected 0 <= ν < 0.5, got {mats[k].nu:g}")
     return mats
+
+
+DEFAULT_STD = {"modulus": 0.25, "preload": 0.20}   # assumed where a file states none (io.schema's descriptions)
+
+
+def relative_std(value, where: str) -> float:
+    """A relative 1σ as written ('25 %', 0.25): finite, above 0 and below 1, else one InputError line."""
+    s = to_si(value, "dimensionless", where)
+    if not (isinstance(s, float) and 0 < s < 1):
+        raise InputError(f"{where}: expected a relative standard deviation above 0 and below 100 %, got {value}")
+    return s
 
 
 def _with_creep_source(roller: Roller, spec: VariantSpec, where: str, names: dict) -> Roller:

@@ -15,7 +15,9 @@ and says, as class attributes, what the rest of the package reads of it:
  * `fitted`: whether the variant gives the law fitted creep constants (contact.creep_drive, creep_steering and
    creep_reference_force) or else calibration factors on its theory (contact.calibration);
  * `rigid_unless_effects`: whether a direction that no effect makes compliant is held rigid;
- * `reference_variant`: the shipped variant that is Kim's CVT written under this law (compare's reference).
+ * `reference_variant`: the shipped variant that is Kim's CVT written under this law (compare's reference);
+ * `spin_error`: the relative error of its spin moment against the exact theory (a half-range), or None where
+   the law has no spin moment (a figure made of it, the rolling steering torque, is then not modelled).
 Adding a law means adding one class here (docs/adding-a-contact-law.md); nothing outside this module compares
 a law's name.
 
@@ -77,6 +79,7 @@ class KimLaw:
     fitted = True
     rigid_unless_effects = True
     reference_variant = "existing_kim"
+    spin_error = None       # no spin moment at all: the figures that need one are not modelled
     several_roots = False   # inside the envelopes the roots are unique (core.model._solve_from_rest)
 
     def constants(self, layout: Layout, roller: Roller) -> dict:
@@ -130,6 +133,8 @@ class KalkerLaw:
     fitted = False
     rigid_unless_effects = False
     reference_variant = "existing"
+    spin_error = 0.15       # FASTSIM's spin moment against Kalker's exact theory, at the hardest points
+                            # (docs/contact.md): a uniform ±15 % in the intervals (core.uncertainty)
     several_roots = True    # a point may have two roots: each is also solved from rest (core.model)
 
     def constants(self, layout: Layout, roller: Roller) -> dict:
@@ -165,7 +170,7 @@ class KalkerLaw:
         scale = c.mu * c.roller.preload
         rows = [(c.Ft - mu_n * f[0]) / scale, (c.Fa + mu_n * f[1]) / scale]
         gab = const["G"] * a * b / k
-        return ContactRows(rows, [ca.sqrt(f[0] ** 2 + f[1] ** 2)], mu_n * a * f[2],
+        return ContactRows(rows, [ca.sqrt(f[0] ** 2 + f[1] ** 2)], layout.spin_factor * mu_n * a * f[2],
                            (gab * const["C11"], gab * const["C22"], gab * ca.sqrt(a * b) * const["C23"]), v)
 
 
