@@ -54,7 +54,7 @@ def _stage(layout: Layout, raw: Measured, base: tuple) -> Prepared:
     P = models.get(base)
     prelim = fit(P, points, {c: np.ones(P.n) for c in channels(points)})
     fits = local_fits(points, layout, held(points, prelim))
-    return Prepared(raw, points, nb, fits, models, prelim, estimate_noise(prelim, points, raw, fits), [], None)
+    return Prepared(raw, points, nb, fits, models, prelim, estimate_noise(prelim, points, raw, fits, P), [], None)
 
 
 def prepare(layout: Layout, frame: ShaftFrame, raw: Measured, base: tuple) -> Prepared:
