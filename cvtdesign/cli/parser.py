@@ -12,6 +12,7 @@ import sys
 import threading
 from importlib.metadata import version
 
+from cvtdesign.cli.options import check_options
 from cvtdesign.errors import InputError, RunError
 from cvtdesign.io.output import check_folder, check_target
 
@@ -64,6 +65,11 @@ def build_parser():
     for name, text in COMMANDS.items():
         adders[name](sub.add_parser(name, help=text, description=text))
     return p
+
+
+def command_actions(command: str) -> list:
+    """The argparse actions of `command`'s arguments (its options and positional arguments)."""
+    return build_parser()._subparsers._group_actions[0].choices[command]._actions
 
 
 def _add_new(p):
@@ -242,7 +248,9 @@ def _not_an_input(path: str, kind: str, args) -> None:
 def check_outputs(args):
     """Refuse an output path that cannot be written before any computation (each write checks again):
     --json, --report and the --out of rig and new are files, none of them an input of the command; --plots and
-    the other commands' --out are folders."""
+    the other commands' --out are folders. Before them, the options as a whole (cli.options.check_options:
+    no empty value, no two outputs on one path, no contradicting pair)."""
+    check_options(args, command_actions(args.command))
     files = [(k, getattr(args, k[2:].replace("-", "_"), None))
              for k in ("--json", "--report", "--points", "--save-calibration", "--table")]
     if args.command in ("rig", "new"):
