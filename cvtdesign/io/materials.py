@@ -22,9 +22,9 @@ from pydantic import Field
 
 from cvtdesign.core.contact.patch import calibrated_compliance, creep_modulus_for
 from cvtdesign.core.layout import CreepSource, Layout
-from cvtdesign.errors import InputError
+from cvtdesign.errors import InputError, suggest
 from cvtdesign.io.schema import MaterialSpec, Num, Strict, VariantSpec, spec_field
-from cvtdesign.io.units import to_si
+from cvtdesign.io.units import check_range, to_si
 from cvtdesign.io.yaml_file import read_spec
 
 SHIPPED = Path(__file__).resolve().parents[1] / "materials.yaml"
@@ -68,12 +68,39 @@ def library(variant_file: str, spec: VariantSpec) -> list[tuple[str, LibrarySpec
 
 
 def material_specs(variant_file: str, spec: VariantSpec) -> dict[str, tuple[MaterialSpec, str]]:
-    """name → (spec, where it is defined) of every material the variant can name: its own first."""
-    out = {}
-    for origin, lib in reversed(library(variant_file, spec)):
+    """name → (spec, where it is defined) of every material the variant can name: its own first. Every
+    calibration of the libraries it sees is checked on the way (`check_calibration`)."""
+    out, libs = {}, library(variant_file, spec)
+    for origin, lib in reversed(libs):
         out.update({k: (m, f"{origin}: materials.{k}") for k, m in lib.materials.items()})
     out.update({k: (m, f"{variant_file}: materials.{k}") for k, m in spec.materials.items()})
+    for origin, lib in libs:
+        for i, c in enumerate(lib.calibrations):
+            check_calibration(c, f"{origin}: calibrations[{i}]", out)
     return out
+
+
+# plausible ranges of a calibration's numbers: (what, kind, lower, upper, the unit a plain number probably meant);
+# the creep modulus as the variant's Young's moduli (io.variant.PLAUSIBLE), σ above 0 and at most 100 %
+CALIBRATION_RANGES = {"creep_modulus": ("creep modulus", "pressure", 1e5, 1.2e12, "MPa"),
+                      "std": ("relative standard deviation", "dimensionless", 0.0, 1.0, "%")}
+
+
+def check_calibration(c: CalibrationSpec, where: str, known: dict) -> tuple[float, float]:
+    """A library calibration's (creep modulus [Pa], σ): both materials among the `known` names (a misspelt one
+    is refused with the nearest, never left to turn its rollers to theory only), each number of
+    CALIBRATION_RANGES finite and plausible; one InputError line naming the file and field otherwise."""
+    for field in ("roller", "sphere"):
+        name = getattr(c, field)
+        if name not in known:
+            raise InputError(f"{where}.{field}: unknown material '{name}'{suggest(name, known)}; expected a material "
+                             "of the variant or of a library it names (docs/materials.md)")
+    out = []
+    for field, (what, kind, lo, hi, guess) in CALIBRATION_RANGES.items():
+        raw = getattr(c, field)
+        out.append(check_range(to_si(raw, kind, f"{where}.{field}"), raw, f"{where}.{field}", what, kind, lo, hi,
+                               lo_open=True, guess=guess))
+    return out[0], out[1]
 
 
 def library_calibration(variant_file: str, spec: VariantSpec, roller_material: str, sphere_material: str):
@@ -121,8 +148,7 @@ def contact_calibration(variant_file: str, spec: VariantSpec, role: str, roller_
         return source("theory", f"theory only: no calibration of {roller_material} on {sphere_material}{why} "
                                 f"({THEORY_GAP})")
     cal, at = found
-    E = to_si(cal.creep_modulus, "pressure", f"{at}.creep_modulus")
-    s = to_si(cal.std, "dimensionless", f"{at}.std")
+    E, s = check_calibration(cal, at, {roller_material, sphere_material})
     return source("library", f"{roller_material} on {sphere_material}: creep modulus {cal.creep_modulus} "
                              f"± {s:.1%} ({cal.machine}; {at})", s, E)
 
