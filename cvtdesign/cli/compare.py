@@ -58,7 +58,7 @@ def run(args):
     layouts = [dataclasses.replace(L, name=n) for L, n in zip(layouts, names)]
     models = [compile_model(L) for L in layouts]
     results = [envelope(m) for m in models]
-    figure = make_folder(args.out, kind="--out") / named_after(files, ".png")     # another set, another file
+    figure = make_folder(args.out, kind="--out") / named_after(files, figure_suffix(args))   # another set, another file
     replaced = figure.exists()
     # the figure is drawn while the ideal CVT is evaluated and the table printed
     painter.draw(plots.compare_figure, [(L.name, {k: res[k] for k in plots.COMPARE_KEYS} | point_bands(m, res)
@@ -98,6 +98,14 @@ def run(args):
     if args.report:
         console.print(f"report: {args.report}")
     return 0
+
+
+def figure_suffix(args) -> str:
+    """The figure's name after its basis, so that a run on another basis keeps its own: '.png' on the first
+    file's envelope, '_on_<stem>.png' on --envelope's, '_as_written.png' with each file's own."""
+    if args.envelope:
+        return f"_on_{Path(args.envelope).stem}.png"
+    return "_as_written.png" if args.as_written else ".png"
 
 
 def with_intervals(model, res: dict, row: dict) -> dict:

@@ -96,9 +96,9 @@ def run(args):
         t.add_row("mean |error| \\[%]", *[f"{e:.2f}" if np.isfinite(e := table[m]["mean_abs_error_pct"]) else "—"
                                           for m in cmds["methods"]])
     figure = None          # the files first, then the terminal (a reader closing stdout early loses no file)
-    if args.plots and table:
+    if args.plots:          # scored on the rig with --truth-effects, else the commands' corrections
         figure = make_folder(args.plots, kind="--plots") / f"{Path(variant).stem}_resteer.png"
-        plots.resteer_figure(ratios, load, table, figure)
+        plots.resteer_figure(ratios, load, table, figure, cmds)
     if args.json:
         write_file(args.json, json_text({"commands": cmds, "achieved": table}), kind="--json")
     console.print(t)

@@ -59,20 +59,39 @@ def diagnosis_fit_figure(curves: dict, path: Path):
     save(fig, path, dpi=100)
 
 
-def resteer_figure(ratios, load, table: dict, path: Path):
-    """Brokowski Fig. 17: speed-ratio error by eq 23 [%] against the requested ratio, one line per method."""
+# each method its own marker and line, drawn in this order, so that one that coincides with another stays seen
+# (the nominal line was hidden under the fitted one): larger open markers under smaller filled ones
+METHOD_STYLE = {"ideal": dict(marker="o", ls="-", ms=7, color="0.35"),
+                "nominal": dict(marker="s", ls="-", ms=10, mfc="none", mew=1.6, lw=2.4, color="tab:blue"),
+                "fitted": dict(marker="^", ls="--", ms=6, color="tab:orange"),
+                "lookup": dict(marker="D", ls=":", ms=5, color="tab:green")}
+
+
+def resteer_figure(ratios, load, table: dict | None, path: Path, commands: dict | None = None):
+    """Brokowski Fig. 17: speed-ratio error by eq 23 [%] against the requested ratio, one line per method
+    (`table`: each method's scores on the rig, resteer.achieved). Without a rig to score them (table None),
+    each method's commanded γ less the ideal command [°] (`commands`: resteer.commands), what the model
+    corrects."""
     mpl = figure_parts()
     fig, ax = mpl.subplots(figsize=(8, 5))
-    for m, row in table.items():
-        ax.plot(ratios, row["error_pct"], "o-", label=f"{m} (mean |error| {row['mean_abs_error_pct']:.1f} %)")
+    if table is not None:
+        for m, row in table.items():
+            ax.plot(ratios, row["error_pct"], **METHOD_STYLE.get(m, {}),
+                    label=f"{m} (mean |error| {row['mean_abs_error_pct']:.1f} %)")
+        ax.set_ylabel("error (requested − achieved)/requested [%]")
+        ax.set_title(f"resteering under τ⊥ = {load:+.2f} N·m (Brokowski Fig. 17)")
+    else:
+        ideal = np.degrees(np.asarray(commands["methods"]["ideal"], float))
+        for m, gs in commands["methods"].items():
+            ax.plot(ratios, np.degrees(np.asarray(gs, float)) - ideal, **METHOD_STYLE.get(m, {}), label=m)
+        ax.set_ylabel("commanded γ − ideal command [°]")
+        ax.set_title(f"steering commands under τ⊥ = {load:+.2f} N·m: the correction of the ideal command")
     ax.axhline(0, color="k", lw=0.5)
     ax.set_xscale("log")
     ax.set_xticks(ratios)
     ax.set_xticklabels([f"{q:g}" for q in ratios])
     ax.set_xticks([], minor=True)       # the log scale's own minor labels ('6×10⁻¹') among the ratios asked for
     ax.set_xlabel("requested speed ratio ω2/ω1")
-    ax.set_ylabel("error (requested − achieved)/requested [%]")
-    ax.set_title(f"resteering under τ⊥ = {load:+.2f} N·m (Brokowski Fig. 17)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()

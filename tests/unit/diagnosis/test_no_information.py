@@ -112,3 +112,20 @@ def test_ends_at():
     lo, hi = np.array([0.1, -1.0, 0.0]), np.array([50.0, 1.0, np.inf])
     assert fitting.ends_at(np.array([49.99, 0.0, 0.0]), lo, hi, np.ones(3)) == ["upper", None, "lower"]
     assert fitting.ends_at(np.array([0.1, 0.9, 5.0]), lo, hi, np.ones(3)) == ["lower", None, None]
+
+
+def test_resteer_plots_without_truth_effects(rig_data, tmp_path, capsys, monkeypatch):
+    """`resteer DATA --variant V --plots DIR` wrote nothing and said nothing without --truth-effects (the
+    README promises <stem>_resteer.png); now it draws the commands' corrections, the nominal line seen beside
+    the fitted one (its open squares larger than the fitted triangles)."""
+    from cvtdesign.io import plots
+    from figure_checks import captured
+    figures = captured(monkeypatch, plots)
+    assert main(["resteer", str(rig_data), "--variant", str(EXISTING), "--plots", str(tmp_path / "pl")]) == 0
+    png = tmp_path / "pl" / "existing_resteer.png"
+    assert png.stat().st_size > 0 and f"plot: {png}" in capsys.readouterr().out
+    lines = {ln.get_label(): ln for ln in figures[-1].axes[0].get_lines() if not ln.get_label().startswith("_")}
+    assert list(lines) == ["ideal", "nominal", "fitted", "lookup"]
+    nominal, fitted = lines["nominal"], lines["fitted"]
+    assert nominal.get_marker() != fitted.get_marker() and nominal.get_markersize() > fitted.get_markersize()
+    assert nominal.get_markerfacecolor() == "none"
