@@ -1,6 +1,6 @@
 """A command line's options checked as a whole, before any work (cli.parser runs `check_options` with its
-check of the output paths): no option given an empty value, no two outputs on one path, no two options that
-contradict each other. Each is one InputError line, so nothing is computed or written."""
+check of the output paths): no option given an empty value, no two outputs on one path, no file given as
+inputs of two kinds, no two options that contradict each other. Each is one InputError line, so nothing is computed or written."""
 from __future__ import annotations
 
 import os
@@ -32,6 +32,27 @@ def check_options(args, actions) -> None:
         if _given(args, option) and _given(args, other):
             raise InputError(f"{option}: {why}; expected one of {option} and {other}")
     _one_path_each(args)
+    _one_role_each(args, names)
+
+
+INPUT_ROLES = ("variant", "variants", "study", "protocol", "calibration", "tolerances")   # input files of one kind each
+
+
+def _one_role_each(args, names: dict) -> None:
+    """A file given as inputs of two kinds (`tolerance v.yaml --tolerances v.yaml`) is refused in words, not
+    read as the other kind ('parameters: unknown field'). (resteer's measured data and its variant are told
+    apart by resteer itself.)"""
+    seen: dict = {}
+    for dest in INPUT_ROLES:
+        given = getattr(args, dest, None)
+        for path in [given] if isinstance(given, str) else given or []:
+            if not os.path.isfile(path):
+                continue
+            key = os.path.realpath(path)
+            if key in seen and seen[key] != dest:
+                raise InputError(f"{names.get(dest, dest)}: {path} is also this command's {seen[key]}; expected a "
+                                 f"{dest.rstrip('s') if dest == 'variants' else dest} file of its own")
+            seen.setdefault(key, dest)
 
 
 def _given(args, option: str) -> bool:

@@ -257,8 +257,9 @@ def check_outputs(args):
         files.append(("--out", getattr(args, "out", None)))
     elif getattr(args, "out", None):
         check_folder(args.out, kind="--out", probe=True)
-    if getattr(args, "plots", None):
-        check_folder(args.plots, kind="--plots", probe=True)
+    for kind in ("--plots", "--store"):
+        if getattr(args, kind[2:], None):
+            check_folder(getattr(args, kind[2:]), kind=kind, probe=True)
     for kind, path in files:
         if path:
             check_target(path, kind=kind, probe=True)

@@ -60,6 +60,8 @@ def library(variant_file: str, spec: VariantSpec) -> list[tuple[str, LibrarySpec
     out = []
     for i, f in enumerate(files):
         where = str(f) if f == SHIPPED else f"{variant_file}: material_library[{i}]"
+        if f.is_file() and Path(variant_file).is_file() and f.samefile(variant_file):
+            raise InputError(f"{where}: '{f.name}' is the variant itself; expected a materials library (docs/materials.md)")
         if not f.is_file():
             raise InputError(f"{where}: no such file {f}; expected a materials library (docs/materials.md)")
         lib = _read(str(f), f.stat().st_mtime)
