@@ -11,12 +11,15 @@ from cvtdesign.io.plots.base import figure_parts, save
 def residual_map_figure(maps: list[tuple], regions: list[dict], path: Path, unit="deg"):
     """Residual maps over commanded γ [deg] × lateral load τ⊥ [N·m], one panel per (title, γ, τ⊥, values):
     each operating point a square coloured by its residual (mean over replicates), wherever the protocol put
-    it (a grid, random points); the gap's regions boxed on the first panel by the γ and τ⊥ of their points."""
+    it (a grid, random points), each panel on its own symmetric scale (on the first's, a diagnosed model's
+    residuals were a flat grey); the gap's regions boxed on the first panel by the γ and τ⊥ of their points,
+    each labelled inside its box (a label above a box at the top load was cut by the panel's edge)."""
     mpl = figure_parts()
     fig, axes = mpl.subplots(1, len(maps), figsize=(6 * len(maps), 4.6), squeeze=False)
-    lim = max(float(np.nanmax(np.abs(v))) if np.isfinite(v).any() else 0.0 for *_, v in maps) or 1.0
     for ax, (title, g, t, v) in zip(axes[0], maps):
         ok = np.isfinite(v)
+        lim = float(np.nanmax(np.abs(v))) if ok.any() else 0.0
+        lim = lim or 1.0
         sc = ax.scatter(g[ok], t[ok], c=v[ok], cmap="RdBu_r", vmin=-lim, vmax=lim, marker="s",
                         s=max(8.0, 6000.0 / max(ok.sum(), 1)), edgecolors="none")
         ax.scatter(g[~ok], t[~ok], marker="x", c="k", s=12, lw=0.8)      # no prediction (the model fails)
@@ -26,11 +29,16 @@ def residual_map_figure(maps: list[tuple], regions: list[dict], path: Path, unit
         fig.colorbar(sc, ax=ax, label=f"measured − model [{unit}]")
     g0, t0 = maps[0][1], maps[0][2]
     dg, dl = 0.02 * (np.ptp(g0) or 1.0), 0.03 * (np.ptp(t0) or 0.1)
+    corners: dict = {}           # labels at one corner (regions nested at a corner) stacked down, not overlaid
     for k, r in enumerate(regions):
         (ga, gb), (la, lb) = r["gamma_deg"], r["load_Nm"]
         axes[0][0].add_patch(mpl.Rectangle((ga - dg, la - dl), gb - ga + 2 * dg, lb - la + 2 * dl, fill=False,
                                            ec="k", lw=1.5, ls="--"))
-        axes[0][0].annotate(f"R{k + 1}: {r['mean_residual_deg']:+.2f}°", (ga - dg, lb + dl), fontsize=8)
+        corner = (round(ga / (4 * dg)), round(lb / (4 * dl)))
+        below = corners[corner] = corners.get(corner, -1) + 1
+        axes[0][0].annotate(f"R{k + 1}: {r['mean_residual_deg']:+.2f}°", (ga - dg, lb + dl), xytext=(3, -3 - 11 * below),
+                            textcoords="offset points", va="top", fontsize=8,
+                            bbox=dict(boxstyle="square,pad=0.15", fc="white", ec="none", alpha=0.85))
     fig.tight_layout()
     save(fig, path, dpi=100)
 
