@@ -3,7 +3,7 @@
 * Two outputs on one path: `--json o.csv --points o.csv` wrote the points over the JSON and printed both
   "written to" lines.
 * Contradicting options: `--envelope FILE --as-written` ignored --envelope without a word; `--workers N
-  --scheduler ADDRESS` ignored --workers.
+  --scheduler ADDRESS` ignored --workers; rig's `--noise axis=… --no-axis` ignored the axis noise.
 * Empty values: `resteer --table t.csv --table-ratios ''` (an unset shell variable) wrote the default table of
   17 ratios, where a reversed grid or a count of 0 is refused; `--json ''` wrote no JSON.
 
@@ -58,6 +58,8 @@ case("selfcheck: --workers with --scheduler", ("--workers", "expected one of --w
 case("tolerance: --workers with --scheduler", ("--workers", "expected one of --workers and --scheduler"),
      "tolerance", "{v}", "--tolerances", "{tmp}/work/studies/box_tolerances.yaml", "--workers", "1",
      "--scheduler", "tcp://127.0.0.1:1")
+case("rig: --noise axis=… with --no-axis", ("--noise", "--no-axis", "expected one of them"),
+     "rig", "{v}", "--out", "{out}/d.csv", "--no-axis", "--noise", "speed=0.01,axis=0.1 deg")
 
 # empty values (item 3): the empty grid is refused as a reversed one is, and so is every other empty value
 case("resteer: --table-ratios ''", ("--table-ratios", "empty"), "resteer", "{v}", "--table", "{out}/t.csv",
