@@ -31,7 +31,7 @@ class Prepared:
     raw: Measured
     points: Measured
     nb: Neighbours          # the points' neighbour graph (spatial structure, regions)
-    fits: dict              # channel -> the neighbourhoods of its local fits (noise, outliers, slopes)
+    fits: dict              # channel -> the neighbourhoods of its local fits (noise, outliers)
     models: Models
     prelim: Fit
     noise: dict

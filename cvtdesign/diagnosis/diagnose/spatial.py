@@ -60,14 +60,6 @@ class Neighbours:
         v = np.asarray(values, float)
         return np.einsum("nk,nk->n", self.pinv[:, 0, :], v[self.near])
 
-    def slope(self, values: np.ndarray, name: str) -> np.ndarray:
-        """∂values/∂(coordinate `name`) at each point, in values' unit per physical unit, from the local fits
-        (0 where the coordinate was left out)."""
-        if name not in self.names:
-            return np.zeros(len(values))
-        j = 1 + self.names.index(name)
-        return np.einsum("nk,nk->n", self.pinv[:, j, :], np.asarray(values, float)[self.near]) / self.scales[j - 1]
-
 
 def coordinates(data: Measured, layout: Layout, aspect: float = 1.0) -> tuple[np.ndarray, np.ndarray, list]:
     """(scaled coordinates, their scales, names) of the operating points (module docstring); `aspect`
