@@ -104,10 +104,12 @@ def smallest_record(model, cap: dict) -> dict:
     contact."""
     least = smallest_capacity(cap)
     known, placed = np.isfinite(least["tau_perp"]), np.isfinite(least["gamma"])
+    # a capacity of 0 (the limit reached without load: nothing qualifies) is no one contact's limit under load
+    named = least["contact"] >= 0 and not (known and least["tau_perp"] == 0)
     return {"tau_perp_Nm": float(least["tau_perp"]) if known else None,
             "gamma_deg": round(float(np.degrees(least["gamma"])), 9) if placed else None,
             "side": least["side"], "limit": least["limit"],
-            "contact": model.roller_names[least["contact"]] if least["contact"] >= 0 else None}
+            "contact": model.roller_names[least["contact"]] if named else None}
 
 
 def torque_text(value) -> str:
@@ -244,8 +246,22 @@ def summary_text(record: dict) -> str:
         return (f"{record['name']}: smallest capacity not known: at {where} the model stops at "
                 f"{number(abs(row[f'held_{side}_Nm']), 4)} N·m before any limit (³), below every capacity found")
     tau = least["tau_perp_Nm"]
+    if tau == 0:
+        return no_capacity_text(record, where, least["limit"])
     return (f"{record['name']}: smallest capacity {number(tau, 4)} N·m ({where}: {LIMIT_WORDS[least['limit']]}, "
             f"{_where(row, side)}), {tau / env:.3g}× the envelope's largest load {number(env, 4)} N·m")
+
+
+def no_capacity_text(record: dict, where: str, limit: str) -> str:
+    """The summary where the limit is reached without load ('—' in the table): nothing qualifies, and how
+    widely; with a safety factor on gross slip, that F/(μN) reaches 1/S already at zero load."""
+    rows, s = record["capacity"], record["safety"]
+    zero = sum(r[f"limit_{k}"] is not None and torque_text(r[f"tau_perp_{k}_Nm"]) in ("—", "0.000") for r in rows
+               for k in ("max", "min"))
+    why = (f": F/(μN) reaches 1/{s:g} = {1 / s:.3g} already at τ⊥ = 0; expected a smaller --safety"
+           if limit == "gross_slip" and s != 1 else "")
+    return (f"{record['name']}: no load capacity: {zero} of {2 * len(rows)} searches (first at {where}) reach "
+            f"{LIMIT_WORDS[limit]} without load{why}")
 
 
 def run(args):

@@ -14,7 +14,7 @@ from cvtdesign.core import basis
 from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.core.metrics import ZERO_TORQUE, at_key, envelope, ideal_model, metrics
 from cvtdesign.core.inputs import uncertain_model
-from cvtdesign.core.uncertainty import intervals, orderings, point_bands, spread
+from cvtdesign.core.uncertainty import checked_by_sampling, intervals, orderings, point_bands, sampled_figures, spread
 from cvtdesign.io import plots
 from cvtdesign.io.duty_file import load_duty
 from cvtdesign.io.limits import check_envelope_limits
@@ -63,15 +63,19 @@ def run(args):
     layouts = [dataclasses.replace(L, name=n) for L, n in zip(layouts, names)]
     models = [uncertain_model(L) for L in layouts]
     results = [envelope(m) for m in models]
-    figure = make_folder(args.out, kind="--out") / named_after(files, ".png")     # another set, another file
+    figure = make_folder(args.out, kind="--out") / named_after(files, figure_suffix(args))   # another set, another file
     replaced = figure.exists()
     # the figure is drawn while the ideal CVT is evaluated and the table printed
     painter.draw(plots.compare_figure, [(L.name, {k: res[k] for k in plots.COMPARE_KEYS} | point_bands(m, res)
                                      | {"theory_only": basis.calibration(L)["uncalibrated"]})
                                     for L, m, res in zip(layouts, models, results)], figure)
+    check_samples(args.samples)
     spreads = [spread(m, res) for m, res in zip(models, results)]
-    rows = [with_intervals(s, metrics(m, res) | basis.fields(m.layout)) for m, res, s in zip(models, results, spreads)]
-    ranked = orderings(rows, spreads)
+    samples = [sampled_figures(m, args.samples) if args.samples and s is not None else None
+               for m, s in zip(models, spreads)]
+    rows = [with_intervals(s, metrics(m, res) | basis.fields(m.layout), drawn)
+            for m, res, s, drawn in zip(models, results, spreads, samples)]
+    ranked = orderings(rows, spreads, samples if args.samples else None)
     if args.duty:
         rows = [r | life_fields(m, life_duty) for r, m in zip(rows, models)]
     if len(files) == 1:
@@ -109,9 +113,27 @@ def run(args):
     return 0
 
 
-def with_intervals(spread, row: dict) -> dict:
-    """The row with a 95 % interval and a budget on each figure from every uncertain input (core.uncertainty)."""
-    return row | intervals(spread, row)
+def figure_suffix(args) -> str:
+    """The figure's name after its basis, so that a run on another basis keeps its own: '.png' on the first
+    file's envelope, '_on_<stem>.png' on --envelope's, '_as_written.png' with each file's own."""
+    if args.envelope:
+        return f"_on_{Path(args.envelope).stem}.png"
+    return "_as_written.png" if args.as_written else ".png"
+
+
+MAX_SAMPLES = 10_000
+
+
+def check_samples(n: int) -> None:
+    if not 0 <= n <= MAX_SAMPLES or 0 < n < 20:
+        raise InputError(f"--samples: {n}; expected 0 (first order only) or 20 to {MAX_SAMPLES:,} samples")
+
+
+def with_intervals(spread, row: dict, samples: list[dict] | None) -> dict:
+    """The row with a 95 % interval and a budget on each figure from every uncertain input (core.uncertainty),
+    each interval checked by the samples of the inputs (replaced where they do not confirm it)."""
+    row = row | intervals(spread, row)
+    return row | checked_by_sampling(row, samples) if samples else row
 
 
 def one_basis(layouts: list, first, args) -> list:

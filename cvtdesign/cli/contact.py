@@ -65,7 +65,7 @@ def calibration_notes(records: dict) -> list:
 def run(args):
     layout = load_variant(args.variant)
     records = {r.name: roller_record(layout, r) for r in layout.rollers}
-    console = Console(width=150)
+    console = Console()      # the terminal's width (COLUMNS, else 80 when not a terminal); show never cuts a number
     written = []          # the files first, then the terminal (a reader closing stdout early loses no file)
     if args.plots:
         folder = make_folder(args.plots, kind="--plots")

@@ -116,7 +116,7 @@ def plot_report(rep: Report, out_dir) -> list:
     plots.residual_map_figure(maps, rep.gap["regions"][:6], f1)
     eb, ef = model_efficiency(data, base.pred), model_efficiency(data, final.pred)
     panels = [("slip angle α", "α [deg]", []), ("efficiency", "efficiency [-]", [])]
-    for load, idx in _load_slices(t):
+    for load, idx in _load_slices(t, r["load_bin"].to_numpy() if "load_bin" in r.columns else None):
         idx = idx[np.argsort(g[idx])]
         panels[0][2].append((load, g[idx], r["alpha_deg"].to_numpy()[idx], base.pred["alpha"][idx], final.pred["alpha"][idx]))
         panels[1][2].append((load, g[idx], r["efficiency"].to_numpy()[idx], eb[idx], ef[idx]))
@@ -125,13 +125,20 @@ def plot_report(rep: Report, out_dir) -> list:
     return [f1, f2]
 
 
-def _load_slices(load: np.ndarray) -> list:
-    """(load, points) at four loads across the data's range (its extremes and halves): the points within a
-    tenth of the range of each (on a grid, that load's points)."""
+def _load_slices(load: np.ndarray, level: np.ndarray | None = None) -> list:
+    """(load, points) at four loads across the data's range (its extremes and halves). On a grid (load levels
+    each measured at several γ: `level`, measured._group's load_bin) the points of the level nearest each,
+    one level a line (a window of a tenth of the range took two levels 0.2 N·m apart into one saw-tooth);
+    otherwise the points within a tenth of the range of each."""
     lo, hi = float(load.min()), float(load.max())
+    targets = sorted({lo, 0.5 * lo, 0.5 * hi, hi})
+    if level is not None and len(np.unique(level)) <= len(load) / 3:
+        means = {b: float(np.mean(load[level == b])) for b in np.unique(level)}
+        chosen = dict.fromkeys(min(means, key=lambda b: abs(means[b] - x)) for x in targets)
+        return [(means[b], np.flatnonzero(level == b)) for b in chosen]
     width = 0.1 * (hi - lo) if hi > lo else 1.0
     out = []
-    for x in sorted({lo, 0.5 * lo, 0.5 * hi, hi}):
+    for x in targets:
         idx = np.flatnonzero(np.abs(load - x) <= width / 2 + 1e-12)
         if idx.size:
             out.append((float(np.mean(load[idx])), idx))

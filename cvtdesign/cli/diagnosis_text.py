@@ -70,10 +70,16 @@ def quantity(value: float, channel: str, digits: int = 2) -> str:
 
 def fitted(params: dict, effect: str) -> str:
     """The parameters of `effect` in a fit, in their units, each to the precision its ±1σ gives:
-    'offset = -0.800° ± 0.011°'."""
+    'offset = -0.800° ± 0.011°'; marked where the fit ended on a bound (`bound_mark`) or did not determine it."""
     return ", ".join(f"{n.split('.')[1]} = {value_pm(p['value'], p['std'], param_kind(n))}"
-                     + ("" if p["identifiable"] else " (not determined)")
+                     + (bound_mark(p) or ("" if p["identifiable"] else " (not determined)"))
                      for n, p in params.items() if n.split(".")[0] == effect)
+
+
+def bound_mark(p: dict) -> str:
+    """' (AT ITS UPPER BOUND: …)' for a fitted parameter that ended on a bound (fitting.ends_at), else ''."""
+    bound = p.get("at_bound")
+    return f" (AT ITS {bound.upper()} BOUND: the bound's value, not the data's)" if bound else ""
 
 
 def value_pm(value: float, std: float, kind: str) -> str:
@@ -261,8 +267,10 @@ def fit_blocks(rep: Report) -> list:
             continue
         t = Table(title, ["parameter", "value", "±1σ", "determined"])
         for name, p in params.items():
+            good = p["identifiable"] and not p.get("at_bound")
             t.add(name, engineering(p["value"], param_kind(name)), engineering(p["std"], param_kind(name), 2),
-                  "yes" if p["identifiable"] else "no", style="" if p["identifiable"] else "bad")
+                  f"no: at its {p['at_bound']} bound" if p.get("at_bound") else "yes" if good else "no",
+                  style="" if good else "bad")
         out.append(t)
     return out
 

@@ -12,6 +12,7 @@ import sys
 import threading
 from importlib.metadata import version
 
+from cvtdesign.cli.options import check_options
 from cvtdesign.errors import InputError, RunError
 from cvtdesign.io.output import check_folder, check_target
 from cvtdesign.io.shipped import SHIPPED
@@ -70,6 +71,11 @@ def build_parser():
     return p
 
 
+def command_actions(command: str) -> list:
+    """The argparse actions of `command`'s arguments (its options and positional arguments)."""
+    return build_parser()._subparsers._group_actions[0].choices[command]._actions
+
+
 def _add_new(p):
     p.add_argument("name", help="the variant's name (letters, digits, '_', '.', '+', '-'); the file is NAME.yaml")
     p.add_argument("--template", choices=SHIPPED,
@@ -103,6 +109,10 @@ def _add_compare(p):
     p.add_argument("--as-written", action="store_true",
                    help="evaluate each file as written, on its own envelope and contact law (refused otherwise "
                         "when the laws differ); each column then says what it used")
+    p.add_argument("--samples", type=int, default=64,
+                   help="samples of every uncertain input that check each first-order interval; an interval they "
+                        "do not confirm (within 15%% of its width) is replaced by theirs (default 64; 0: first "
+                        "order only, unchecked)")
 
 
 def _add_capacity(p):
@@ -263,15 +273,18 @@ def _not_an_input(path: str, kind: str, args) -> None:
 def check_outputs(args):
     """Refuse an output path that cannot be written before any computation (each write checks again):
     --json, --report and the --out of rig and new are files, none of them an input of the command; --plots and
-    the other commands' --out are folders."""
+    the other commands' --out are folders. Before them, the options as a whole (cli.options.check_options:
+    no empty value, no two outputs on one path, no contradicting pair)."""
+    check_options(args, command_actions(args.command))
     files = [(k, getattr(args, k[2:].replace("-", "_"), None))
              for k in ("--json", "--report", "--points", "--save-calibration", "--table")]
     if args.command in ("rig", "new"):
         files.append(("--out", getattr(args, "out", None)))
     elif getattr(args, "out", None):
         check_folder(args.out, kind="--out", probe=True)
-    if getattr(args, "plots", None):
-        check_folder(args.plots, kind="--plots", probe=True)
+    for kind in ("--plots", "--store"):
+        if getattr(args, kind[2:], None):
+            check_folder(getattr(args, kind[2:]), kind=kind, probe=True)
     for kind, path in files:
         if path:
             check_target(path, kind=kind, probe=True)

@@ -9,6 +9,7 @@ from importlib.metadata import version
 
 import numpy as np
 from rich import table as rich_tables
+from rich.cells import cell_len
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
@@ -37,14 +38,29 @@ def rich_table(t: Table):
     return out
 
 
+def cell_widths(t: Table) -> list[int]:
+    """Per column, the width that shows every cell whole and its header wrapped at its words."""
+    return [max([cell_len(w) for w in h.split()] + [cell_len(r[i]) for r in t.rows] + [1])
+            for i, h in enumerate(t.headers)]
+
+
 RICH_STYLES = {"": None, "good": "green", "bad": "red", "warn": "yellow", "bold": "bold"}
 
 
 def show(console, blocks: list):
-    """Print the blocks of a report: Tables and Notes (Figures are for the HTML report only)."""
+    """Print the blocks of a report: Tables and Notes (Figures are for the HTML report only). A table is never
+    cut: where the console is narrower than the table at its narrowest (each column as wide as its longest
+    word: a number, a name), it is printed that wide, and the terminal wraps its lines, rather than its
+    numbers ending in '…'."""
     for b in blocks:
         if isinstance(b, Table):
-            console.print(rich_table(b))
+            table, width, need = rich_table(b), console.width, cell_widths(b)
+            if sum(max(cell_len(h), n) + 3 for h, n in zip(b.headers, need)) + 1 > width:
+                for column, n in zip(table.columns, need):     # the headers wrap at their words, no cell is cut
+                    column.width = n
+                console.width = max(width, sum(n + 3 for n in need) + 1)
+            console.print(table)
+            console.width = width
         elif isinstance(b, Note):
             console.print(b.text, style=RICH_STYLES[b.style], markup=False)
 

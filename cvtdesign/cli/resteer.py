@@ -8,6 +8,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cvtdesign.cli.arguments import effects_arg
+from cvtdesign.cli.diagnosis_text import bound_mark
 from cvtdesign.cli.printing import json_text, show
 from cvtdesign.core.model import compile_model
 from cvtdesign.diagnosis import resteer, rig
@@ -95,9 +96,9 @@ def run(args):
         t.add_row("mean |error| \\[%]", *[f"{e:.2f}" if np.isfinite(e := table[m]["mean_abs_error_pct"]) else "—"
                                           for m in cmds["methods"]])
     figure = None          # the files first, then the terminal (a reader closing stdout early loses no file)
-    if args.plots and table:
+    if args.plots:          # scored on the rig with --truth-effects, else the commands' corrections
         figure = make_folder(args.plots, kind="--plots") / f"{Path(variant).stem}_resteer.png"
-        plots.resteer_figure(ratios, load, table, figure)
+        plots.resteer_figure(ratios, load, table, figure, cmds)
     if args.json:
         write_file(args.json, json_text({"commands": cmds, "achieved": table}), kind="--json")
     console.print(t)
@@ -108,11 +109,15 @@ def run(args):
         console.print("no solution: the CVT (the rig's model) has no physical solution at that command and load "
                       "(gross slip, lost contact or no convergence), so the command is not scored")
     if cmds["fit"]:
-        console.print("fitted: " + ", ".join(f"{n} = {p['value']:.4g} ± {p['std']:.2g}" for n, p in cmds["fit"].items())
-                      + f"; lookup at the data's load level {cmds['lookup_load']:+.3g} N·m")
+        console.print("fitted: " + fitted_text(cmds["fit"]) + f"; lookup at the data's load level {cmds['lookup_load']:+.3g} N·m")
     if figure:
         console.print(f"plot: {figure}")
     return 0
+
+
+def fitted_text(params: dict) -> str:
+    """'name = value ± σ, …' of a fit, each parameter that ended on a bound marked (diagnosis_text.bound_mark)."""
+    return ", ".join(f"{n} = {p['value']:.4g} ± {p['std']:.2g}{bound_mark(p)}" for n, p in params.items())
 
 
 def table_axes(args, layout) -> tuple[list[float], list[float]]:
@@ -146,7 +151,7 @@ def write_table(args, layout, effects, data_file) -> int:
     console = Console(width=120)
     show(console, table_notes(table, between, "fitted" if fit else "nominal", args.table))
     if fit:
-        console.print("fitted: " + ", ".join(f"{n} = {p['value']:.4g} ± {p['std']:.2g}" for n, p in fit.params().items()))
+        console.print("fitted: " + fitted_text(fit.params()))
     return 0
 
 

@@ -18,6 +18,9 @@ def run(args):
     if args.replicates is not None and not 1 <= args.replicates <= MAX_COUNT:
         raise InputError(f"--replicates: expected from 1 to {MAX_COUNT} replicates of each operating point, "
                          f"got {args.replicates}")
+    if args.no_axis and args.noise and any(item.split("=")[0].strip() == "axis" for item in args.noise.split(",")):
+        raise InputError("--noise: axis=… sets the noise of the axis angle, which --no-axis leaves unrecorded; "
+                         "expected one of them")
     layout = load_variant(args.variant)
     effects = effects_arg(args.effects, layout.effects, "--effects")
     params = rig.parse_settings(args.set, effects)

@@ -29,7 +29,7 @@ from cvtdesign.io.units import engineering
 
 LABELS = {key: label.rstrip(" ¹²³") for key, label, _ in COLUMNS}     # compare's footnotes are compare's
 FORMATS = {key: fmt for key, _, fmt in COLUMNS}
-RANKED = 10          # dimensions printed in the ranking (all of them in --json)
+RANKED = 10          # dimensions ranked in the printed table and the figure (all of them in --json)
 
 
 def run(args):
@@ -74,7 +74,7 @@ def plot(args, content, table, fo: dict, out: dict) -> Path:
     return plots.tolerance_figure(f"{content.layout.name}: {LABELS[key]} under the tolerances of "
                                   f"{Path(args.tolerances).name} (law {content.layout.contact_law})", LABELS[key],
                                   table[key].where(table["status"] == "ok"), fo["values"][:, 0],
-                                  out["figures"][key]["nominal"], ranked, path)
+                                  out["figures"][key]["nominal"], ranked, path, top=RANKED)
 
 
 def figure_table(out: dict, content) -> Table:

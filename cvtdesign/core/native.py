@@ -129,19 +129,24 @@ def verified(lib: Path) -> bool:
         return False
 
 
-def _remove(*paths: Path) -> int:
-    """Remove files and folders of the cache (those already gone are skipped); returns the bytes freed."""
+def _remove(*paths: Path, failed: list | None = None) -> int:
+    """Remove files and folders of the cache (those already gone are skipped); returns the bytes freed. Those
+    that cannot be removed are left, each appended to `failed` (when given) as (path, reason)."""
     freed = 0
     for p in paths:
         try:
             if p.is_dir() and not p.is_symlink():
-                freed += sum(f.stat().st_size for f in p.rglob("*") if f.is_file())
-                shutil.rmtree(p, ignore_errors=True)
+                size = sum(f.stat().st_size for f in p.rglob("*") if f.is_file())
+                shutil.rmtree(p)
             else:
-                freed += p.stat().st_size
+                size = p.stat().st_size
                 p.unlink()
-        except OSError:
+            freed += size
+        except FileNotFoundError:
             pass
+        except OSError as e:
+            if failed is not None:
+                failed.append((p, e.strerror or type(e).__name__))
     return freed
 
 
@@ -242,14 +247,17 @@ def cache_summary() -> dict:
             "limit": MAX_CACHE_BYTES}
 
 
-def clear_cache() -> tuple[int, int]:
+def clear_cache() -> tuple[int, int, list]:
     """Remove every file of the cache (`cvtdesign cache --clear`), and only those (CACHE_FILE: the folder
-    may be one the user shares with other files); returns (libraries, bytes) removed."""
+    may be one the user shares with other files); returns (libraries, bytes) removed and the (path, reason)
+    of each file that could not be."""
     folder = cache_dir()
     if not folder.is_dir():
-        return 0, 0
-    files = [f for f in folder.iterdir() if CACHE_FILE.fullmatch(f.name)]
-    return sum(f.suffix == ".so" for f in files), _remove(*files)
+        return 0, 0, []
+    files, failed = [f for f in folder.iterdir() if CACHE_FILE.fullmatch(f.name)], []
+    freed = _remove(*files, failed=failed)
+    left = {p for p, _ in failed}
+    return sum(f.suffix == ".so" and f not in left for f in files), freed, failed
 
 
 def build_detached(code: str, command: list[str]) -> Path:
@@ -286,6 +294,18 @@ def _signature(fn: ca.Function) -> tuple:
     return (tuple(fn.size_in(i) for i in range(fn.n_in())), tuple(fn.size_out(i) for i in range(fn.n_out())))
 
 
+def _failed(err: Exception, what: str = "compiling the model failed, it runs interpreted") -> None:
+    """The notice of a compile that failed, one per fault: a cache folder that cannot be written (an OSError:
+    read-only, full, not a folder) is named with its reason, the same words for every model, so it is said once
+    a process and not once per model (whose lock file each error named); a compiler's error with its line."""
+    if isinstance(err, OSError):
+        notice(f"the compiled-model cache {cache_dir()} cannot be written ({err.strerror or type(err).__name__}): "
+               "the models run interpreted, several times slower; set CVTDESIGN_CACHE to a folder this user may "
+               "write")
+    else:
+        notice(f"{what}: {err}")
+
+
 def shared_library(code: str) -> Path | None:
     """The cached library of a C source of the package's own (core.contact.surface), compiled now if it is
     not there, or None, with a notice, where there is no working compiler."""
@@ -296,7 +316,7 @@ def shared_library(code: str) -> Path | None:
     try:
         return build(code, command)
     except (RuntimeError, OSError) as err:
-        notice(f"compiling failed, the model runs interpreted: {err}")
+        _failed(err, "compiling failed, the model runs interpreted")
         return None
 
 
@@ -310,7 +330,7 @@ def compiled(fn: ca.Function, derivatives: bool = False) -> ca.Function | None:
     try:
         return load(build(source(fn, derivatives), command), fn.name(), like=fn)
     except (RuntimeError, OSError) as err:
-        notice(f"compiling the model failed, it runs interpreted: {err}")
+        _failed(err)
         return None
 
 
@@ -364,7 +384,12 @@ class Tiered:
             if not ready and lib.exists():
                 notice(DAMAGED.format(lib.parent))    # build replaces it, here or in the detached process
             if not (wait or ready):
-                build_detached(code, command)
+                try:
+                    build_detached(code, command)
+                except OSError as err:       # the cache cannot be written: its compiler source cannot go there
+                    _failed(err)
+                    self.given_up = True
+                    return
             self.pending = (code, command, lib)
         code, command, lib = self.pending
         if lib.with_suffix(".err").exists():
@@ -374,7 +399,7 @@ class Tiered:
             try:
                 self.native = load(build(code, command), self.interpreted.name(), like=self.interpreted)
             except (RuntimeError, OSError) as err:
-                notice(f"compiling the model failed, it runs interpreted: {err}")
+                _failed(err)
                 self.given_up = True
 
 

@@ -18,6 +18,7 @@ inputs' spread and say that the theory's own gap (3.1–3.6× on Kim's CVT) is n
 from __future__ import annotations
 
 import math
+import zlib
 from dataclasses import dataclass
 
 import casadi as ca
@@ -25,7 +26,7 @@ import numpy as np
 
 from cvtdesign.core import steering
 from cvtdesign.core.inputs import Input, model_inputs
-from cvtdesign.core.metrics import extremes
+from cvtdesign.core.metrics import envelopes, extremes, metrics
 from cvtdesign.core.model import CompiledModel
 from cvtdesign.core import basis
 
@@ -248,11 +249,15 @@ BETTER = {"max_abs_alpha_deg": -1, "rms_alpha_deg": -1, "ratio_error_pct_at_max_
           "max_loss_no_output_W": -1}     # the figures an ordering is stated for, and which way is better
 
 
-def orderings(rows: list[dict], spreads: list[Spread | None]) -> list[dict]:
+def orderings(rows: list[dict], spreads: list[Spread | None], samples: list[list[dict]] | None = None) -> list[dict]:
     """For every pair of variants (rows with a Spread) and each figure of BETTER: which is better, whether the
-    difference is resolved (|Δ| > 1.96 σ_Δ, σ_Δ over both variants' inputs with shared inputs cancelling),
-    P(better is better) = Φ(|Δ|/σ_Δ) and the input that contributes most to σ_Δ (what would settle it)."""
+    difference is resolved, P(better is better) and the input that contributes most to the difference's
+    variance (what would settle it). With each variant's `samples` (sampled_figures, paired through their
+    shared inputs) P is the share of paired samples in which the better stays better, and the difference is
+    resolved where that share is at least 97.5 %; without, to first order: P = Φ(|Δ|/σ_Δ), σ_Δ over both
+    variants' inputs with shared inputs cancelling, resolved where |Δ| > 1.96 σ_Δ."""
     out = []
+    by_name = dict(zip([r["name"] for r in rows], samples)) if samples else {}
     have = [(r, s) for r, s in zip(rows, spreads) if s is not None]
     for i, (ra, sa) in enumerate(have):
         for rb, sb in have[i + 1:]:
@@ -264,11 +269,25 @@ def orderings(rows: list[dict], spreads: list[Spread | None]) -> list[dict]:
                 a_better = sign * delta > 0
                 better, worse = (ra, rb) if a_better else (rb, ra)
                 p = 0.5 * (1 + math.erf(abs(delta) / (sigma * math.sqrt(2)))) if sigma > 0 else 1.0
+                resolved = abs(delta) > Z95 * sigma
+                if by_name.get(ra["name"]) and by_name.get(rb["name"]):
+                    p = _paired_share(by_name[better["name"]], by_name[worse["name"]], fig, sign)
+                    if p < 0.5:                          # the samples favour the other one
+                        better, worse, p = worse, better, 1.0 - p
+                    resolved = p >= 0.975
                 out.append({"figure": fig, "better": better["name"], "worse": worse["name"],
-                            "resolved": bool(abs(delta) > Z95 * sigma), "p_better": p,
+                            "resolved": bool(resolved), "p_better": p, "method": "sampled" if by_name else "first order",
                             "difference": abs(delta), "difference_sigma": sigma,
                             "settle": _largest_share(sa, sb, fig)})
     return out
+
+
+def _paired_share(better: list[dict], worse: list[dict], figure: str, sign: int) -> float:
+    """The share of paired samples in which `better`'s figure is better than `worse`'s (a sample where either
+    has no value counts against)."""
+    wins = [b.get(figure) is not None and w.get(figure) is not None and sign * (b[figure] - w[figure]) > 0
+            for b, w in zip(better, worse)]
+    return float(np.mean(wins))
 
 
 def _largest_share(a: Spread, b: Spread, figure: str) -> str | None:
@@ -285,12 +304,15 @@ SAMPLE_TOLERANCE = 0.15   # a linear interval whose ends miss the sampled ones b
                           # width is replaced by the sampled one (the linearisation no longer holds there)
 
 
-def draw(inputs: list[Input], n: int, rng: np.random.Generator) -> np.ndarray:
+def draw(inputs: list[Input], n: int, seed: int = 0) -> np.ndarray:
     """n samples of the inputs' deviations, (n, len(inputs)): normal for calibrations, effects, preloads and
-    moduli, uniform (±σ√3) for friction and the law's error; inputs of one key get one draw."""
+    moduli, uniform (±σ√3) for friction and the law's error. Each key's draws come from a generator seeded by
+    the key itself, so inputs of one key get one draw, in this layout and in any other that shares it (two
+    variants' samples are then paired, as the quantity they share is one)."""
     by_key = {}
     for i in inputs:
         if i.key not in by_key:
+            rng = np.random.default_rng([seed, zlib.crc32(i.key.encode())])
             uniform = i.kind in ("friction", "spin")
             by_key[i.key] = (rng.uniform(-1, 1, n) * i.std * math.sqrt(3)) if uniform else rng.normal(0, i.std, n)
     return np.column_stack([by_key[i.key] for i in inputs]) if inputs else np.zeros((n, 0))
@@ -298,9 +320,8 @@ def draw(inputs: list[Input], n: int, rng: np.random.Generator) -> np.ndarray:
 
 def sampled_figures(model: CompiledModel, n: int, seed: int = 0) -> list[dict]:
     """The figures (core.metrics.metrics) of n samples of every uncertain input of an uncertain_model."""
-    from cvtdesign.core.metrics import envelopes, metrics        # metrics is below this module's users only
     inputs = model_inputs(model)
-    x = draw(inputs, n, np.random.default_rng(seed))
+    x = draw(inputs, n, seed)
     theta = np.tile(np.asarray(model.param_values, float), (n, 1))
     for j, i in enumerate(inputs):
         if i.in_theta:

@@ -20,6 +20,7 @@ from cvtdesign.io.measured_csv import read_measured
 
 GAMMA_TOL_DEG = 1e-6     # [deg] commanded angles closer than this are one operating point
 IMPLAUSIBLE_ALPHA_DEG = 20.0   # [deg] a median |α| beyond this is no rolling contact's: the signs are checked
+STILL_SHARE = 0.01             # an output shaft never faster than this share of its typical ideal speed never turns
 WRONG_POWER_SHARE = 0.75       # rows breaking a passive transmission's energy balance beyond which torque signs are wrong
 
 FOLDS = 5                # the diagnosis's cross-validation folds, grouped by operating point (diagnose.crossval)
@@ -74,6 +75,7 @@ def from_rows(rows: pd.DataFrame, frame: ShaftFrame, where: str = "data", droppe
         rows.insert(0, "line", np.arange(len(rows)) + 2)
     g = np.radians(rows["gamma_cmd_deg"].to_numpy())
     w1, w2 = rows["omega_1"].to_numpy(), rows["omega_2"].to_numpy()
+    _check_output_turns(w1, w2, g, frame, where)
     rows["alpha_deg"] = np.degrees(frame.slip_angle(w1, w2, g))
     if len(rows) >= MIN_POINTS:      # a handful of rows says nothing about conventions
         _check_signs(rows["alpha_deg"].to_numpy(), frame, w1, w2, g, where)
@@ -83,6 +85,23 @@ def from_rows(rows: pd.DataFrame, frame: ShaftFrame, where: str = "data", droppe
     m = Measured(where, rows, "gamma_axis_deg" in rows.columns, dropped or {})
     _group(m)
     return m
+
+
+def _check_output_turns(w1, w2, g, frame: ShaftFrame, where: str) -> None:
+    """Refuse data whose output shaft never turns (ω2 = 0 in every row: an encoder not connected) where the
+    ideal law has it turn: they say nothing of the slip or the speed ratio, and a fit to them ends on its
+    parameters' bounds (a drive creep scale of 50, its bound, after 74 s)."""
+    if not w2.size:
+        return
+    ideal = np.abs(np.asarray(frame.ideal_ratio(g), float) * w1)
+    turns = ideal > 1e-9 * np.max(np.abs(w1))
+    top = float(np.max(np.abs(w2)))
+    if turns.any() and top <= STILL_SHARE * float(np.median(ideal[turns])):
+        got = "0" if top == 0 else f"at most {top:.3g} rad/s"
+        raise InputError(f"{where}: omega_2: {got} in every row, where the ideal law has the output shaft turn at "
+                         f"{int(turns.sum())} of the {w2.size} rows (typically at {np.median(ideal[turns]):.3g} "
+                         "rad/s); such data say nothing of the slip or the speed ratio; expected the output "
+                         "shaft's measured speed (docs/measured-data.md)")
 
 
 def _check_signs(alpha_deg, frame: ShaftFrame, w1, w2, g, where: str) -> None:

@@ -21,10 +21,10 @@ import yaml
 from pydantic import Field
 
 from cvtdesign.core.contact.patch import calibrated_compliance, creep_modulus_for
-from cvtdesign.core.layout import CreepSource, Layout
-from cvtdesign.errors import InputError
+from cvtdesign.core.layout import CreepSource, Friction, Layout
+from cvtdesign.errors import InputError, suggest
 from cvtdesign.io.schema import MaterialSpec, Num, PairSpec, Strict, VariantSpec, spec_field
-from cvtdesign.io.units import to_si
+from cvtdesign.io.units import check_range, to_si
 from cvtdesign.io.yaml_file import read_spec
 
 SHIPPED = Path(__file__).resolve().parents[1] / "materials.yaml"
@@ -63,6 +63,8 @@ def library(variant_file: str, spec: VariantSpec) -> list[tuple[str, LibrarySpec
     out = []
     for i, f in enumerate(files):
         where = str(f) if f == SHIPPED else f"{variant_file}: material_library[{i}]"
+        if f.is_file() and Path(variant_file).is_file() and f.samefile(variant_file):
+            raise InputError(f"{where}: '{f.name}' is the variant itself; expected a materials library (docs/materials.md)")
         if not f.is_file():
             raise InputError(f"{where}: no such file {f}; expected a materials library (docs/materials.md)")
         lib = _read(str(f), f.stat().st_mtime)
@@ -71,12 +73,39 @@ def library(variant_file: str, spec: VariantSpec) -> list[tuple[str, LibrarySpec
 
 
 def material_specs(variant_file: str, spec: VariantSpec) -> dict[str, tuple[MaterialSpec, str]]:
-    """name → (spec, where it is defined) of every material the variant can name: its own first."""
-    out = {}
-    for origin, lib in reversed(library(variant_file, spec)):
+    """name → (spec, where it is defined) of every material the variant can name: its own first. Every
+    calibration of the libraries it sees is checked on the way (`check_calibration`)."""
+    out, libs = {}, library(variant_file, spec)
+    for origin, lib in reversed(libs):
         out.update({k: (m, f"{origin}: materials.{k}") for k, m in lib.materials.items()})
     out.update({k: (m, f"{variant_file}: materials.{k}") for k, m in spec.materials.items()})
+    for origin, lib in libs:
+        for i, c in enumerate(lib.calibrations):
+            check_calibration(c, f"{origin}: calibrations[{i}]", out)
     return out
+
+
+# plausible ranges of a calibration's numbers: (what, kind, lower, upper, the unit a plain number probably meant);
+# the creep modulus as the variant's Young's moduli (io.variant.PLAUSIBLE), σ above 0 and at most 100 %
+CALIBRATION_RANGES = {"creep_modulus": ("creep modulus", "pressure", 1e5, 1.2e12, "MPa"),
+                      "std": ("relative standard deviation", "dimensionless", 0.0, 1.0, "%")}
+
+
+def check_calibration(c: CalibrationSpec, where: str, known: dict) -> tuple[float, float]:
+    """A library calibration's (creep modulus [Pa], σ): both materials among the `known` names (a misspelt one
+    is refused with the nearest, never left to turn its rollers to theory only), each number of
+    CALIBRATION_RANGES finite and plausible; one InputError line naming the file and field otherwise."""
+    for field in ("roller", "sphere"):
+        name = getattr(c, field)
+        if name not in known:
+            raise InputError(f"{where}.{field}: unknown material '{name}'{suggest(name, known)}; expected a material "
+                             "of the variant or of a library it names (docs/materials.md)")
+    out = []
+    for field, (what, kind, lo, hi, guess) in CALIBRATION_RANGES.items():
+        raw = getattr(c, field)
+        out.append(check_range(to_si(raw, kind, f"{where}.{field}"), raw, f"{where}.{field}", what, kind, lo, hi,
+                               lo_open=True, guess=guess))
+    return out[0], out[1]
 
 
 def library_calibration(variant_file: str, spec: VariantSpec, roller_material: str, sphere_material: str):
@@ -100,24 +129,37 @@ def _elastic(m: MaterialSpec) -> tuple:
     return (to_si(m.youngs_modulus, "pressure", "E"), to_si(m.poisson_ratio, "dimensionless", "ν"))
 
 
+def check_pair(p: PairSpec, where: str, known: dict) -> tuple[float, float, float]:
+    """A pair's (μ, low, high): two known materials, each number a plausible friction coefficient (0 < μ ≤ 3),
+    low ≤ μ ≤ high; one InputError line naming the file and field otherwise."""
+    for which in ("materials", "range"):
+        if len(getattr(p, which)) != 2:
+            raise InputError(f"{where}.{which}: expected two values, got {len(getattr(p, which))}")
+    for k, name in enumerate(p.materials):
+        if name not in known:
+            raise InputError(f"{where}.materials.{k}: unknown material '{name}'{suggest(name, known)}; expected a "
+                             "material of the variant or of a library it names (docs/materials.md)")
+    mu, lo, hi = (check_range(to_si(v, "dimensionless", f"{where}.{f}"), v, f"{where}.{f}", "friction coefficient",
+                              "dimensionless", 0.0, 3.0, lo_open=True, guess=None)
+                  for v, f in ((p.friction, "friction"), (p.range[0], "range.0"), (p.range[1], "range.1")))
+    if not lo <= mu <= hi:
+        raise InputError(f"{where}.range: expected low <= friction <= high, got {lo:g} <= {mu:g} <= {hi:g}")
+    return mu, lo, hi
+
+
 def pair_friction(variant_file: str, spec: VariantSpec, roller: str, roller_material: str,
-                  sphere_material: str) -> dict:
+                  sphere_material: str) -> Friction:
     """The friction of a roller material on a sphere material: the variant's own `pairs` entry for the two,
     else the first library's; a pair no file lists is one InputError line naming it (friction belongs to the
-    pair: no rule makes it from the two materials). Returns μ and its range as written, where they are and
-    their source in words ({mu, low, high, where, source})."""
-    pair = {roller_material, sphere_material}
-    own = [(f"{variant_file}: pairs.{i}", p) for i, p in enumerate(spec.pairs)]
-    found = [(f"{origin}: pairs.{i}", p) for origin, lib in library(variant_file, spec)
-             for i, p in enumerate(lib.pairs)]
-    for at, p in own + found:
-        if len(p.materials) != 2 or len(p.range) != 2:
-            which = "materials" if len(p.materials) != 2 else "range"
-            raise InputError(f"{at}.{which}: expected two values, got {len(getattr(p, which))}")
-        if set(p.materials) == pair:
-            return {"mu": p.friction, "low": p.range[0], "high": p.range[1], "where": at,
-                    "source": f"{roller_material} on {sphere_material}: μ {p.friction} ({p.range[0]}–{p.range[1]}; "
-                              f"{p.source}; {at})"}
+    pair: no rule makes it from the two materials). Every pair the variant sees is checked (`check_pair`)."""
+    known = material_specs(variant_file, spec)
+    entries = [(f"{variant_file}: pairs.{i}", p) for i, p in enumerate(spec.pairs)] + \
+        [(f"{origin}: pairs.{i}", p) for origin, lib in library(variant_file, spec) for i, p in enumerate(lib.pairs)]
+    checked = [(at, p, check_pair(p, at, known)) for at, p in entries]
+    for at, p, (mu, lo, hi) in checked:
+        if set(p.materials) == {roller_material, sphere_material}:
+            return Friction(mu, lo, hi, f"{roller_material} on {sphere_material}: μ {mu:g} ({lo:g}–{hi:g}; "
+                                        f"{p.source}; {at})")
     raise InputError(f"{variant_file}: rollers.{roller}: no friction known for {roller_material} on {sphere_material}; "
                      f"expected a `pairs` entry for the two in the variant or its material_library: {{materials: "
                      f"[{roller_material}, {sphere_material}], friction: μ, range: [low, high], source: ...}} "
@@ -172,8 +214,7 @@ def contact_calibration(variant_file: str, spec: VariantSpec, role: str, roller_
         return source("theory", f"theory only: no calibration of {roller_material} on {sphere_material}{why} "
                                 f"({THEORY_GAP})")
     cal, at = found
-    E = to_si(cal.creep_modulus, "pressure", f"{at}.creep_modulus")
-    s = to_si(cal.std, "dimensionless", f"{at}.std")
+    E, s = check_calibration(cal, at, {roller_material, sphere_material})
     return source("library", f"{roller_material} on {sphere_material}: creep modulus {cal.creep_modulus} "
                              f"± {s:.1%} ({cal.machine}; {at})", s, E,
                   preload=None if cal.preload is None else to_si(cal.preload, "force", f"{at}.preload"))

@@ -53,17 +53,22 @@ def convergence_figure(history: list[dict], start_objectives: list, objective_la
 
 def slack_figure(rows: list[tuple[str, str, float, bool]], path: Path):
     """Each constraint family's most binding row: a bar of its slack as a share of its bound [%] (0: the
-    optimum sits on it; bars past 100 % cut there), labelled with the slack in its unit. rows: (family,
-    label, share [%], active)."""
+    optimum sits on it), labelled with the slack in its unit. A bar past 100 % is cut there and drawn so:
+    hatched, an arrow at its end, its label saying so beside the share ('bar cut at 100 %: 40 mm (1900 % of
+    the bound)'), so that it is never read as a full 100 % bar. rows: (family, label, share [%], active)."""
     mpl = figure_parts()
     fig, ax = mpl.subplots(figsize=(9, 0.45 * len(rows) + 1.6), layout="constrained")
     y = np.arange(len(rows))[::-1]
-    shares = [min(share, 100.0) for _, _, share, _ in rows]
+    past = [share > 100.0 for _, _, share, _ in rows]
     colours = ["tab:red" if active else "tab:blue" for *_, active in rows]
-    ax.barh(y, shares, color=colours, height=0.6)
-    for yi, (_, text, share, active) in zip(y, rows):
+    bars = ax.barh(y, [min(share, 100.0) for _, _, share, _ in rows], color=colours, height=0.6)
+    for bar, yi, cut, (_, text, share, active) in zip(bars, y, past, rows):
         label = "active: the optimum sits on it" if active else text
-        ax.text(min(share, 100.0) + 1.5, yi, label, va="center", fontsize=8)
+        if cut:
+            bar.set(hatch="///", facecolor="white", edgecolor=bar.get_facecolor())
+            ax.plot(100.0, yi, marker=">", ms=9, color=bar.get_edgecolor(), clip_on=False)
+            label = f"bar cut at 100 %: {label}"
+        ax.text(min(share, 100.0) + 3.5, yi, label, va="center", fontsize=8)
     ax.set_yticks(y, [name for name, *_ in rows])
     ax.set(xlim=(0, 160), xlabel="slack at the optimum, as a share of the bound [%]",
            title="room left by each constraint family (its most binding row)")

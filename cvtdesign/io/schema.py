@@ -399,4 +399,8 @@ def schema_error(err: ValidationError, where: str, root=None) -> InputError:
         return InputError(f"{where}: {path}: unknown field{suggest(loc[-1], known)}")
     if e["type"] == "missing":
         return InputError(f"{where}: {path}: missing required field")
+    if e["type"] == "literal_error" and isinstance(e.get("input"), str):    # the value given, and the nearest
+        options = re.findall(r"'([^']*)'", e["ctx"]["expected"])
+        return InputError(f"{where}: {path}: input should be {e['ctx']['expected']}, got '{shorten(e['input'])}'"
+                          f"{suggest(e['input'], options)}")
     return InputError(f"{where}: {path}: {e['msg'].lower()}")

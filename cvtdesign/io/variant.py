@@ -25,7 +25,7 @@ from cvtdesign.core import effects as fx
 from cvtdesign.core.contact import laws
 from cvtdesign.core.checks import check_layout
 from cvtdesign.core.geometry import KIM_FRAME, named_vector, spherical
-from cvtdesign.core.layout import Frame, Friction, Layout, Material, Roller
+from cvtdesign.core.layout import Frame, Layout, Material, Roller
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io import materials
 from cvtdesign.io.limits import MAX_GRID_POINTS, check_envelope_limits
@@ -196,7 +196,7 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
     forks, fork_of = _forks(spec, where, names)
     law, calibration = _contact_law(spec, where, names)
     sphere_material = _material(mats, spec.sphere.material, f"{where}: sphere.material")
-    rollers = tuple(_with_creep_source(_roller(spec, rn, where, names, mats, fork_of, R), spec, where, names)
+    rollers = tuple(_with_creep_source(_roller(spec, rn, where, names, mats, fork_of, R), spec, where)
                     for rn in spec.rollers)
     for s in (1, 2):
         if not any(r.role == "drive" and r.shaft == s for r in rollers):
@@ -278,17 +278,13 @@ def relative_std(value, where: str) -> float:
     return s
 
 
-def _with_creep_source(roller: Roller, spec: VariantSpec, where: str, names: dict) -> Roller:
+def _with_creep_source(roller: Roller, spec: VariantSpec, where: str) -> Roller:
     """The roller with where its creep compliance comes from (io.materials.contact_calibration) and its pair's
     friction (io.materials.pair_friction)."""
     material, _ = _own_or_default(spec, roller.name, "material", where)
     materials.check_fitted_pair(where, spec, roller.name, roller.role, material, spec.sphere.material)
-    f = materials.pair_friction(where, spec, roller.name, material, spec.sphere.material)
-    mu, lo, hi = (quantity(f[k], "friction", f"{f['where']}.{n}", names, "a positive value")
-                  for k, n in (("mu", "friction"), ("low", "range[0]"), ("high", "range[1]")))
-    if not lo <= mu <= hi:
-        raise InputError(f"{f['where']}.range: expected low <= friction <= high, got {lo:g} <= {mu:g} <= {hi:g}")
-    return dataclasses.replace(roller, friction=Friction(mu, lo, hi, f["source"]),
+    return dataclasses.replace(roller, friction=materials.pair_friction(where, spec, roller.name, material,
+                                                                        spec.sphere.material),
                                creep=materials.contact_calibration(where, spec, roller.role, material,
                                                                    spec.sphere.material))
 

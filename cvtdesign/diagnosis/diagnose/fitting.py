@@ -3,7 +3,7 @@ noise-weighted residuals, with the model's exact Jacobian (CasADi, through the N
 from (JᵀJ)⁻¹; a parameter whose standard deviation exceeds its own scale is flagged as not identifiable."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -27,10 +27,27 @@ class Fit:
     pred: dict
     ok: np.ndarray
     chi2: float
+    at_bound: list = field(default_factory=list)    # per parameter: 'lower', 'upper' (`ends_at`) or None
 
     def params(self):
-        return {n: {"value": float(v), "std": float(s), "identifiable": bool(i)}
-                for n, v, s, i in zip(self.names, self.theta, self.std, self.identifiable)}
+        """'effect.param' → {value, std, identifiable, at_bound}: at_bound 'lower' or 'upper' where the fit ended
+        on that bound of the parameter (core.effects), which is then no result of the data but of the bound."""
+        ends = self.at_bound or [None] * len(self.names)
+        return {n: {"value": float(v), "std": float(s), "identifiable": bool(i), "at_bound": b}
+                for n, v, s, i, b in zip(self.names, self.theta, self.std, self.identifiable, ends)}
+
+
+AT_BOUND = 1e-3        # a fitted value within this share of its bounds' span (or of its scale) from a bound ends on it
+
+
+def ends_at(theta, lo, hi, scale) -> list:
+    """Per parameter, the bound the fit ended on ('lower', 'upper') or None: within AT_BOUND of the span
+    between the bounds (of the parameter's scale where a bound is infinite)."""
+    out = []
+    for t, a, b, s in zip(theta, lo, hi, scale):
+        tol = AT_BOUND * ((b - a) if np.isfinite(a) and np.isfinite(b) else max(abs(t), s))
+        out.append("lower" if np.isfinite(a) and t - a <= tol else "upper" if np.isfinite(b) and b - t <= tol else None)
+    return out
 
 
 def bounds(names):
@@ -101,7 +118,7 @@ def fit(P: Predictor, data: Measured, noise: dict, rows=None, x0=None, multistar
     # σ from the points where the model holds: a failed point's FAIL_Z is a penalty, not a misfit
     held = np.tile(ok[rows], len(chans))
     std, ident = _uncertainty(best.jac, theta, P.defaults, float(z[held] @ z[held]), int(held.sum()))
-    return Fit(P.effects, P.names, theta, std, ident, pred, ok, float(z @ z))
+    return Fit(P.effects, P.names, theta, std, ident, pred, ok, float(z @ z), ends_at(theta, lo, hi, scale))
 
 
 def failed_points(P: Predictor, data: Measured, f: Fit) -> dict:

@@ -2,8 +2,10 @@
 
 * Replicates (rows that repeat an operating point): each row's deviation from its point's mean. The model
   predicts at the measured load, so a residual's noise also holds the load's noise carried through the
-  model's slope, σ² = σ_c² + (∂c/∂τ⊥)² σ_τ⊥² (errors in variables); the slope is read off local fits of the
-  model's predictions over each point's neighbours.
+  model's slope, σ² = σ_c² + (∂c/∂τ⊥)² σ_τ⊥² (errors in variables); the slope is the model's own, by central
+  differences at each point (`load_slopes`), whatever the protocol: local fits over a point's neighbours
+  could not give it where those neighbours all sit at one load (a grid of few load levels), and read the
+  loads' noise as a slope of hundreds of degrees per N·m.
 * Otherwise, neighbours: each point's residual against a local quadratic fit of its neighbours' residuals in
   (γ, τ⊥) (spatial.Neighbours.loo). A gap that is smooth at the scale of the neighbours cancels, noise does
   not; where the gap bends sharply between neighbours the estimate is an upper bound, so once the diagnosis
@@ -19,11 +21,12 @@ import numpy as np
 import pandas as pd
 
 from cvtdesign.diagnosis.diagnose.fitting import Fit
-from cvtdesign.diagnosis.diagnose.predictor import channels, residuals, rms
+from cvtdesign.diagnosis.diagnose.predictor import Predictor, channels, residuals, rms
 from cvtdesign.diagnosis.diagnose.spatial import Neighbours
 from cvtdesign.diagnosis.measured import MEASURED_CHANNELS, Measured
 
 POOL = 30              # deviations pooled for each point's noise: the ones nearest to it in γ
+LOAD_STEP = 1e-3       # share of the envelope's load range of the central differences of the model's load slope
 REFINE = 0.8           # noise from the diagnosed model's residuals replaces the first estimate below this ratio
 REPLICATES = "replicates"
 NEIGHBOURS = "neighbours in (γ, τ⊥): local fits of the base model's residuals"
@@ -69,10 +72,10 @@ def replicate_noise(raw: Measured, values: dict) -> dict:
     return out
 
 
-def estimate_noise(prelim: Fit, points: Measured, raw: Measured, fits: dict[str, Neighbours]) -> dict:
+def estimate_noise(prelim: Fit, points: Measured, raw: Measured, fits: dict[str, Neighbours], P: Predictor) -> dict:
     """σ of each channel at each operating point of `points` (merged replicates of `raw`, measured.merge_points),
     the noise of the point's mean: a row's σ over √count (module docstring). `prelim`: a first (unweighted)
-    fit of the base model."""
+    fit of the base model `P`."""
     if not raw.replicated:
         return neighbour_noise(points, held(points, prelim), fits)
     cols = {c: col for c, col in MEASURED_CHANNELS.items() if c in channels(raw)} | {"load": "tau_perp"}
@@ -80,8 +83,30 @@ def estimate_noise(prelim: Fit, points: Measured, raw: Measured, fits: dict[str,
     first = raw.rows.reset_index(drop=True).groupby("point").head(1)
     idx = first.index.to_numpy()[np.argsort(first["point"].to_numpy())]
     n = points.rows["count"].to_numpy()
-    return {c: np.sqrt(per_row[c][idx] ** 2 + (fits[c].slope(prelim.pred[c], "tau_perp_Nm") * per_row["load"][idx]) ** 2)
-            / np.sqrt(n) for c in cols if c != "load"}
+    slopes = load_slopes(P, points, prelim.theta)
+    return {c: np.sqrt(per_row[c][idx] ** 2 + (slopes[c] * per_row["load"][idx]) ** 2) / np.sqrt(n)
+            for c in cols if c != "load"}
+
+
+def load_slopes(P: Predictor, points: Measured, theta) -> dict:
+    """∂c/∂τ⊥ of each channel's prediction at each operating point [° or N·m per N·m], the model with `P`'s
+    effects at `theta`, by central differences over ±LOAD_STEP of the envelope's load range (one-sided where
+    the model fails on one side, 0 where it fails on both: no slope is read where its physics stops)."""
+    r, model = points.rows, P.model
+    g, t = np.radians(r["gamma_cmd_deg"].to_numpy()), r["tau_perp"].to_numpy()
+    h = LOAD_STEP * max(float(np.ptp(model.layout.load_grid)), 1e-3)
+    sides = []
+    for dt in (-h, 0.0, h):
+        res = model.evaluate(g, t + dt, speeds=r["omega_1"].to_numpy(), theta=theta)
+        _, tau_par = model.frame.load_split(g, res["tau_1"], res["tau_2"])
+        sides.append({"alpha": np.degrees(res["alpha"]), "tau_par": tau_par, "axis": np.degrees(res["gamma_axis"])})
+    out = {}
+    for c in sides[0]:
+        lo, mid, hi = (s[c] for s in sides)
+        d = np.where(np.isfinite(lo) & np.isfinite(hi), (hi - lo) / (2 * h),
+                     np.where(np.isfinite(hi), (hi - mid) / h, (mid - lo) / h))
+        out[c] = np.nan_to_num(d, nan=0.0)
+    return out
 
 
 def refine(points: Measured, raw: Measured, fits: dict[str, Neighbours], noise: dict, final: Fit) -> tuple[dict, bool]:

@@ -31,7 +31,7 @@ class Prepared:
     raw: Measured
     points: Measured
     nb: Neighbours          # the points' neighbour graph (spatial structure, regions)
-    fits: dict              # channel -> the neighbourhoods of its local fits (noise, outliers, slopes)
+    fits: dict              # channel -> the neighbourhoods of its local fits (noise, outliers)
     models: Models
     prelim: Fit
     noise: dict
@@ -54,7 +54,7 @@ def _stage(layout: Layout, raw: Measured, base: tuple) -> Prepared:
     P = models.get(base)
     prelim = fit(P, points, {c: np.ones(P.n) for c in channels(points)})
     fits = local_fits(points, layout, held(points, prelim))
-    return Prepared(raw, points, nb, fits, models, prelim, estimate_noise(prelim, points, raw, fits), [], None)
+    return Prepared(raw, points, nb, fits, models, prelim, estimate_noise(prelim, points, raw, fits, P), [], None)
 
 
 def prepare(layout: Layout, frame: ShaftFrame, raw: Measured, base: tuple) -> Prepared:

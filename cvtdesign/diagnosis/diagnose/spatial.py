@@ -1,8 +1,9 @@
 """Where the gap lies, in the data's own space: the operating points' neighbours in (γ, τ⊥[, ω1]), whatever
 the protocol (a grid, random points, one load).
 
-Coordinates are the commanded γ and the measured τ⊥ scaled by the variant's envelope (its γ and load ranges:
-physical scales, so a load held at one value stays one value and its noise does not pull neighbours apart),
+Coordinates are the commanded γ and the τ⊥ of each point's load level (`load_coordinate`: the measured τ⊥
+for random loads) scaled by the variant's envelope (its γ and load ranges: physical scales, so a load held at
+one value stays one value and its noise does not pull neighbours apart),
 and log ω1 scaled by its own spread when the motor speed varies by more than 5 %. On Kim's grid the graph is
 the grid's: each point joined to its γ and load neighbours.
 
@@ -59,21 +60,13 @@ class Neighbours:
         v = np.asarray(values, float)
         return np.einsum("nk,nk->n", self.pinv[:, 0, :], v[self.near])
 
-    def slope(self, values: np.ndarray, name: str) -> np.ndarray:
-        """∂values/∂(coordinate `name`) at each point, in values' unit per physical unit, from the local fits
-        (0 where the coordinate was left out)."""
-        if name not in self.names:
-            return np.zeros(len(values))
-        j = 1 + self.names.index(name)
-        return np.einsum("nk,nk->n", self.pinv[:, j, :], np.asarray(values, float)[self.near]) / self.scales[j - 1]
-
 
 def coordinates(data: Measured, layout: Layout, aspect: float = 1.0) -> tuple[np.ndarray, np.ndarray, list]:
     """(scaled coordinates, their scales, names) of the operating points (module docstring); `aspect`
     shrinks the load's scale (a smaller one brings the points at other loads closer)."""
     r = data.rows
     cols = {"gamma_deg": (r["gamma_cmd_deg"].to_numpy(), float(np.ptp(np.degrees(layout.gamma_grid))) or 1.0, 1.0),
-            "tau_perp_Nm": (r["tau_perp"].to_numpy(), float(np.ptp(layout.load_grid)) or 1.0, aspect)}
+            "tau_perp_Nm": (load_coordinate(data), float(np.ptp(layout.load_grid)) or 1.0, aspect)}
     w = np.log(np.abs(r["omega_1"].to_numpy()))
     if np.ptp(w) > SPEED_SPREAD:
         cols["log_omega_1"] = (w, float(np.ptp(w)), 1.0)
@@ -81,6 +74,18 @@ def coordinates(data: Measured, layout: Layout, aspect: float = 1.0) -> tuple[np
     keep = keep or {"gamma_deg": cols["gamma_deg"]}
     return (np.column_stack([v * a / s for v, s, a in keep.values()]), np.array([s / a for _, s, a in keep.values()]),
             list(keep))
+
+
+def load_coordinate(data: Measured) -> np.ndarray:
+    """Each operating point's τ⊥ [N m] as a coordinate: its load level's mean (measured._group), which is the
+    measured τ⊥ itself where each point is a level of its own (random loads). On a grid of a few load levels
+    the measured loads of one level differ by their noise only; as a coordinate, a local fit over neighbours
+    at one level read that noise as a load slope, and took the part of the residuals that the load's noise
+    carries for a smooth gap (the noise came out a third low on five load levels)."""
+    r = data.rows
+    if data.load_levels is None or "load_bin" not in r.columns:
+        return r["tau_perp"].to_numpy()
+    return np.asarray(data.load_levels, float)[r["load_bin"].to_numpy()]
 
 
 def neighbours(data: Measured, layout: Layout, aspect: float = 1.0) -> Neighbours:

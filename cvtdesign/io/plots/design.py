@@ -39,11 +39,11 @@ def pareto_figure(chains: list[tuple[str, list[dict], int]], path: Path):
 
 
 def tolerance_figure(title: str, label: str, sampled, first_order, nominal: float, effects: list[tuple[str, float]],
-                     path: Path, top: int = 15):
+                     path: Path, top: int):
     """A tolerance study's figure for one figure of merit (`label`, with its unit): left, the sampled values'
     histogram, the first-order prediction's (the linearised envelope's draws) outlined over it and the
     nominal marked; right, the dimensions ranked by their first-order effect (each alone, in the figure's
-    unit; None: none), the `top` largest. Returns `path`."""
+    unit; None: none), the `top` largest (as many as the printed ranking: cli.tolerance.RANKED). Returns `path`."""
     mpl = figure_parts()
     fig, (ax, bx) = mpl.subplots(1, 2, figsize=(13, 5.2), gridspec_kw={"width_ratios": [1, 1.2]})
     sampled, first_order = np.asarray(sampled, float), np.asarray(first_order, float)

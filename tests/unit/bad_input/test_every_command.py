@@ -646,7 +646,7 @@ for id, expect, args in [
     ("--workers 0", "--workers", ("--workers", "0")),
     ("--workers abc", "argument --workers: invalid int value", ("--workers", "abc")),
     ("--scheduler not an address", "--scheduler", ("--scheduler", "not-an-address")),
-    ("--scheduler empty", "--scheduler: expected the address of a running scheduler", ("--scheduler", "")),
+    ("--scheduler empty", "--scheduler: empty", ("--scheduler", "")),    # cli.options: every empty value
     ("--out is a file", ("--out", "is not a folder"), ("--out", "{plain}")),
 ]:
     case(f"study: {id}", expect, cli("study", P, *args), "study", "command line")
