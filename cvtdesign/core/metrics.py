@@ -55,7 +55,22 @@ def envelope(model: CompiledModel, theta=None, design=None) -> dict:
     model's own and none); arrays have shape (n_gamma, n_load)."""
     L = model.layout
     G, T = np.meshgrid(L.gamma_grid, L.load_grid, indexing="ij")
-    res = model.evaluate(G, T, theta=theta, design=design)
+    return _derived(model.evaluate(G, T, theta=theta, design=design), L)
+
+
+def envelopes(model: CompiledModel, designs) -> list[dict]:
+    """`envelope` at each row of `designs` (samples × design values), all in one call of the model mapped
+    over samples × points: the same numbers as one call a sample, without a call's fixed cost per sample."""
+    L, designs = model.layout, np.atleast_2d(np.asarray(designs, float))
+    G, T = np.meshgrid(L.gamma_grid, L.load_grid, indexing="ij")
+    shape = (len(designs),) + G.shape
+    res = _derived(model.evaluate(np.broadcast_to(G, shape), np.broadcast_to(T, shape),
+                                  design=np.repeat(designs, G.size, axis=0)), L)
+    return [{k: v[s] if v.ndim == len(shape) else v[:, s] for k, v in res.items()} for s in range(len(designs))]
+
+
+def _derived(res: dict, L) -> dict:
+    """An evaluation with the figures derived from it: efficiency and the standstill steering torques."""
     res["efficiency"] = efficiency(res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"])
     res["T_fork_standstill"], res["steering_torque_standstill"] = standstill_torques(
         res, [r.fork_ratio for r in L.rollers])
