@@ -51,9 +51,9 @@ import casadi as ca
 import numpy as np
 import pandas as pd
 
+from cvtdesign.core import native
 from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.core.layout import Layout
-from cvtdesign.core import native
 from cvtdesign.core.metrics import envelope, envelopes, metrics
 from cvtdesign.core.model import STATUS, CompiledModel, compile_model, library_model
 from cvtdesign.core.tolerances import DIRECTIONS, as_built, draw
