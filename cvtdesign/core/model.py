@@ -47,18 +47,8 @@ from cvtdesign.core.contact.laws import check_effects, contact_law
 from cvtdesign.core.deferred import DeferredCalls
 from cvtdesign.core.effects import parameter_vector
 from cvtdesign.core.equations import F_SCALE, Hooks, equations, unknowns
-from cvtdesign.core.geometry import (
-    ideal_gamma,
-    roller_pose,
-    steering_angle_guess,
-    steering_data,
-)
-from cvtdesign.core.kinematics import (
-    ShaftFrame,
-    shaft_frame,
-    shaft_gain,
-    wrap_axis_angle,
-)
+from cvtdesign.core.geometry import ideal_gamma, roller_pose, steering_angle_guess, steering_data
+from cvtdesign.core.kinematics import ShaftFrame, shaft_frame, shaft_gain, wrap_axis_angle
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.native import Tiered, compiled, from_source
 from cvtdesign.core.newton import newton_solver
@@ -339,8 +329,12 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None,
         "steering_torque": sum(r.fork_ratio * t for r, t in zip(layout.rollers, per["T_fork"])),
     }
     steer_res, misfit = _steering_residual(layout, frame, design)
-    def close(name, names):       # the selected outputs as a function of (x, params)
-        return calls.close(name, [u.x, params], [outs[k] for k in names])
+    closed = {}
+
+    def close(name, names):       # the selected outputs as a function of (x, params), built once a selection
+        if tuple(names) not in closed:     # (`outputs` is the point's: building it twice took a third of a build)
+            closed[tuple(names)] = calls.close(name, [u.x, params], [outs[k] for k in names])
+        return closed[tuple(names)]
     build = _point_builder(close, G, G_jac, x0_fn, steer_res, misfit, theta, design,
                            close("utilisation", ["utilisation"]) if law.several_roots else None)
     every = list(POINT_OUTPUTS) + list(CONTACT_OUTPUTS) + ["steer_misfit"]
