@@ -349,7 +349,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None,
 
 def library_model(layout: Layout, code: str, design_size: int = 0, effects=None) -> CompiledModel | None:
     """`layout`'s model for evaluation only, `point` the library of `code` (CompiledModel.point_source) from the
-    cache or compiled now: nothing symbolic is built (a tolerance model's build takes half a minute) or can be
+    cache or compiled now: nothing symbolic is built (box_tolerances' model: 9 s of CPU) or can be
     differentiated (`residual`, `outputs`, … are None). None where there is no working C compiler."""
     contact_law(layout.contact_law).load_natives()       # the symbols the library calls, before it is loaded
     if (fn := from_source(code, "point")) is None:
