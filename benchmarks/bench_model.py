@@ -8,12 +8,14 @@
 2. The `kalker` contact law against Kim's (`kim`) on the same layout and grid: box.yaml against box_kim.yaml
    over box's envelope at 61 × 61 points, both compiled, interleaved. Goal: a kalker point at most 3 × a kim
    point. Printed as `kalker/kim compiled cost ratio: X`.
-3. `cvtdesign compare variants/box_kim.yaml` from a cold start (a new process), against `python -c "import
-   casadi"` as the baseline of what merely starting Python with CasADi costs on this machine now; then one
-   unprofiled run's timeline of both processes, and the floor the figure sets: the baseline's start-up plus
+3. `cvtdesign compare variants/box.yaml` from a cold start (a new process), against `python -c "import
+   casadi"` as the baseline of what merely starting Python with CasADi costs on this machine now, in CPU time
+   (both processes). Goal: at most 8 ×. Then one unprofiled run's timeline of both processes (goal: the table
+   printed by 5 × the baseline's wall time), and the floor the figure sets: the baseline's start-up plus
    what the plotting process alone needs (importing matplotlib, drawing the figure).
 
-Run: python benchmarks/bench_model.py   (the machine is shared and noisy: best of several repeats)
+Run: python benchmarks/bench_model.py [--cold: the cold start alone]   (the machine is shared and noisy: best of
+several repeats)
 """
 import json
 import os
@@ -127,8 +129,10 @@ def hooked(name, *args, **kw):        # wraps the functions of interest as cli.p
     module = import_module(name, *args, **kw)
     if name == "cvtdesign.io.plots":
         mark("io.plots imported (numpy, CasADi); the plotting process is forked")
-        module._mpl = timed(module._mpl, after="matplotlib imported")
-        module.compare_figure = timed(module.compare_figure, "data received", "figure drawn and written", True)
+        drawn = timed(module.compare_figure, "data received", "figure drawn and written", True)
+        # sent to the plotting process by reference (module and name), so the wrapper stands in its module
+        drawn.__module__, drawn.__qualname__ = module.compare_figure.__module__, "compare_figure"
+        module.compare_figure = sys.modules[drawn.__module__].compare_figure = drawn
     if name == "cvtdesign.cli.compare":
         mark("the compare command's modules imported (pint, pydantic, rich, the model)")
         module.envelope = timed(module.envelope, after="first variant evaluated")
@@ -153,7 +157,7 @@ import gc, pickle, sys, time
 from cvtdesign.io import plots        # what the plotting process has when it is forked
 gc.disable()                          # as in the plotting process
 t = time.perf_counter()
-plots._mpl()
+plots.figure_parts()
 t_mpl = time.perf_counter() - t
 with open(sys.argv[1], "rb") as f:
     data = pickle.load(f)
@@ -169,16 +173,18 @@ sent = []
 class Painter:                       # takes the figure's data instead of drawing it
     draw = lambda self, name, data, path: sent.append(data)
     wait = lambda self: None
-run(type("Args", (), {"variants": ["variants/box_kim.yaml"], "out": sys.argv[2], "json": None, "report": None,
+run(type("Args", (), {"variants": ["variants/box.yaml"], "out": sys.argv[2], "json": None, "report": None,
+                      "points": None, "envelope": None, "as_written": False, "duty": None, "samples": 64,
                       "painter": Painter()})())
 with open(sys.argv[1], "wb") as f:
     pickle.dump(sent[0], f)
 """
 
 
-def cold_timeline(out: str) -> None:
+def cold_timeline(out: str) -> float:
     """One unprofiled run of the command in a new process: when each step ends, in both processes [s from
-    the interpreter's start of the command's code], and each process's CPU time."""
+    the interpreter's start of the command's code], and each process's CPU time; returns when the table was
+    printed [s since the interpreter started]."""
     spawned = time.time()
     run = subprocess.run([sys.executable, "-c", COLD_TIMELINE, out], cwd=ROOT, check=True, capture_output=True,
                          text=True)
@@ -193,6 +199,7 @@ def cold_timeline(out: str) -> None:
         print(f"    {t:6.3f} s  {who}  {what}")
     print(f"    {ended - main['started']:6.3f} s  main     the process has ended")
     print(f"    CPU time: main process {main['main CPU']:.2f} s, plotting process {painter['CPU']:.2f} s")
+    return main["main"]["ideal CVT evaluated, table printed"] + main["started"] - spawned
 
 
 def drawing_floor(out: str, w_base: float, rounds: int = 3) -> None:
@@ -211,9 +218,11 @@ def drawing_floor(out: str, w_base: float, rounds: int = 3) -> None:
           "baseline while matplotlib draws this figure")
 
 
-def cold_start_benchmark(rounds: int = 5, goal: float = 4.0):
-    """Cold `cvtdesign compare variants/box_kim.yaml` (a new process) against `python -c "import casadi"`, run in
-    turn `rounds` times, best of each; then one run's timeline and the floor the figure sets."""
+def cold_start_benchmark(rounds: int = 5, goal: float = 8.0, table_goal: float = 5.0):
+    """Cold `cvtdesign compare variants/box.yaml` (a new process) against `python -c "import casadi"`, run in
+    turn `rounds` times, best of each, in CPU time (goal: `goal`; on a loaded machine CPU time is what stays
+    put); then one run's timeline, when its table is printed (goal: `table_goal` × the baseline's wall time),
+    and the floor the figure sets."""
     out = tempfile.mkdtemp(prefix="cvtdesign_bench_")
     cmd = [str(Path(sys.executable).parent / "cvtdesign"), "compare", "variants/box_kim.yaml", "--out", out]
     base = [sys.executable, "-c", "import casadi"]
@@ -228,17 +237,20 @@ def cold_start_benchmark(rounds: int = 5, goal: float = 4.0):
     load = os.getloadavg()[0]
     rows = [(timed(base), timed(cmd)) for _ in range(rounds)]
     (w_base, c_base), (w_cmp, c_cmp) = ([min(x) for x in zip(*col)] for col in zip(*rows))
-    ratio = w_cmp / w_base
+    ratio = c_cmp / c_base
     print(f"cold start (best of {rounds}, interleaved; load average {load:.2f} before, {os.getloadavg()[0]:.2f} after)")
     print(f"  python -c 'import casadi' (baseline)  {w_base:6.2f} s   CPU {c_base:5.2f} s")
-    print(f"  cvtdesign compare variants/box_kim.yaml   {w_cmp:6.2f} s   CPU {c_cmp:5.2f} s (both processes)")
-    print(f"  ratio {ratio:.1f} × the baseline   goal ≤ {goal:g} ×: {'met' if ratio <= goal else 'not met'}   "
-          f"(CPU time: {c_cmp / c_base:.1f} ×; on a busy machine the wall-time ratio tends to it)")
-    cold_timeline(out)
+    print(f"  cvtdesign compare variants/box.yaml   {w_cmp:6.2f} s   CPU {c_cmp:5.2f} s (both processes)")
+    print(f"  CPU time ratio {ratio:.1f} × the baseline   goal ≤ {goal:g} ×: {'met' if ratio <= goal else 'not met'}   "
+          f"(wall time: {w_cmp / w_base:.1f} ×)")
+    table = cold_timeline(out)
+    print(f"  the table printed at {table:.2f} s = {table / w_base:.1f} × the baseline's wall time   goal ≤ "
+          f"{table_goal:g} ×: {'met' if table / w_base <= table_goal else 'not met'}")
     drawing_floor(out, w_base)
 
 
 if __name__ == "__main__":
-    grid_benchmark()
-    law_benchmark()
+    if "--cold" not in sys.argv[1:]:      # --cold: the cold start alone
+        grid_benchmark()
+        law_benchmark()
     cold_start_benchmark()

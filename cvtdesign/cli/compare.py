@@ -47,7 +47,8 @@ _BASIS_LABELS = [("contact_law", "contact law"), ("calibration", "calibration")]
 
 def run(args):
     """Print the comparison table and have args.painter (the plotting process that cli.parser starts before it
-    imports this module) draw the figure, which is completely written when this returns."""
+    imports this module) draw the figure meanwhile: the table is printed before the figure is waited for,
+    which is completely written (and --report after it) when this returns."""
     painter = args.painter
     if args.points:
         check_points_path(args.points)
@@ -89,17 +90,17 @@ def run(args):
     if args.points:
         write_points(args.points, [contact_points(L.name, L, res) for L, res in zip(layouts, results)])
     blocks = comparison_blocks(rows, ranked)
-    # the files first, then the terminal: a reader that closes stdout early (`| head`) loses no file
     if args.json:
         write_file(args.json, json_text({"variants": rows, "orderings": ranked}), kind="--json")
-    error = painter.wait()
-    if args.report and not error:
-        labels = {k: label for k, label in _BASIS_LABELS} | {"ok": "operating points ok"} | \
-            {key: label for key, label, _ in COLUMNS} | ({"life_h": LIFE_LABEL} if args.duty else {})
-        report = compare_report.report_blocks(rows, blocks, figure, labels, ranked)
-        write_file(args.report, report_text(args, "cvtdesign compare", report), kind="--report")
     console = Console(width=max(100, 30 + 22 * len(rows)))
-    show(console, blocks)
+    # the table while the figure is still drawn; a reader that closes stdout early (`| head`: a BrokenPipeError,
+    # or rich's exit) still gets every file, in full
+    try:
+        show(console, blocks)
+    except (BrokenPipeError, SystemExit):
+        finish(args, painter, rows, blocks, figure, ranked)
+        raise
+    error = finish(args, painter, rows, blocks, figure, ranked)
     if args.json:
         console.print(f"figures written to {args.json}")
     if error:
@@ -119,6 +120,17 @@ def figure_suffix(args) -> str:
     if args.envelope:
         return f"_on_{Path(args.envelope).stem}.png"
     return "_as_written.png" if args.as_written else ".png"
+
+
+def finish(args, painter, rows: list[dict], blocks: list, figure: Path, ranked: list[dict]) -> str | None:
+    """Wait for the figure, then write --report (it shows the figure); the plotting error's text or None."""
+    error = painter.wait()
+    if args.report and not error:
+        labels = {k: label for k, label in _BASIS_LABELS} | {"ok": "operating points ok"} | \
+            {key: label for key, label, _ in COLUMNS} | ({"life_h": LIFE_LABEL} if args.duty else {})
+        report = compare_report.report_blocks(rows, blocks, figure, labels, ranked)
+        write_file(args.report, report_text(args, "cvtdesign compare", report), kind="--report")
+    return error
 
 
 MAX_SAMPLES = 10_000

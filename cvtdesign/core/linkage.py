@@ -24,7 +24,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from cvtdesign.core.geometry import FRAME, LINKAGE_TOL, linkage_terms, misfit_terms, pose, steering_angle_guess
 from cvtdesign.core.kinematics import ShaftFrame, shaft_frame
@@ -204,7 +203,9 @@ def _fitted(st: Steered, ref: list, i: int, gammas) -> Fix | None:
     """The simplest change of roller i's axle, its fork's axis and ratio (FREE_SETS) with which it rolls
     about the reference rollers' axis at every γ [rad]; None if none is found. The candidates of `_screen`
     are ranked by t_i(ρφ)·u(γ) at the reference's φ, the best refined by least squares, and a fit accepted
-    only when the linkage then reaches every γ (`_fits`)."""
+    only when the linkage then reaches every γ (`_fits`). scipy.optimize is imported here, on the way to a
+    refusal: loading a linkage that holds never needs it, and its import costs more than reading a variant."""
+    from scipy.optimize import least_squares
     phis = reach(st, ref, gammas)[0]
     law = _law(st, ref)
     for free in FREE_SETS:

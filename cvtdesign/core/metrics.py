@@ -55,29 +55,27 @@ def envelope(model: CompiledModel, theta=None, design=None) -> dict:
     model's own and none); arrays have shape (n_gamma, n_load)."""
     L = model.layout
     G, T = np.meshgrid(L.gamma_grid, L.load_grid, indexing="ij")
-    return with_derived(model, model.evaluate(G, T, theta=theta, design=design))
+    return _derived(model.evaluate(G, T, theta=theta, design=design), L)
 
 
-def envelopes(model: CompiledModel, theta: np.ndarray, design: np.ndarray) -> list[dict]:
-    """`envelope` at each of several (θ, design) samples (rows of `theta` and `design`), in one evaluation
-    of every sample's every point."""
-    L = model.layout
+def envelopes(model: CompiledModel, designs, thetas=None) -> list[dict]:
+    """`envelope` at each row of `designs` (samples × design values) and of `thetas` (samples × effect
+    parameters; default the model's own), all in one call of the model mapped over samples × points: the same
+    numbers as one call a sample, without a call's fixed cost per sample."""
+    L, designs = model.layout, np.atleast_2d(np.asarray(designs, float))
     G, T = np.meshgrid(L.gamma_grid, L.load_grid, indexing="ij")
-    n, m = theta.shape[0], G.size
-    rep = lambda a: np.repeat(a, m, axis=0)
-    res = model.evaluate(np.tile(G.ravel(), n), np.tile(T.ravel(), n), theta=rep(theta), design=rep(design))
-    out = []
-    for s in range(n):
-        part = {k: (v[..., s * m:(s + 1) * m].reshape(v.shape[:-1] + G.shape)) for k, v in res.items()}
-        out.append(with_derived(model, part))
-    return out
+    shape = (len(designs),) + G.shape
+    theta = None if thetas is None else np.repeat(np.atleast_2d(np.asarray(thetas, float)), G.size, axis=0)
+    res = _derived(model.evaluate(np.broadcast_to(G, shape), np.broadcast_to(T, shape), theta=theta,
+                                  design=np.repeat(designs, G.size, axis=0)), L)
+    return [{k: v[s] if v.ndim == len(shape) else v[:, s] for k, v in res.items()} for s in range(len(designs))]
 
 
-def with_derived(model: CompiledModel, res: dict) -> dict:
-    """An envelope result with its efficiency and standstill steering torques added."""
+def _derived(res: dict, L) -> dict:
+    """An evaluation with the figures derived from it: efficiency and the standstill steering torques."""
     res["efficiency"] = efficiency(res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"])
     res["T_fork_standstill"], res["steering_torque_standstill"] = standstill_torques(
-        res, [r.fork_ratio for r in model.layout.rollers])
+        res, [r.fork_ratio for r in L.rollers])
     return res
 
 

@@ -47,20 +47,10 @@ from cvtdesign.core.contact.laws import check_effects, contact_law
 from cvtdesign.core.deferred import DeferredCalls
 from cvtdesign.core.effects import parameter_vector
 from cvtdesign.core.equations import F_SCALE, Hooks, equations, unknowns
-from cvtdesign.core.geometry import (
-    ideal_gamma,
-    roller_pose,
-    steering_angle_guess,
-    steering_data,
-)
-from cvtdesign.core.kinematics import (
-    ShaftFrame,
-    shaft_frame,
-    shaft_gain,
-    wrap_axis_angle,
-)
+from cvtdesign.core.geometry import ideal_gamma, roller_pose, steering_angle_guess, steering_data
+from cvtdesign.core.kinematics import ShaftFrame, shaft_frame, shaft_gain, wrap_axis_angle
 from cvtdesign.core.layout import Layout
-from cvtdesign.core.native import Tiered, compiled
+from cvtdesign.core.native import Tiered, compiled, from_source
 from cvtdesign.core.newton import newton_solver
 
 RES_TOL = 1e-8        # scaled residual above which a point is reported as not converged
@@ -114,6 +104,10 @@ class CompiledModel:
         holds its forward and reverse derivatives), or None where there is no working C compiler."""
         return compiled(self._point_builder(list(self.point.name_out()), written_out="derivatives" if derivatives
                                             else True), derivatives)
+
+    def point_source(self) -> str:
+        """The C source `evaluate` compiles (core.native.Tiered), from which `library_model` evaluates it."""
+        return self._tiered.code()
 
     def steering_guess(self, gammas):
         return steering_angle_guess(*steering_data(self.layout), np.asarray(gammas, float))
@@ -335,8 +329,12 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None,
         "steering_torque": sum(r.fork_ratio * t for r, t in zip(layout.rollers, per["T_fork"])),
     }
     steer_res, misfit = _steering_residual(layout, frame, design)
-    def close(name, names):       # the selected outputs as a function of (x, params)
-        return calls.close(name, [u.x, params], [outs[k] for k in names])
+    closed = {}
+
+    def close(name, names):       # the selected outputs as a function of (x, params), built once a selection
+        if tuple(names) not in closed:     # (`outputs` is the point's: building it twice took a third of a build)
+            closed[tuple(names)] = calls.close(name, [u.x, params], [outs[k] for k in names])
+        return closed[tuple(names)]
     build = _point_builder(close, G, G_jac, x0_fn, steer_res, misfit, theta, design,
                            close("utilisation", ["utilisation"]) if law.several_roots else None)
     every = list(POINT_OUTPUTS) + list(CONTACT_OUTPUTS) + ["steer_misfit"]
@@ -347,6 +345,20 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None,
                          _point_builder=lambda sel, written_out=False: build(
                              sel, "point" if sel == every else "point_" + "_".join(sel), written_out),
                          _tiered=Tiered(point, lambda: build(every, "point", True)))
+
+
+def library_model(layout: Layout, code: str, design_size: int = 0, effects=None) -> CompiledModel | None:
+    """`layout`'s model for evaluation only, `point` the library of `code` (CompiledModel.point_source) from the
+    cache or compiled now: nothing symbolic is built (box_tolerances' model: 9 s of CPU) or can be
+    differentiated (`residual`, `outputs`, … are None). None where there is no working C compiler."""
+    contact_law(layout.contact_law).load_natives()       # the symbols the library calls, before it is loaded
+    if (fn := from_source(code, "point")) is None:
+        return None
+    effects = check_effects(tuple(layout.effects if effects is None else effects), layout.file, layout.contact_law)
+    tiered = Tiered(fn, lambda: fn, native=fn)
+    return CompiledModel(layout, effects, *parameter_vector(effects, layout.effect_parameters),
+                         ca.SX.sym("design", design_size), fn, [r.name for r in layout.rollers], None, None, None,
+                         frame=shaft_frame(layout), _tiered=tiered)
 
 
 def _point_builder(close, residual, jacobian, x0_fn, steer_res, misfit, theta, design, utilisation):

@@ -323,12 +323,18 @@ def shared_library(code: str) -> Path | None:
 def compiled(fn: ca.Function, derivatives: bool = False) -> ca.Function | None:
     """fn as a compiled library (from the cache, else compiled now), or None, with a notice, where there is
     no working compiler."""
+    return from_source(source(fn, derivatives), fn.name(), like=fn)
+
+
+def from_source(code: str, name: str, like: ca.Function | None = None) -> ca.Function | None:
+    """The function `name` of the library of C source `code` (`source`'s, possibly made in another process):
+    from the cache, else compiled now; None, with a notice, where there is no working compiler."""
     command = compiler()
     if command is None:
         notice("no C compiler found (set CC): the model runs interpreted, several times slower")
         return None
     try:
-        return load(build(source(fn, derivatives), command), fn.name(), like=fn)
+        return load(build(code, command), name, like=like)
     except (RuntimeError, OSError) as err:
         _failed(err)
         return None
@@ -340,10 +346,12 @@ class Tiered:
     `interpreted` is the function to start with; `written_out()` builds the function to compile: the same
     inputs, outputs and numbers, in nodes that can be code-generated."""
 
-    def __init__(self, interpreted: ca.Function, written_out: Callable[[], ca.Function]):
+    def __init__(self, interpreted: ca.Function, written_out: Callable[[], ca.Function],
+                 native: ca.Function | None = None):
         self.interpreted = interpreted
         self.written_out = written_out
-        self.native: ca.Function | None = None
+        self._code: str | None = None
+        self.native = native        # the compiled function, once there (given: already compiled)
         self.seconds = 0.0             # interpreted evaluation time so far
         self.per_point = 1e-4          # interpreted seconds a point, as last measured
         self.pending: tuple | None = None    # (code, command, library) of the compile under way
@@ -357,6 +365,12 @@ class Tiered:
             if self.native is None and not self.given_up:
                 self._advance(points * self.per_point)
             return self.native or self.interpreted
+
+    def code(self) -> str:
+        """The C source of the function to compile (made once)."""
+        if self._code is None:
+            self._code = source(self.written_out())
+        return self._code
 
     def record(self, fn: ca.Function, points: int, seconds: float) -> None:
         """Count an evaluation's wall time towards compiling (interpreted ones only)."""
@@ -378,7 +392,7 @@ class Tiered:
                 notice("no C compiler found (set CC): the model runs interpreted, several times slower")
                 self.given_up = True
                 return
-            code = source(self.written_out())
+            code = self.code()
             lib = library_path(code, command)
             ready = verified(lib)
             if not ready and lib.exists():

@@ -327,7 +327,7 @@ def sampled_figures(model: CompiledModel, n: int, seed: int = 0) -> list[dict]:
         if i.in_theta:
             theta[:, model.param_names.index(i.target)] += x[:, j]
     design = x[:, [j for j, i in enumerate(inputs) if not i.in_theta]]
-    return [metrics(model, r) for r in envelopes(model, theta, design)]
+    return [metrics(model, r) for r in envelopes(model, design, theta)]
 
 
 def checked_by_sampling(row: dict, samples: list[dict]) -> dict:

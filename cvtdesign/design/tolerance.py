@@ -12,6 +12,10 @@ Sampling. The samples are drawn chunk by chunk (CHUNK samples; chunk c from the 
 sample i is the same however many samples are asked for and however many workers draw them. Each chunk is a
 case of the study runner (design.study: Dask with progress, one Parquet file a chunk in the store under its
 lock): a re-run on the same store continues where it stopped, and asking for more samples adds chunks. A
+chunk is one call of the compiled model, mapped over its samples × the envelope's points, with the samples' x
+as inputs (core.metrics.envelopes). The model is built once, by this process: the workers get the C source of
+its compiled point function with the study (`with_code`) and load its library from the cache (compiled once,
+in the background, while the cluster starts), so no worker builds the model. A
 sample's figures are compare's (core.metrics). A sample in which a point that holds at the drawing stops
 holding (lost contact, gross slip, no convergence) gets no figures: it is counted, with why, and left out.
 
@@ -39,7 +43,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import metadata
 from pathlib import Path
 
@@ -47,10 +51,11 @@ import casadi as ca
 import numpy as np
 import pandas as pd
 
+from cvtdesign.core import native
 from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.core.layout import Layout
-from cvtdesign.core.metrics import envelope, metrics
-from cvtdesign.core.model import STATUS, CompiledModel, compile_model
+from cvtdesign.core.metrics import envelope, envelopes, metrics
+from cvtdesign.core.model import STATUS, CompiledModel, compile_model, library_model
 from cvtdesign.core.tolerances import DIRECTIONS, as_built, draw
 from cvtdesign.design import cluster
 from cvtdesign.design.store import done_cases, prepare_store, read_store, store_lock
@@ -76,13 +81,15 @@ FIGURES = ("max_abs_alpha_deg", "rms_alpha_deg", "max_abs_alpha_steering_deg", "
 class ToleranceContent:
     """A tolerance study as it travels to the workers: the resolved layout and dimensions (no worker reads a
     file), the seed, its name and `digest` (of the variant and tolerances files: an edited file is a new
-    study), and the tolerances file as this process names it (messages only)."""
+    study), the tolerances file as this process names it (messages only) and, for the workers, the C source
+    of the compiled model (`code`), so that none builds the model again."""
     path: str
     name: str
     digest: str
     layout: Layout
     dims: tuple
     seed: int
+    code: str | None = None     # the C source of the model's point function (run_samples): workers load it
 
 
 def tolerance_content(variant, tolerances) -> ToleranceContent:
@@ -105,12 +112,25 @@ _MODELS: dict = {}      # process-local: the content's model and its envelope at
 
 
 def built_model(content: ToleranceContent) -> tuple[CompiledModel, dict]:
-    """(the content's model, its envelope at x = 0), built once per process."""
+    """(the content's model, its envelope at x = 0), once per process: built, or, given the compiled model's
+    source (`code`: a worker), loaded from it (evaluation only; built where there is no C compiler)."""
     if content.digest not in _MODELS:
         _MODELS.clear()
-        model = tolerance_model(content.layout, content.dims)
+        model = content.code and library_model(content.layout, content.code, len(content.dims))
+        model = model or tolerance_model(content.layout, content.dims)
         _MODELS[content.digest] = model, envelope(model, design=np.zeros(len(content.dims)))
     return _MODELS[content.digest]
+
+
+def with_code(content: ToleranceContent) -> ToleranceContent:
+    """The content with its model's compiled source (`code`) for the workers, its library compiled meanwhile in
+    the background (core.native: the workers wait for it, in the cache, rather than each build the model)."""
+    if content.code is not None:
+        return content
+    code = built_model(content)[0].point_source()
+    if (command := native.compiler()) is not None and not native.verified(native.library_path(code, command)):
+        native.build_detached(code, command)
+    return replace(content, code=code)
 
 
 def check_directions(model: CompiledModel, dims, where: str) -> None:
@@ -159,10 +179,9 @@ def figures(model: CompiledModel, res: dict) -> dict:
     return {k: np.nan if m[k] is None else float(m[k]) for k in FIGURES}
 
 
-def sample_row(model: CompiledModel, nominal: dict, dims, x: np.ndarray) -> dict:
-    """One sample: its status ('ok', or how many of the drawing's ok points stopped holding, by status), its
-    figures (NaN unless ok) and its deviations x.<dimension> [SI]."""
-    res = envelope(model, design=x)
+def sample_row(model: CompiledModel, nominal: dict, dims, x: np.ndarray, res: dict) -> dict:
+    """One sample of deviations x [SI] and its envelope `res`: its status ('ok', or how many of the drawing's
+    ok points stopped holding, by status), its figures (NaN unless ok) and its deviations x.<dimension>."""
     lost = np.ravel(nominal["ok"] & ~res["ok"])
     codes = np.ravel(res["status"])[lost]
     status = "ok" if not lost.any() else ", ".join(f"{STATUS[c]} ×{int(np.sum(codes == c))}" for c in np.unique(codes))
@@ -171,11 +190,13 @@ def sample_row(model: CompiledModel, nominal: dict, dims, x: np.ndarray) -> dict
 
 
 def run_chunk(content: ToleranceContent, case: dict, out_dir: str) -> dict:
-    """One chunk of samples in a worker, from `content` alone: {"rows", "files"} as design.study.run_case."""
+    """One chunk of samples in a worker, from `content` alone: {"rows", "files"} as design.study.run_case. The
+    chunk's envelopes are one call of the compiled model over its samples × points (core.metrics.envelopes)."""
     model, nominal = built_model(content)
     x = chunk_draws(content, case["chunk"])
-    rows = [{"case_id": case["id"], "sample": case["chunk"] * CHUNK + i} | sample_row(model, nominal, content.dims, x[i])
-            for i in range(CHUNK)]
+    rows = [{"case_id": case["id"], "sample": case["chunk"] * CHUNK + i} | sample_row(model, nominal, content.dims,
+                                                                                      x[i], res)
+            for i, res in enumerate(envelopes(model, x))]
     return {"rows": rows, "files": {}}
 
 
@@ -198,6 +219,7 @@ def run_samples(content: ToleranceContent, n: int, out_dir, where: tuple = (None
     Returns (one row a sample, in order; the statuses of the chunks that failed to run, whose samples are
     missing: the next run runs them again)."""
     check_run(n, where[1], where[0])
+    content = with_code(content)
     out_dir = Path(out_dir)
     cases = [{"id": f"chunk{c:05d}", "chunk": c} for c in range(math.ceil(n / CHUNK))]
     versions = {p: metadata.version(p) for p in ("cvtdesign", "casadi", "numpy", "dask", "pyarrow")}

@@ -36,7 +36,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from cvtdesign.core.model import STATUS
 from cvtdesign.errors import InputError
@@ -61,9 +60,9 @@ def check_points_path(path) -> Path:
     return path
 
 
-def contact_points(name: str, layout, res: dict) -> pd.DataFrame:
-    """The rows of one variant's envelope result (core.metrics.envelope): points in γ-major order, then
-    contacts in the layout's order."""
+def contact_points(name: str, layout, res: dict) -> dict[str, np.ndarray]:
+    """The rows of one variant's envelope result (core.metrics.envelope), as columns (COLUMNS): points in
+    γ-major order, then contacts in the layout's order."""
     status = np.asarray(res["status"]).ravel()
     n_points, rollers = status.size, layout.rollers
     frame = {"variant": np.repeat(name, n_points * len(rollers)),
@@ -77,13 +76,16 @@ def contact_points(name: str, layout, res: dict) -> pd.DataFrame:
     for column, (key, factor) in NUMBERS.items():
         values = np.asarray(res[key], float).reshape(len(rollers), n_points) * flip.get(column, 1.0)
         frame[column] = (values.T * factor).ravel()
-    return pd.DataFrame(frame, columns=COLUMNS)
+    return {column: frame[column] for column in COLUMNS}
 
 
-def write_points(path, frames: list[pd.DataFrame]) -> Path:
-    """Write the rows of every variant to `path`, CSV or Parquet by its extension, through the one writer."""
+def write_points(path, frames: list[dict]) -> Path:
+    """Write the rows of every variant (contact_points' columns) to `path`, CSV or Parquet by its extension,
+    through the one writer. pandas is imported here, the one place that needs it: a compare without --points
+    never loads it (its import costs what the rest of the command's imports do)."""
+    import pandas as pd
     path = check_points_path(path)
-    table = pd.concat(frames, ignore_index=True)
+    table = pd.concat([pd.DataFrame(f, columns=COLUMNS) for f in frames], ignore_index=True)
     if path.suffix.lower() == ".parquet":
         return write_file(path, lambda tmp: table.to_parquet(tmp, index=False), kind="--points")
     return write_file(path, table.to_csv(index=False, float_format="%.9g"), kind="--points")

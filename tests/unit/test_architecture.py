@@ -38,7 +38,8 @@ LAYERS = {
     "cli": {"errors", "core", "io", "design", "cad", "diagnosis", "verification"},
     "__main__": {"cli"},
 }
-LAZY = {"cadquery", "OCP", "matplotlib"}   # heavy optional imports (OCP is CadQuery's kernel): inside functions, at one boundary each
+LAZY = {"cadquery", "OCP", "matplotlib",   # heavy optional imports (OCP is CadQuery's kernel): inside functions,
+        "pandas", "scipy"}                    # at one boundary each (pandas, SciPy: where compare would load them)
 
 
 def modules() -> dict[str, ast.Module]:

@@ -9,7 +9,9 @@ for every contact while it assembles the equations:
    the rolling direction for drive and follower rollers, across it for steering rollers), as calibrated;
  * `rows(layout, hooks, c, s_t, s_a, v_ref, calls)`: a ContactRows (two scaled residual rows, zero when the law holds;
    the traction utilisations for the gross-slip test; the spin moment the patch puts on the sphere about its
-   normal; the creep coefficients as the law used them).
+   normal; the creep coefficients as the law used them);
+ * `load_natives()`: loads into the process the compiled code that a compiled model of the law calls, so that a
+   model's library loaded without building the model (core.model.library_model) finds it.
 and says, as class attributes, what the rest of the package reads of it:
  * `contains`: the effects of the vocabulary that the law already contains (they are refused as effects);
  * `fitted`: whether the variant gives the law fitted creep constants (contact.creep_drive, creep_steering and
@@ -94,6 +96,9 @@ class KimLaw:
     def creep_normal(self, hooks, roller: Roller, N):
         return hooks.transform("creep_normal", (roller.preload, 2.0 / 3.0), N)
 
+    def load_natives(self):
+        """Nothing: the law's equations are all in the model."""
+
     def compliance(self, layout: Layout, roller: Roller) -> float:
         """The fitted constant moved to the preload (ε ∝ N^(-2/3)), or the theory's."""
         c = self.constants(layout, roller)
@@ -140,6 +145,10 @@ class KalkerLaw:
     def constants(self, layout: Layout, roller: Roller) -> dict:
         p = patch_constants(layout, roller)
         return {**p, "log_ratio": ca.log(p["a"] / p["b"])}
+
+    def load_natives(self):
+        """The creep-force surface's library (core.contact.surface), whose functions the model calls."""
+        surface.law_functions()
 
     def creep_normal(self, hooks, roller: Roller, N):
         """N kept above zero on the scale of 1e-3 of the preload P (a patch at N ≤ 0 does not exist; such a

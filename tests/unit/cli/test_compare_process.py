@@ -54,3 +54,23 @@ def test_an_interrupt_during_matplotlibs_import_ends_the_plotting_process_quietl
     finally:
         gc.enable()                           # the worker turns the cycle collector off
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_the_table_is_printed_before_the_figure_is_waited_for(tmp_path, monkeypatch, cli, make_variant):
+    """The figure is drawn in its process while the table is printed: compare waits for it only after the
+    table, so a reader sees the figures before the drawing is done; the figure and --report are still there
+    when the command returns."""
+    import cvtdesign.cli.compare as compare
+
+    events = []
+    shown, waited = compare.show, plots.Background.wait
+    monkeypatch.setattr(compare, "show", lambda *a: (events.append("table"), shown(*a))[1])
+    monkeypatch.setattr(plots.Background, "wait", lambda self: (events.append("wait"), waited(self))[1])
+
+    def coarse(d):
+        d["envelope"]["gamma"]["step"] = "40 deg"
+        d["envelope"]["load"]["step"] = "0.5 N*m"
+    box = make_variant("box_kim", coarse)
+    code, out, _ = cli("compare", box, "--out", tmp_path / "p", "--report", tmp_path / "r.html")
+    assert code == 0 and "max |α|" in out and events == ["table", "wait"]
+    assert (tmp_path / "p" / "box_kim.png").stat().st_size > 20_000 and "<img" in (tmp_path / "r.html").read_text()

@@ -141,3 +141,37 @@ def test_a_steering_motor_limit_is_met_by_the_preload(tmp_path):
     assert held.design["preload"] == pytest.approx(5.0 / (4 * 0.8 * 0.0635 * sin_theta), rel=0.01)
     still = [i for i, lab in enumerate(held_pr.g_labels) if lab.startswith("standstill steering")]
     assert np.max(held.g[still]) == pytest.approx(1.0, abs=1e-6)
+
+
+def _sliding_lever_loop(a, b, pivot, slide, nodes=32):
+    """sliding_lever as it was written first, one patch at a time in a Python loop: the reference of its
+    vectorised form."""
+    from cvtdesign.core.steering import _nodes
+    a, b, w, s = np.broadcast_arrays(*(np.asarray(v, float) for v in (a, b, pivot, slide)))
+    xh, yh, weight = _nodes(nodes)
+    out = np.full(a.shape, np.nan)
+    for k in zip(*np.nonzero(np.isfinite(a) & np.isfinite(b))) if a.ndim else [()]:
+        x, y = a[k] * xh, b[k] * yh
+        out[k] = np.sum(weight * np.hypot(w[k] * y, s[k] + w[k] * x))
+    return out
+
+
+def test_sliding_lever_vectorised_gives_the_loops_numbers():
+    """The quadrature over every patch at once gives the loop's numbers to 1e-12 relative: pure pivoting, pure
+    sliding, the slide's centre outside and inside the patch, both signs, a patch with no number (NaN stays
+    NaN), a scalar, a 2-D array, and more patches than one block (CHUNK_NODES)."""
+    rng = np.random.default_rng(7)
+    n = 3000
+    a, b = rng.uniform(0.3e-3, 3e-3, n), rng.uniform(0.3e-3, 3e-3, n)
+    w, s = rng.choice([-2.0, -1.0, 0.0, 0.5, 1.0], n), rng.normal(0.0, 2e-3, n) * rng.choice([0.0, 1.0], n)
+    a[5], b[17] = np.nan, np.inf
+    got, ref = sliding_lever(a, b, w, s), _sliding_lever_loop(a, b, w, s)
+    assert np.array_equal(np.isnan(got), np.isnan(ref)) and np.isnan(got[[5, 17]]).all()
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=0)
+    shaped = (a[:12].reshape(3, 4), b[:12].reshape(3, 4), w[:12].reshape(3, 4), 1e-4)
+    np.testing.assert_allclose(sliding_lever(*shaped), _sliding_lever_loop(*shaped), rtol=1e-12, atol=0)
+    for case in ((1e-3, 2e-3, 1.0, 0.0), (1.6e-3, 1e-3, 1.0, 0.5e-3), (1e-3, 1e-3, -1.0, 5e-3)):
+        assert np.ndim(sliding_lever(*case)) == 0
+        assert float(sliding_lever(*case)) == pytest.approx(float(_sliding_lever_loop(*case)), rel=1e-12)
+    assert float(sliding_lever(1e-3, 1e-3, 1.0, 0.0, nodes=8)) == pytest.approx(
+        float(_sliding_lever_loop(1e-3, 1e-3, 1.0, 0.0, nodes=8)), rel=1e-12)

@@ -14,11 +14,11 @@ import yaml
 from conftest import ROOT, shipped_layout, variant_data, write_yaml
 from cvtdesign.cli import main
 from cvtdesign.core.layout import Layout
-from cvtdesign.core.metrics import envelope, metrics
-from cvtdesign.core.model import compile_model
+from cvtdesign.core.metrics import envelope, envelopes, metrics
+from cvtdesign.core.model import compile_model, library_model
 from cvtdesign.core.tolerances import Dimension, as_built
 from cvtdesign.core.uncertainty import sensitivities
-from cvtdesign.design import cluster
+from cvtdesign.design import cluster, tolerance
 from cvtdesign.design.store import read_store
 from cvtdesign.design.tolerance import COLUMNS, FIGURES, built_model, check_directions, tolerance_content
 from cvtdesign.io import plots
@@ -134,6 +134,42 @@ def test_derivatives_in_the_deviations_are_exact(content):
         assert np.allclose(exact["alpha"][:, j], fd, rtol=0, atol=1e-5 * np.max(np.abs(exact["alpha"])))
         fu = (up["utilisation"].reshape(8, -1) - down["utilisation"].reshape(8, -1))[:, ok] / (2 * h)
         assert np.allclose(exact["utilisation"][:, :, j], fu.T, rtol=0, atol=1e-5 * np.max(np.abs(exact["utilisation"])))
+
+
+@pytest.mark.slow
+def test_a_chunk_is_one_call_over_its_samples_with_each_samples_numbers(content, monkeypatch):
+    """A worker's chunk: one evaluation of the model mapped over its samples × points, in a model loaded from
+    the compiled source the study carries (no model built in the worker). Every output of every sample is
+    the sample's own envelope (one call a sample, the built model, as every sample was evaluated before) to
+    1e-9 of its scale, and each row's figures are those of that envelope: the same samples, not the same
+    distribution within sampling error."""
+    model, nominal = built_model(content)
+    shipped = tolerance.with_code(content)
+    assert shipped.code and shipped.digest == content.digest
+    loaded = library_model(content.layout, shipped.code, len(content.dims))
+    assert loaded is not None and loaded.residual is None          # evaluation only: nothing was built
+    x = tolerance.chunk_draws(content, 0)
+    calls = []
+    evaluate = type(loaded).evaluate
+    monkeypatch.setattr(type(loaded), "evaluate", lambda self, *a, **k: (calls.append(1), evaluate(self, *a, **k))[1])
+    chunk = envelopes(loaded, x)
+    assert len(calls) == 1 and len(chunk) == tolerance.CHUNK
+    monkeypatch.undo()
+    for i, res in enumerate(chunk):
+        one = envelope(model, design=x[i])
+        assert np.array_equal(res["status"], one["status"])
+        for k, v in one.items():
+            if np.issubdtype(np.asarray(v).dtype, np.floating) and np.isfinite(v).any():
+                scale = np.nanmax(np.abs(v)) or 1.0
+                np.testing.assert_allclose(res[k], v, rtol=0, atol=1e-9 * scale, err_msg=k)
+        row, want = tolerance.sample_row(loaded, nominal, content.dims, x[i], res), tolerance.figures(model, one)
+        assert row["status"] == "ok"
+        for k in FIGURES:
+            assert row[k] == pytest.approx(want[k], rel=1e-9, abs=1e-12), k
+    rows = tolerance.run_chunk(shipped, {"id": "chunk00000", "chunk": 0}, "")["rows"]
+    assert [r["sample"] for r in rows] == list(range(tolerance.CHUNK))
+    assert all(r[k] == pytest.approx(tolerance.figures(model, envelope(model, design=x[i]))[k], rel=1e-9, abs=1e-12)
+               for i, r in enumerate(rows) for k in FIGURES)
 
 
 @pytest.mark.slow
