@@ -3,10 +3,11 @@
 For each roller: the Hertz ellipse (a along the rolling direction, b across), its peak pressure, Kalker's
 coefficients C11, C22, C23, C33, μ, linear theory's creep constants, and the creep–force curves of the
 `kalker` law (core.contact.surface: Kalker's simplified theory FASTSIM with the Hertz traction bound) for
-longitudinal, lateral and spin creepage, with the pure-spin moment curve. These are the contact physics the
-layout's radii, crowns, materials and preloads give by the theory alone; next to them, the compliance the
-variant's law actually uses (its calibration: the materials library's, its own constants, or none) and where
-it comes from.
+longitudinal, lateral and spin creepage, with the pure-spin moment curve. The patch, the coefficients and the
+ε columns are the contact physics the layout's radii, crowns, materials and preloads give by the theory alone;
+next to them, the compliance the variant's law actually uses (its calibration: the materials library's, a
+transferred one, its own constants or factors, or none) and where it comes from. The curves are drawn as the
+model runs them: with the calibrated compliance (`used_patch`), and the theory's beside them in the JSON.
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from pathlib import Path
 from rich.console import Console
 
 from cvtdesign.cli.printing import json_text, show
-from cvtdesign.core.contact.patch import calibrated_compliance, curves, theory_patch
+from cvtdesign.core.contact.patch import calibrated_compliance, curves, patch, theory_patch
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_file
 from cvtdesign.io.report import Note, Table
@@ -23,19 +24,46 @@ from cvtdesign.io.units import engineering, number
 from cvtdesign.io.variant import load_variant
 
 
+CURVE_KINDS = ("longitudinal", "lateral", "spin", "spin_moment")
+
+
+def used_patch(layout, roller) -> dict:
+    """The roller's patch (numeric) as the variant's law runs it: Hertz at the nominal moduli, the creep at the
+    calibration's creep modulus (core.contact.patch.patch), and G (with the creep and spin coefficients) divided
+    by k = ε used / ε of that patch in the roller's own direction, so that its linear slope is the calibrated
+    compliance the model runs (calibrated_compliance). Under the kalker law k is the variant's calibration
+    factor, which divides G at every creepage (core.contact.laws.KalkerLaw); under Kim's law, whose creep is
+    linear, the curves give FASTSIM's shape at the fitted slope. With the theory alone k = 1."""
+    p = {k: float(v) for k, v in patch(layout, roller).items()}
+    used = calibrated_compliance(layout, roller)
+    k = used / (p["eps_long"] if roller.role != "steering" else p["eps_lat"])
+    p["G"] /= k
+    for key in ("spin_coefficient", "spin_moment_coefficient"):
+        p[key] /= k
+    p["eps_long"], p["eps_lat"] = p["eps_long"] * k, p["eps_lat"] * k
+    return p
+
+
+def curve_basis(roller) -> str:
+    """What the drawn curves rest on, for the legend: 'calibrated (library)', 'calibrated (transferred)',
+    'calibrated (fitted)', 'calibrated (factor)' or 'theory only'."""
+    return "theory only" if roller.creep.uncalibrated else f"calibrated ({roller.creep.kind})"
+
+
 def roller_record(layout, roller) -> dict:
     """The JSON record of a roller's contact at its preload (SI unless the key names a unit): the theory's
-    patch, constants and curves, and the compliance the variant's law uses (`eps_calibrated_per_N`, in the
-    roller's own direction) with its `calibration` in words."""
+    patch and constants; the compliance the variant's law uses (`eps_calibrated_per_N`, in the roller's own
+    direction) with its `calibration` in words; the creep–force curves as the law runs them, calibrated
+    (`curve_<kind>`, on `curve_basis`), and by the theory alone at the nominal moduli (`curve_<kind>_theory`)."""
     p = {k: float(v) for k, v in theory_patch(layout, roller).items()}
-    c = curves(p)
+    c, theory = curves(used_patch(layout, roller)), curves(p)
     return {"role": roller.role, "N": p["N"], "a_mm": p["a"] * 1e3, "b_mm": p["b"] * 1e3,
             "p0_MPa": p["p0"] * 1e-6, "G_MPa": p["G"] * 1e-6, "nu": p["nu"], "C11": p["C11"], "C22": p["C22"],
             "C23": p["C23"], "C33": p["C33"], "mu": p["mu"], "eps_long_per_N": p["eps_long"],
             "eps_lat_per_N": p["eps_lat"], "spin_coefficient_Nm": p["spin_coefficient"],
             "spin_moment_coefficient_Nm2": p["spin_moment_coefficient"], "pivot_lever_mm": p["pivot_lever"] * 1e3,
-            "curve_longitudinal": c["longitudinal"], "curve_lateral": c["lateral"], "curve_spin": c["spin"],
-            "curve_spin_moment": c["spin_moment"], "eps_calibrated_per_N": calibrated_compliance(layout, roller),
+            **{f"curve_{k}": c[k] for k in CURVE_KINDS}, **{f"curve_{k}_theory": theory[k] for k in CURVE_KINDS},
+            "curve_basis": curve_basis(roller), "eps_calibrated_per_N": calibrated_compliance(layout, roller),
             "calibration": roller.creep.source, "uncalibrated": roller.creep.uncalibrated}
 
 
@@ -78,9 +106,10 @@ def run(args):
                         "(lateral force per unit spin creepage [1/m]), all by the theory at the nominal moduli; ε used: "
                         "the compliance the variant's law uses, along the rolling direction at drive and follower "
                         "rollers, across it at steering rollers; a patch that pivots (spins without rolling) "
-                        "carries the moment μNℓ, ℓ the Hertz pressure's mean lever; in the curves (--json, --plots) "
-                        "creepage saturates at μN, while pure spin's lateral force peaks and then falls as the "
-                        "traction comes to circulate")])
+                        "carries the moment μNℓ, ℓ the Hertz pressure's mean lever; the curves (--json, --plots) are "
+                        "drawn at ε used (calibrated, as the model runs them; the theory's in the JSON's "
+                        "curve_<kind>_theory): creepage saturates at μN, while pure spin's lateral force peaks "
+                        "and then falls as the traction comes to circulate")])
     for line in written:
         console.print(line)
     return 0

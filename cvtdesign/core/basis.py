@@ -24,7 +24,9 @@ def role_of(roller) -> str:
 
 
 def calibration(layout: Layout) -> dict:
-    """{source, uncalibrated, std: {drive, steering}, same_source, contacts: {roller: {kind, source, std}}}:
+    """{source, uncalibrated, std: {drive, steering}, kind (fitted, library, transferred, factor or theory; joined
+    by ' + ' where contacts differ), pair (each 'roller material on sphere material'), same_source, contacts:
+    {roller: {kind, source, std}}}:
     `uncalibrated` when some contact has only the theory; `std` the relative 1σ of each role's compliance (the
     largest of its contacts'; None where one is not stated); `same_source` when both roles rest on one
     calibration (their uncertainties then move together)."""
@@ -37,7 +39,9 @@ def calibration(layout: Layout) -> dict:
         sources[role] = {c.source for c in mine}
     uncalibrated = any(r.creep.uncalibrated for r in layout.rollers)
     distinct = sorted({c["source"] for c in contacts.values()})
+    kinds = sorted({r.creep.kind for r in layout.rollers})
     return {"source": "; ".join(distinct), "uncalibrated": uncalibrated, "std": std,
+            "kind": " + ".join(kinds), "pair": sorted({" on ".join(r.creep.materials) for r in layout.rollers}),
             "same_source": sources["drive"] == sources["steering"] and len(sources["drive"]) == 1,
             "contacts": contacts}
 

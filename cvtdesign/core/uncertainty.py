@@ -300,8 +300,9 @@ def _largest_share(a: Spread, b: Spread, figure: str) -> str | None:
     return (a.labels | b.labels)[k]
 
 
-SAMPLE_TOLERANCE = 0.15   # a linear interval whose ends miss the sampled ones by more than this share of its
-                          # width is replaced by the sampled one (the linearisation no longer holds there)
+SAMPLE_TOLERANCE = 0.10   # a linear interval whose ends miss the sampled ones by more than this share of its
+                          # width is replaced by the sampled one (the linearisation no longer holds there);
+                          # below the 15 % an interval must hold to, by about the samples' own noise on an end
 
 
 def draw(inputs: list[Input], n: int, seed: int = 0) -> np.ndarray:
@@ -331,14 +332,16 @@ def sampled_figures(model: CompiledModel, n: int, seed: int = 0) -> list[dict]:
 
 
 def checked_by_sampling(row: dict, samples: list[dict]) -> dict:
-    """The row's intervals checked against the samples' 2.5–97.5 % range: where an end misses by more than
-    SAMPLE_TOLERANCE of the linear interval's width (or a sample has no value: the figure left the physics),
-    the sampled range replaces it, with `<figure>_interval_method` 'sampled'; elsewhere 'first order, checked'."""
+    """The row's intervals checked against the samples' 2.5–97.5 % range: where an end misses
+    by more than SAMPLE_TOLERANCE of the linear interval's width, the sampled range replaces it, with
+    `<figure>_interval_method` 'sampled'; elsewhere 'first order, checked'; where over a tenth of the samples
+    have no value (the figure left the physics there), no interval is given and the method says so."""
     out = {}
     for key in [k.removesuffix("_interval") for k in row if k.endswith("_interval")]:
         values = np.array([s[key] for s in samples if s.get(key) is not None], float)
         lo, hi = row[f"{key}_interval"]
         if values.size < 0.9 * len(samples):
+            out[f"{key}_interval"] = None
             out[f"{key}_interval_method"] = f"left the physics in {len(samples) - values.size} of {len(samples)} samples"
             continue
         s_lo, s_hi = np.percentile(values, [2.5, 97.5])

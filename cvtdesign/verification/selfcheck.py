@@ -33,7 +33,7 @@ from cvtdesign.errors import InputError
 from cvtdesign.io.variant import load_variant
 from cvtdesign.io.shipped import shipped_variant
 
-EXISTING = str(shipped_variant("existing"))   # Kim's CVT
+EXISTING = str(shipped_variant("existing_kim"))   # Kim's CVT under his law and fitted constants
 # each effect's values, weak value and pairs are in its entry (core.effects.SelfCheck), read when the cases
 # are made; traction_saturation's values are set per variant (_values): μ scaled so that the base model's
 # largest traction utilisation over Kim's protocol reaches SATURATION_UTILISATION (existing: μ × 0.39 and

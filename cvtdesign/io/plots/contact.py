@@ -37,32 +37,47 @@ def group_label(group: list[str], records: dict) -> str:
     return f"{', '.join(group)} ({', '.join(roles)})"
 
 
+def curve_label(group: list[str], records: dict) -> str:
+    """The legend's name of a contact group's curves, with what they rest on: 'D1, D2 (drive): calibrated
+    (library)' or '…: theory only' (cli.contact.curve_basis)."""
+    basis = records[group[0]].get("curve_basis")
+    return group_label(group, records) + (f": {basis}" if basis else "")
+
+
 def contact_figures(name: str, records: dict, folder: Path, stem: str) -> list[Path]:
     """`cvtdesign contact`'s figures, `<stem>_contact_curves.png` and `<stem>_contact_patches.png` in `folder`
-    (stem: the variant file's): the creep–force curves (one panel per creepage, the linear theory's slope
-    dotted; rollers with the same contact drawn once and named together, the others each in a colour, line
-    style and marker of their own), the pure-spin moment against the pivoting moment μNℓ, and the contact
-    patches drawn to scale [mm]. Returns the files written."""
+    (stem: the variant file's): the creep–force curves as the model runs them, at the calibrated compliance
+    (`curve_<kind>`; one panel per creepage, their linear slope dotted, each contact's basis in the legend:
+    'calibrated (library)', 'theory only', ...), where they differ the theory alone at the nominal moduli as a
+    thin line of the same colour (`curve_<kind>_theory`); rollers with the same contact drawn once and named
+    together, the others each in a colour, line style and marker of their own; the pure-spin moment against
+    the pivoting moment μNℓ; and the contact patches drawn to scale [mm]. Returns the files written."""
     mpl = figure_parts()
     fig, axes = mpl.subplots(1, 4, figsize=(19, 4.6), layout="constrained")
     groups = same_contacts(records)
+    thin = False
     for (key, xlabel, ylabel, what), ax in zip(CONTACT_CURVES, axes):
         for k, g in enumerate(groups):
             r = records[g[0]]
             colour, ls, marker = ROLLER_STYLES[k % len(ROLLER_STYLES)]
             s, f = np.array(r[key]).T
             ax.plot(s, f, ls=ls, color=colour, lw=1.6, marker=marker, ms=4, markevery=(3 * k, 12),
-                    label=group_label(g, records))
+                    label=curve_label(g, records))
             ax.plot(s[:8], s[:8] * (f[1] / s[1]), ":", color=colour, lw=0.8)
+            theory = r.get(f"{key}_theory")
+            if theory is not None and not np.allclose(theory, r[key], rtol=1e-9, atol=1e-12):
+                ax.plot(*np.array(theory).T, ls=ls, color=colour, lw=0.7, alpha=0.6)
+                thin = True
         ax.axhline(1.0, color="k", lw=0.8)
         limit = "μNℓ (pivoting)" if key == "curve_spin_moment" else "μN (full slip)"
         ax.text(0.98, 1.01, limit, transform=ax.get_yaxis_transform(), fontsize=8, va="bottom", ha="right")
         ax.set(xlabel=xlabel, ylabel=ylabel, ylim=(0, 1.12), title=what)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8, loc="lower right")
-    fig.suptitle(f"{name}: creep–force curves and the spin moment at the preload (FASTSIM, Hertz traction bound; "
-                 "dotted: linear theory)\nrollers with the same contact are drawn once, named together; curves on top "
-                 "of each other are contacts that behave alike")
+    fig.suptitle(f"{name}: creep–force curves and the spin moment at the preload, as the model runs them\n(FASTSIM, "
+                 "Hertz traction bound, at the calibrated compliance; dotted: its linear slope"
+                 + ("; thin: the theory alone at the nominal moduli" if thin else "") + ")\nrollers with the same "
+                 "contact are drawn once, named together; curves on top of each other are contacts that behave alike")
     curves_png = folder / f"{stem}_contact_curves.png"
     save(fig, curves_png, dpi=90)
     return [curves_png, _patch_figure(name, records, folder / f"{stem}_contact_patches.png", mpl)]

@@ -111,9 +111,46 @@ def test_contact_figures_read_as_they_are(monkeypatch, tmp_path):
     curves, patches = figures
     assert text_problems(curves) == [] and text_problems(patches) == []
     legend = curves.axes[0].get_legend()
-    assert [t.get_text() for t in legend.get_texts()] == ["D1 (drive)", "D2 (drive)", "S1, S2 (steering)"]
+    assert [t.get_text() for t in legend.get_texts()] == ["D1 (drive): calibrated (fitted)", "D2 (drive): calibrated "
+                                                          "(fitted)", "S1, S2 (steering): calibrated (fitted)"]
     styles = {(to_hex(h.get_color()), str(h.get_linestyle()), h.get_marker()) for h in legend.legend_handles}
     assert len(styles) == 3
     titles = [ax.get_title() for ax in patches.axes]
     assert len(titles) == 3 and all("semi-axes a × b = " in t for t in titles)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["unequal_contact_curves.png", "unequal_contact_patches.png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["unequal_kim_contact_curves.png",
+                                                         "unequal_kim_contact_patches.png"]
+
+
+@pytest.mark.parametrize("contact, basis", [(None, "calibrated (library)"),
+                                            ({"calibration": {"drive": 1, "steering": 1}}, "theory only")])
+def test_curves_are_drawn_at_the_compliance_the_model_runs(monkeypatch, tmp_path, contact, basis):
+    """contact_curves.png drew the theory alone (Hertz + Kalker at the nominal moduli) while the model ran a
+    compliance 3.1–3.6× larger on Kim's CVT (the materials library's calibration). Now each curve is FASTSIM at
+    the compliance the law uses (eps_calibrated_per_N): a curve runs to CURVE_SPAN × μN × its compliance in
+    its own direction, so the drawn drive curve (longitudinal) ends at 10 μN ε used, not 10 μN ε of theory; the
+    legend says what each contact's curves rest on, and a theory-only variant's curves are the theory's."""
+    from cvtdesign.core.contact.patch import CURVE_SPAN
+    figures = captured(monkeypatch, plots)
+    data = variant_data("existing")
+    if contact is not None:
+        data["contact"] = contact
+    path = write_yaml(tmp_path / "v.yaml", data)
+    assert main(["contact", str(path), "--json", str(tmp_path / "c.json"), "--plots", str(tmp_path)]) == 0
+    out = json.loads((tmp_path / "c.json").read_text())["rollers"]
+    for name, r in out.items():
+        own = "curve_longitudinal" if r["role"] != "steering" else "curve_lateral"
+        end = CURVE_SPAN * r["mu"] * r["N"]
+        assert r[own][-1][0] == pytest.approx(end * r["eps_calibrated_per_N"], rel=1e-9), name
+        theory = r["eps_long_per_N"] if r["role"] != "steering" else r["eps_lat_per_N"]
+        assert r[f"{own}_theory"][-1][0] == pytest.approx(end * theory, rel=1e-9), name
+        assert r["curve_basis"] == basis
+    if basis == "calibrated (library)":     # the library's calibration: 3.1× (drive), 3.6× (steering) softer
+        assert out["D1"]["eps_calibrated_per_N"] / out["D1"]["eps_long_per_N"] == pytest.approx(3.14, abs=0.01)
+    curves = figures[0]
+    drawn = {line.get_label(): line for line in curves.axes[0].get_lines()}
+    d1 = drawn[f"D1, D2 (drive): {basis}"]
+    r = out["D1"]
+    assert d1.get_xdata()[-1] == pytest.approx(CURVE_SPAN * r["mu"] * r["N"] * r["eps_calibrated_per_N"], rel=1e-9)
+    assert f"S1, S2 (steering): {basis}" in drawn
+    thin = [line for line in curves.axes[0].get_lines() if line.get_linewidth() == 0.7]
+    assert len(thin) == (2 if basis != "theory only" else 0)    # the theory beside calibrated curves, once each

@@ -39,7 +39,7 @@ def test_json_is_the_interface(life_run):
         first = min(v["contacts"], key=lambda c: c["life_h"])
         assert v["life_h"] == first["life_h"] and v["contact"] == first["contact"] and v["limit"] == first["limit"]
     box, existing = data["variants"]
-    assert box["life_h"] > existing["life_h"]      # four rollers share the load: the box outlasts Kim's CVT
+    assert box["contact"] in ("B", "B_") and existing["contact"] == "D2"   # spin wear where drive rollers pivot
 
 
 def test_readme_figures_are_the_tools(life_run):

@@ -146,13 +146,13 @@ def test_readme_compare_table_is_what_compare_prints(tmp_path, monkeypatch):
     from cvtdesign.cli.compare import COLUMNS, figure_cell
     monkeypatch.chdir(ROOT)
     js = tmp_path / "c.json"
-    files = [f"variants/{n}.yaml" for n in ("existing_kim", "box_kim", "unequal_kim")]
+    files = [f"variants/{n}.yaml" for n in ("existing", "box", "unequal")]
     assert main(["compare", *files, "--out", str(tmp_path / "p"), "--json", str(js)]) == 0
     rows = {r["name"]: r for r in json.loads(js.read_text())["variants"]}
     text = (ROOT / "README.md").read_text(encoding="utf-8")
-    table = text[text.index("| figure (95 % interval from the calibration) | existing | box | unequal |"):]
+    table = text[text.index("| figure (95 % interval from every input we know of) | existing | box | unequal |"):]
     lines = [ln for ln in table.splitlines()[2:] if ln.startswith("|")][:9]
     assert len(lines) == 9
     for line, (key, _, fmt) in zip(lines, COLUMNS):
         cells = [c.strip() for c in line.strip("|").split("|")][-3:]
-        assert cells == [figure_cell(rows[n], key, fmt) for n in ("existing_kim", "box_kim", "unequal_kim")], (key, line)
+        assert cells == [figure_cell(rows[n], key, fmt) for n in ("existing", "box", "unequal")], (key, line)
