@@ -70,13 +70,12 @@ def run(args):
     painter.draw(plots.compare_figure, [(L.name, {k: res[k] for k in plots.COMPARE_KEYS} | point_bands(m, res)
                                      | {"theory_only": basis.calibration(L)["uncalibrated"]})
                                     for L, m, res in zip(layouts, models, results)], figure)
-    check_samples(args.samples)
+    n = sample_count(args.samples, results[0]["ok"].size)
     spreads = [spread(m, res) for m, res in zip(models, results)]
-    samples = [sampled_figures(m, args.samples) if args.samples and s is not None else None
-               for m, s in zip(models, spreads)]
+    samples = [sampled_figures(m, n) if n and s is not None else None for m, s in zip(models, spreads)]
     rows = [with_intervals(s, metrics(m, res) | basis.fields(m.layout), drawn)
             for m, res, s, drawn in zip(models, results, spreads, samples)]
-    ranked = orderings(rows, spreads, samples if args.samples else None)
+    ranked = orderings(rows, spreads, samples if n else None)
     if args.duty:
         rows = [r | life_fields(m, life_duty) for r, m in zip(rows, models)]
     if len(files) == 1:
@@ -134,11 +133,17 @@ def finish(args, painter, rows: list[dict], blocks: list, figure: Path, ranked: 
 
 
 MAX_SAMPLES = 10_000
+DEFAULT_SAMPLES, SAMPLED_POINTS = 128, 2000   # samples by default, on envelopes of at most this many points
 
 
-def check_samples(n: int) -> None:
-    if not 0 <= n <= MAX_SAMPLES or 0 < n < 20:
-        raise InputError(f"--samples: {n}; expected 0 (first order only) or 20 to {MAX_SAMPLES:,} samples")
+def sample_count(given: int | None, points: int) -> int:
+    """The samples that check the intervals: --samples as given (0, or 20 to MAX_SAMPLES), else DEFAULT_SAMPLES
+    on an envelope of at most SAMPLED_POINTS points and none on a larger one (the notes then say unchecked)."""
+    if given is None:
+        return DEFAULT_SAMPLES if points <= SAMPLED_POINTS else 0
+    if not 0 <= given <= MAX_SAMPLES or 0 < given < 20:
+        raise InputError(f"--samples: {given}; expected 0 (first order only) or 20 to {MAX_SAMPLES:,} samples")
+    return given
 
 
 def with_intervals(spread, row: dict, samples: list[dict] | None) -> dict:
@@ -195,6 +200,7 @@ def comparison_blocks(rows: list[dict], ranked: list[dict] | None = None) -> lis
     sentences = compare_report.ordering_sentences(ranked or [])
     if sentences:
         blocks.append(Note("orderings at 95 %: " + "; ".join(sentences)))
+    blocks += [Note(t) for t in (interval_note(r) for r in rows) if t]
     budgets = [f"{r['name']}: " + ", ".join(f"{k} {v:.0%}" for k, v in list(r["max_abs_alpha_deg_budget"].items())[:3])
                for r in rows if r.get("max_abs_alpha_deg_budget")]
     if budgets:
@@ -233,6 +239,23 @@ def where_text(r: dict) -> str:
             contact = f"{at['contact']}, " if at.get("contact") else ""
             parts.append(f"{label} at {contact}γ {at['gamma_deg']:g}°, τ⊥ {at['tau_perp_Nm']:+g} N·m")
     return "; ".join(parts)
+
+
+def interval_note(r: dict) -> str | None:
+    """How a variant's intervals were made: first order, checked by sampling, sampled where the first order does
+    not hold, or none where the figure left the physics in samples; None where it has no interval."""
+    keys = [key for key, _, _ in COLUMNS if r.get(f"{key}_interval") is not None or f"{key}_interval_method" in r]
+    if not keys:
+        return None
+    methods = {key: r.get(f"{key}_interval_method") for key in keys}
+    if not any(methods.values()):
+        return f"{r['name']}: intervals to first order, not checked by sampling (--samples N checks them)"
+    labels = {key: label for key, label, _ in COLUMNS}
+    sampled = [labels[k] for k, m in methods.items() if m and m.startswith("sampled")]
+    left = [f"{labels[k]} ({m})" for k, m in methods.items() if m and m.startswith("left")]
+    text = f"{r['name']}: intervals to first order, checked by sampling every input"
+    text += f"; sampled where the first order does not hold: {', '.join(sampled)}" if sampled else ""
+    return text + (f"; none where the figure left the physics: {', '.join(left)}" if left else "")
 
 
 def figure_cell(r: dict, key: str, fmt: str) -> str:

@@ -109,10 +109,10 @@ def _add_compare(p):
     p.add_argument("--as-written", action="store_true",
                    help="evaluate each file as written, on its own envelope and contact law (refused otherwise "
                         "when the laws differ); each column then says what it used")
-    p.add_argument("--samples", type=int, default=128,
+    p.add_argument("--samples", type=int, default=None,
                    help="samples of every uncertain input that check each first-order interval; an interval they "
-                        "do not confirm (within 10%% of its width) is replaced by theirs (default 128; 0: first "
-                        "order only, unchecked)")
+                        "do not confirm (within 10%% of its width) is replaced by theirs (default 128 where the "
+                        "envelope has at most 2000 points, else 0; 0: first order only, unchecked)")
 
 
 def _add_capacity(p):

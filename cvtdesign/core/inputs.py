@@ -8,8 +8,9 @@ What is uncertain (a relative deviation x of each, the figure's derivative taken
  * the preload P(1 + x) of every roller together: σ `preload_std`, 20 % where the variant states none; and
    the preload the calibration's machine ran at (Kim et al. state none; 100 N is this project's assumption),
    σ 20 %. A calibration holds the compliance it was fitted to, so a calibrated creep modulus moves with that
-   preload and with its materials' moduli (`_recalibrated`): on the measured machine itself, and on a layout at
-   its preload with its materials, the assumption cancels, as it must; on another it does not;
+   preload and with its materials' moduli (`_recalibrated`): on the measured machine itself (a variant marked
+   `calibration_machine`, at the calibration's preload) the assumption cancels, as it must; on any other
+   layout, even at the same nominal preload, its own preload is set when it is built and does not;
  * each material's Young's modulus E(1 + x): σ `youngs_modulus_std`, 25 % where none is stated (a modulus
    read from a Shore A hardness by Gent's relation is good to ±20–30 %);
  * each pair's friction μ(1 + x): uniform over the pair's range (docs/materials.md, 'Friction');
@@ -73,8 +74,8 @@ def physical_inputs(layout: Layout) -> list[Input]:
     vector: the preload (the calibration's machine's, which a layout at the same preload shares, and the
     layout's own), each material's modulus, each pair's friction, the law's spin moment."""
     ref = calibration_preload(layout)
-    same = ref is not None and all(isinstance(r.preload, float) and abs(r.preload - ref) < 1e-9 * ref
-                                   for r in layout.rollers)
+    same = ref is not None and layout.calibration_machine and \
+        all(isinstance(r.preload, float) and abs(r.preload - ref) < 1e-9 * ref for r in layout.rollers)
     out = []
     if ref is not None:
         out.append(Input("preload of the calibration's machine", f"preload (the calibration's machine, {ref:g} N "

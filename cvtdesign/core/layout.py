@@ -101,6 +101,7 @@ class Layout:
                                               # (fork k + 1 is forks[k]; its axis and ratio: Roller.fork_*)
     frame: Frame | None = None     # the mounting plate, if the variant has one
     kim_vectors: tuple[str, ...] = ()     # Kim's frame vectors (core.geometry.KIM_FRAME) its file names ('d1')
+    calibration_machine: bool = False  # the machine its calibration was measured on (core.inputs)
     preload_std: float = 0.20      # relative 1σ of every preload as built [-]
     preload_std_assumed: bool = True   # True: no σ stated (no paper states Kim et al.'s preload)
     spin_factor: object = 1.0      # factor on the spin moment a law computes (its own error: core.uncertainty)

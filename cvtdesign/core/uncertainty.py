@@ -60,18 +60,30 @@ def sensitivities(model: CompiledModel, res: dict, points: np.ndarray, theta_idx
     """d(output)/dθ[theta_idx] at the given flat point indices: {output: array (points, [contacts,] k)}. With
     wrt='design', the derivatives in the model's design inputs [theta_idx] instead, at design 0 (a tolerance
     study's deviations: design.tolerance)."""
-    pf = model.point_function(list(outputs))
-    ins = [ca.MX.sym(n, pf.sparsity_in(i)) for i, n in enumerate(pf.name_in())]
-    outs = pf.call(ins)
-    th = ins[pf.name_in().index(wrt)]
-    jac = ca.Function("sens", ins, [ca.jacobian(o, th)[:, theta_idx] for o in outs])
+    columns = {"theta": theta_idx if wrt == "theta" else [], "design": theta_idx if wrt == "design" else []}
+    return _jacobian(model, res, points, columns, outputs)
+
+
+def _jacobian(model: CompiledModel, res: dict, points: np.ndarray, columns: dict, outputs) -> dict:
+    """d(output)/d(θ[columns['theta']], design[columns['design']]) at the given flat point indices, in that
+    column order: one Function (built once per model, outputs and columns) mapped over the points."""
+    key = ("jacobian", tuple(outputs), tuple(columns["theta"]), tuple(columns["design"]))
+    if key not in model._maps:
+        pf = model.point_function(list(outputs))
+        ins = [ca.MX.sym(n, pf.sparsity_in(i)) for i, n in enumerate(pf.name_in())]
+        outs = pf.call(ins)
+        th, de = (ins[pf.name_in().index(w)] for w in ("theta", "design"))
+        model._maps[key] = ca.Function("sens", ins, [ca.horzcat(ca.jacobian(o, th)[:, columns["theta"]],
+                                                                ca.jacobian(o, de)[:, columns["design"]])
+                                                     for o in outs])
+    jac = model._maps[key]
     g, t = np.ravel(res["gamma_cmd"])[points], np.ravel(res["load"])[points]
     phi0, _ = model.steering_guess(g)
     w = np.ravel(res["omega_1"])[points]
     mapped = jac.map(points.size, "thread", 2)
     got = mapped.call([g, w, t, np.zeros(points.size), phi0, model.param_values,
                        np.zeros((model.design.numel(), 1))])
-    k = len(theta_idx)
+    k = len(columns["theta"]) + len(columns["design"])
     out = {}
     for n, v in zip(outputs, got):
         v = np.asarray(v).reshape(-1, points.size, k).transpose(1, 0, 2)      # (points, rows, k)
@@ -82,12 +94,9 @@ def sensitivities(model: CompiledModel, res: dict, points: np.ndarray, theta_idx
 def jacobians(model: CompiledModel, res: dict, points: np.ndarray, inputs: list[Input], outputs=OUTPUTS) -> dict:
     """d(output)/d(input) at the given flat point indices for every input of `inputs` (core.inputs, θ ones
     first): {output: array (points, [contacts,] k)}."""
-    theta = [model.param_names.index(i.target) for i in inputs if i.in_theta]
-    out = sensitivities(model, res, points, theta, outputs) if theta else {}
-    if model.design.numel():
-        d = sensitivities(model, res, points, list(range(model.design.numel())), outputs, wrt="design")
-        out = {n: np.concatenate([out[n], d[n]], axis=-1) if out else d[n] for n in outputs}
-    return out
+    columns = {"theta": [model.param_names.index(i.target) for i in inputs if i.in_theta],
+               "design": list(range(model.design.numel())) if any(not i.in_theta for i in inputs) else []}
+    return _jacobian(model, res, points, columns, outputs)
 
 
 def figure_gradients(model: CompiledModel, res: dict, inputs: list[Input]) -> dict:
@@ -305,6 +314,9 @@ SAMPLE_TOLERANCE = 0.10   # a linear interval whose ends miss the sampled ones b
                           # below the 15 % an interval must hold to, by about the samples' own noise on an end
 
 
+CHUNK_POINTS = 50_000    # operating points evaluated in one call when sampling (memory: about 100 kB a point)
+
+
 def draw(inputs: list[Input], n: int, seed: int = 0) -> np.ndarray:
     """n samples of the inputs' deviations, (n, len(inputs)): normal for calibrations, effects, preloads and
     moduli, uniform (±σ√3) for friction and the law's error. Each key's draws come from a generator seeded by
@@ -328,7 +340,8 @@ def sampled_figures(model: CompiledModel, n: int, seed: int = 0) -> list[dict]:
         if i.in_theta:
             theta[:, model.param_names.index(i.target)] += x[:, j]
     design = x[:, [j for j, i in enumerate(inputs) if not i.in_theta]]
-    return [metrics(model, r) for r in envelopes(model, design, theta)]
+    chunk = max(1, CHUNK_POINTS // model.layout.gamma_grid.size // model.layout.load_grid.size)
+    return [metrics(model, r) for k in range(0, n, chunk) for r in envelopes(model, design[k:k + chunk], theta[k:k + chunk])]
 
 
 def checked_by_sampling(row: dict, samples: list[dict]) -> dict:

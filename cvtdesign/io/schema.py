@@ -346,6 +346,10 @@ class VariantSpec(Strict):
     pairs: list[PairSpec] = spec_field(
         "the friction of pairs of materials: each materials [roller's, sphere's], friction, range, source; they "
         "take precedence over the materials library's pairs", [])
+    calibration_machine: bool = spec_field(
+        "true for the machine the materials' calibration was measured on (Kim et al.'s CVT): its preload is the one "
+        "the calibration assumed, so the calibration absorbs that assumption; any other layout's preload is its own",
+        False)
     preload_std: Num | None = spec_field(
         "relative 1σ of every roller's preload as built, e.g. '5 %' (omitted: 20 %, assumed: no paper states "
         "Kim et al.'s preload; an interval says it was assumed)", None, kind="dimensionless")

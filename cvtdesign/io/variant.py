@@ -221,6 +221,7 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
         motor_speed=quantity(env.motor_speed, "motor_speed", f"{where}: envelope.motor_speed", None, "a positive value"),
         parameters=names, contact_law=law, calibration=calibration, forks=forks,
         frame=None if spec.frame is None else _frame(spec.frame, f"{where}: frame", names),
+        calibration_machine=spec.calibration_machine,
         preload_std=DEFAULT_STD["preload"] if spec.preload_std is None else
         relative_std(spec.preload_std, f"{where}: preload_std"), preload_std_assumed=spec.preload_std is None,
         kim_vectors=_kim_vectors(spec))
