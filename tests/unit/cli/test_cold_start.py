@@ -33,7 +33,7 @@ def test_compare_imports_no_pyplot_dask_or_cadquery(tmp_path):
     loaded = sorted(m for m in imported if m.split(".")[0] in NOT_LOADED or m.startswith(("matplotlib.pyplot",
                                                                                         "scipy.optimize")))
     assert not loaded, f"loaded on the compare path: {loaded}"
-    assert (tmp_path / "box.png").stat().st_size > 20_000
+    assert (tmp_path / "box_kim.png").stat().st_size > 20_000
 
 
 IMPORT_ONLY = """

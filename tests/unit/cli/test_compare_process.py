@@ -25,7 +25,7 @@ def test_compare_leaves_the_collector_as_it_was(tmp_path, capsys, collecting):
     finally:
         (gc.enable if was else gc.disable)()
     assert not multiprocessing.active_children()
-    assert (tmp_path / "out" / "box.png").stat().st_size > 20_000
+    assert (tmp_path / "out" / "box_kim.png").stat().st_size > 20_000
 
 
 def _import_interrupted():

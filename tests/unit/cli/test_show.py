@@ -88,7 +88,7 @@ def test_rotated_copy_prints_the_same_law(cli, tmp_path):
     turned = dump(rotate(read("unequal_kim"), axis_angle_matrix([1.0, 2.0, 3.0], 0.7)), tmp_path / "unequal_kim.yaml")
     code, out, _ = cli("show", turned, "--gamma", 20, "--out", tmp_path / "b")
     assert code == 0 and law_of(out) == law == "ω2/ω1 = 0.6667 · tan γ"
-    assert (tmp_path / "b" / "unequal_layout_gamma20.png").read_bytes()[:8] == PNG
+    assert (tmp_path / "b" / "unequal_kim_layout_gamma20.png").read_bytes()[:8] == PNG
 
 
 # ------------------------------------------------------------------ a drawing a design review can use (issue 28)
@@ -174,6 +174,6 @@ def test_default_gamma_shows_a_working_machine_and_files_are_named_after_the_fil
     assert code == 0 and "at commanded γ = 45°" in out and "ideal ω2/ω1 = 1" in out
     assert (tmp_path / "o" / "my_copy_layout.png").exists() and "replaced" not in out
     assert cli("show", ROOT / "variants/existing_kim.yaml", "--out", tmp_path / "o", "--gamma", 30)[0] == 0
-    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["existing_layout_gamma30.png", "my_copy_layout.png"]
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["existing_kim_layout_gamma30.png", "my_copy_layout.png"]
     code, out, _ = cli("show", copy, "--out", tmp_path / "o")
     assert code == 0 and "(replaced the earlier drawing of this file at this γ)" in out

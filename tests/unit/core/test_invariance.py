@@ -123,8 +123,9 @@ def reflection(q, v) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------- assertions
 
 def assert_same_figures(got: dict, want: dict, rel=1e-6, what=""):
-    bad = [f"{k}: {got[k]!r} vs {want[k]!r}" for k in FIGURES
-           if not math.isclose(got[k], want[k], rel_tol=rel, abs_tol=1e-12)]
+    bad = [f"{k}: {got[k]!r} vs {want[k]!r}" for k in FIGURES       # None (not modelled) only where both are
+           if (got[k] is None) != (want[k] is None) or
+           (got[k] is not None and not math.isclose(got[k], want[k], rel_tol=rel, abs_tol=1e-12))]
     assert got["not_converged"] == 0 and want["not_converged"] == 0, \
         f"{what}: points not converged: {got['not_converged']} (transformed), {want['not_converged']} (original)"
     assert not bad, f"{what}: figures differ (rel. tol. {rel:g}):\n  " + "\n  ".join(bad)

@@ -52,7 +52,7 @@ def one_line(err: str, *needles):
 @pytest.mark.slow
 def test_compare_json_and_png_are_0644_under_umask_022(tmp_path, umask022, capsys):
     assert main(["compare", str(BOX), "--out", str(tmp_path / "plots"), "--json", str(tmp_path / "f.json")]) == 0
-    assert mode(tmp_path / "f.json") == 0o644 and mode(tmp_path / "plots" / "box.png") == 0o644
+    assert mode(tmp_path / "f.json") == 0o644 and mode(tmp_path / "plots" / "box_kim.png") == 0o644
     assert json.loads((tmp_path / "f.json").read_text())["variants"]
     assert leftovers(tmp_path) == [] and leftovers(tmp_path / "plots") == []
 
