@@ -5,6 +5,7 @@ import dataclasses
 import sys
 from pathlib import Path
 
+import numpy as np
 from rich.console import Console
 
 from cvtdesign.cli import compare_report
@@ -12,7 +13,7 @@ from cvtdesign.cli.life import life_cell, life_fields
 from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
 from cvtdesign.core import basis
 from cvtdesign.core.contact.laws import contact_law
-from cvtdesign.core.metrics import ZERO_TORQUE, at_key, envelope, ideal_model, metrics
+from cvtdesign.core.metrics import ZERO_TORQUE, at_key, delivers_power, envelope, ideal_model, metrics
 from cvtdesign.core.inputs import uncertain_model
 from cvtdesign.core.uncertainty import checked_by_sampling, intervals, orderings, point_bands, sampled_figures, spread
 from cvtdesign.io import plots
@@ -67,7 +68,7 @@ def run(args):
     figure = make_folder(args.out, kind="--out") / named_after(files, figure_suffix(args))   # another set, another file
     replaced = figure.exists()
     # the figure is drawn while the ideal CVT is evaluated and the table printed
-    painter.draw(plots.compare_figure, [(L.name, {k: res[k] for k in plots.COMPARE_KEYS} | point_bands(m, res)
+    painter.draw(plots.compare_figure, [(L.name, figure_data(res) | point_bands(m, res)
                                      | {"theory_only": basis.calibration(L)["uncalibrated"]})
                                     for L, m, res in zip(layouts, models, results)], figure)
     n = sample_count(args.samples, results[0]["ok"].size)
@@ -111,6 +112,14 @@ def run(args):
     if args.report:
         console.print(f"report: {args.report}")
     return 0
+
+
+def figure_data(res: dict) -> dict:
+    """What the figure draws of an envelope: its COMPARE_KEYS, with the efficiency undefined (NaN, hatched) where
+    the point delivers no power, so that a point with no output is never drawn as an efficiency of 0."""
+    data = {k: res[k] for k in plots.COMPARE_KEYS}
+    data["efficiency"] = np.where(delivers_power(res), res["efficiency"], np.nan)
+    return data
 
 
 def figure_suffix(args) -> str:

@@ -113,7 +113,7 @@ def _line_row(axes, row, panels, first_row: bool, overlay: bool):
                 g, y, status = _curve(res, key, conv, L)
                 ax.plot(g, y, ls=ls, marker=marker, ms=3, color=colour, lw=1.2)
                 band = _curve(res, f"{key}_band", conv, L)[1] if f"{key}_band" in res else np.nan
-                if np.isfinite(band).any():        # the 95 % interval from the calibration's uncertainty
+                if np.isfinite(band).any():        # the 95 % interval from every uncertain input
                     ax.fill_between(g, y - band, y + band, color=colour, alpha=0.18, lw=0)
                 bad = status != 0
                 if bad.any():
@@ -164,14 +164,15 @@ def _compare_legend(fig, shown, loads, colours, mpl, top: float) -> float:
         " — THEORY ONLY (uncalibrated: likely too stiff)" if res.get("theory_only") else "")) for name, res in shown]
     if any(np.isfinite(res.get("alpha_band", np.nan)).any() for _, res in shown):
         handles.append(mpl.Rectangle((0, 0), 1, 1, fc="dimgrey", alpha=0.18, lw=0,
-                                     label="shaded: 95 % interval from the calibration's uncertainty"))
+                                     label="shaded: 95 % interval from every uncertain input (first order)"))
     handles.append(mpl.Line2D([], [], color=IDEAL_COLOUR, lw=1.5, label="ideal CVT (α = 0, efficiency 1)"))
     for L, ls, marker in sorted(_loads(shown, loads), key=lambda x: x[0]):
         handles.append(mpl.Line2D([], [], color="dimgrey", ls=ls, marker=marker, ms=4, label=f"τ⊥ = {L:+g} N·m"))
     handles.append(mpl.Line2D([], [], color="dimgrey", marker="x", ls="none", label="left out (status ≠ ok), at "
                               "the panel's foot"))
     handles.append(mpl.Rectangle((0, 0), 1, 1, fc="lightgrey", ec="grey", hatch="///",
-                                 label="no power transmitted (τ⊥ = 0: efficiency undefined)"))
+                                 label="no power delivered (τ⊥ = 0, or losses above what the load returns: "
+                                       "efficiency undefined)"))
     handles += [mpl.Line2D([], [], marker=m, color=c, ls="none", label=lab) for _, m, c, lab in FLAGS]
     renderer = fig.canvas.get_renderer()
     for ncol in range(6, 0, -1):
