@@ -1,5 +1,5 @@
-"""The materials library: materials by name, and the calibrations that make the contact theory match a measured
-machine, with their uncertainty and provenance (docs/materials.md).
+"""The materials library: materials by name, the friction of each pair of materials, and the calibrations that
+make the contact theory match a measured machine, with their uncertainty and provenance (docs/materials.md).
 
 The shipped library is cvtdesign/materials.yaml. A variant adds files of its own (`material_library:`), in the
 same format, which take precedence; `cvtdesign diagnose --save-calibration FILE` writes one. A variant's own
@@ -9,7 +9,10 @@ A calibration belongs to a roller material on a sphere material: the roller's cr
 modulus with which Hertz + Kalker give the measured creep compliance (the Hertz patch keeps the nominal
 modulus). It applies to a contact whose two materials are the calibration's, with the library's elastic
 constants (a variant that redefines a material under the same name with other values gets no calibration,
-and is told so). `contact_calibration` decides, per roller, where its creep compliance comes from.
+and is told so). `contact_calibration` decides, per roller, where its creep compliance comes from: the
+variant's own constants (which name their pair: `check_fitted_pair`), a library calibration, a calibration
+`transferred` from materials of the same family, or the theory alone. Friction belongs to a pair, never to one
+material: `pair_friction` finds the pair's entry or refuses the contact.
 """
 from __future__ import annotations
 
