@@ -46,7 +46,7 @@ def test_life_constraint_binds_and_costs_slip():
     sol = solve_from(pr, starts(pr)[0])
     life = np.array([f == "life" for f in pr.g_family])
     assert np.max(sol.g[life]) == pytest.approx(1.0, abs=1e-6)
-    free = build_problem(ROOT / "studies" / "box_placement.yaml")
+    free = build_problem(ROOT / "studies" / "box_placement_kim.yaml")
     base = solve_from(free, starts(free)[0])
     assert sol.objective > base.objective and sol.design["r_steer"] > base.design["r_steer"] + 1e-3
     readme = (ROOT / "README.md").read_text()     # the README's figures are these

@@ -204,7 +204,8 @@ def test_a_failing_model_counts_as_failing_not_as_a_misfit(layout, tmp_path):
     held-out RMS and of the per-point comparison, instead of entering as huge (or garbage) residuals."""
     s = prepare(layout, shaft_frame(layout), measured.load_measured(dataset(layout, tmp_path, KIM, seed=21), layout), KIM)
     data, noise = s.points, s.noise
-    slippery = dataclasses.replace(layout, sphere_material=dataclasses.replace(layout.sphere_material, mu=0.05))
+    slippery = dataclasses.replace(layout, rollers=tuple(dataclasses.replace(
+        r, friction=dataclasses.replace(r.friction, mu=0.05)) for r in layout.rollers))
     P = diagnose.Predictor(slippery, KIM + ("traction_saturation",), data)   # μN ≤ 5 × 5 N even at the bound
     sc = diagnose.score(P, data, noise, diagnose.folds(data))
     assert 0 < sc.failed < 0.9 and np.isnan(sc.per_point[~sc.ok]).all() and np.isfinite(sc.per_point[sc.ok]).all()

@@ -188,6 +188,6 @@ def test_two_runs_in_another_order_give_each_variant_its_colour(monkeypatch, tmp
     assert runs[0] == runs[1] and runs[0]["existing_kim"] == plots.EXISTING_COLOUR
     assert runs[0]["ideal CVT (α = 0, efficiency 1)"] == plots.IDEAL_COLOUR
     assert len({runs[0][n] for n in ("unequal_kim", "existing_kim", "box_kim")}) == 3
-    assert [p.name for p in tmp_path.iterdir()] == ["box+existing+unequal.png"]
+    assert [p.name for p in tmp_path.iterdir()] == ["box_kim+existing_kim+unequal_kim.png"]
     out = capsys.readouterr().out
     assert out.count("(replaced the earlier figure of these variants)") == 1

@@ -79,23 +79,32 @@ def test_the_calibration_gives_kims_constants_at_his_rollers(tmp_path):
 
 
 @pytest.mark.slow
-def test_a_pair_with_no_calibration_is_theory_only_everywhere(tmp_path, cli):
-    """Urethane on a steel ball: no calibration in the library. The JSON says uncalibrated: true with the
-    theory's known gap, the table's calibration row says THEORY ONLY, its figures carry no interval, and the
-    HTML report says it too."""
-    f = write_yaml(tmp_path / "steel.yaml", three_steering(sphere={"radius": "63.5 mm", "material": "steel"},
-                                                          name="steel"))
-    code, out, err = cli("compare", f, "--out", tmp_path / "p", "--json", tmp_path / "f.json",
-                         "--report", tmp_path / "r.html")
+def test_a_pair_with_no_calibration_is_transferred_or_theory_only_everywhere(tmp_path, cli):
+    """Urethane on a steel ball: no calibration of the pair, but one of its family (polyurethane): TRANSFERRED in
+    the table, the JSON and the report, with an interval. Nylon rollers on steel: no family calibrated, so the
+    JSON says uncalibrated: true with the theory's known gap, the table's calibration row THEORY ONLY, and the
+    HTML report too; its interval holds the other inputs, never the theory's own gap (the notes say so)."""
+    def steel(d):
+        for r in d["rollers"].values():
+            r["material"] = "nylon_66"
+        return d
+    urethane = write_yaml(tmp_path / "steel.yaml", three_steering(sphere={"radius": "63.5 mm", "material": "steel"},
+                                                                 name="steel"))
+    nylon = write_yaml(tmp_path / "nylon.yaml", steel(three_steering(sphere={"radius": "63.5 mm",
+                                                                             "material": "steel"}, name="nylon")))
+    code, out, err = cli("compare", urethane, nylon, "--out", tmp_path / "p", "--json", tmp_path / "f.json",
+                         "--report", tmp_path / "r.html", "--samples", "0")
     assert code == 0, err
-    rows = json.loads((tmp_path / "f.json").read_text())["variants"]
-    row = next(r for r in rows if r["name"].startswith("steel"))
+    rows = {r["name"]: r for r in json.loads((tmp_path / "f.json").read_text())["variants"]}
+    assert rows["steel"]["calibration"]["kind"] == "transferred" and rows["steel"]["max_abs_alpha_deg_interval"]
+    assert "TRANSFERRED to urethane_82A" in rows["steel"]["calibration"]["contacts"]["D1"]["source"]
+    row = rows["nylon"]
     assert row["calibration"]["uncalibrated"] is True
-    assert "3.1–3.6×" in row["calibration"]["text"] and "no calibration of urethane_82A on steel" in \
+    assert "3.1–3.6×" in row["calibration"]["text"] and "no calibration of nylon_66 on steel" in \
         row["calibration"]["contacts"]["D1"]["source"]
-    assert "max_abs_alpha_deg_interval" not in row
     row_line = next(line for line in out.splitlines() if line.startswith("│ calibration"))
-    assert row_line.rstrip(" │").endswith("THEORY ONLY") and "THEORY ONLY" in (tmp_path / "r.html").read_text()
+    assert "TRANSFERRED" in row_line and row_line.rstrip(" │").endswith("THEORY ONLY")
+    assert "THEORY ONLY" in (tmp_path / "r.html").read_text()
 
 
 def test_a_redefined_material_loses_the_calibration_and_says_why(tmp_path):
