@@ -43,8 +43,9 @@ SCALES = {side: f"{effect}.scale" for side, effect in CALIBRATION.items()}
 class Input:
     """One uncertain input: `key` (one physical quantity, shared between layouts that have it), `label` (in a
     budget), `std` the relative 1σ [-] (of a uniform spread: half-width/√3), `assumed` where no file states it,
-    `kind` ('calibration', 'effect', 'preload', 'modulus', 'friction', 'spin') and `target` (a θ name for
-    calibration and effect inputs; the material's name, the pair or None for the others)."""
+    `kind` ('calibration', 'effect', 'calibration_preload', 'preload', 'modulus', 'friction', 'spin') and
+    `target` (a θ name for calibration and effect inputs; the material's name or the pair for moduli and
+    friction; for the calibration's preload, whether it is also this layout's own; None otherwise)."""
     key: str
     label: str
     std: float
@@ -71,8 +72,9 @@ def calibration_preload(layout: Layout) -> float | None:
 
 def physical_inputs(layout: Layout) -> list[Input]:
     """The design-side inputs of `layout` (module docstring), in the order of the uncertain model's design
-    vector: the preload (the calibration's machine's, which a layout at the same preload shares, and the
-    layout's own), each material's modulus, each pair's friction, the law's spin moment."""
+    vector: the preload of the calibration's machine (shared by that machine itself, `calibration_machine` at
+    that preload) and, on any other layout, its own preload; each material's modulus, each pair's friction,
+    the law's spin moment."""
     ref = calibration_preload(layout)
     same = ref is not None and layout.calibration_machine and \
         all(isinstance(r.preload, float) and abs(r.preload - ref) < 1e-9 * ref for r in layout.rollers)
