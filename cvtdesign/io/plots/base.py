@@ -56,6 +56,20 @@ LABEL_BESIDE = [spot for r in (1.6, 3, 5) for spot in ((6 * r, 0, "left", "cente
                                                        (6 * r, -7 * r, "left", "top"), (-6 * r, 7 * r, "right", "bottom"))]
 
 
+def points_along(*polylines, per_segment=6) -> np.ndarray:
+    """Points (n, 2) strewn along each polyline ((m, 2) data points; a segment with a non-finite end is
+    skipped), per_segment a segment: a drawn line or arrow that labels keep off, handed to `place_labels`
+    as its markers."""
+    s = np.linspace(0, 1, per_segment + 1)[:-1, None]
+    out = [np.empty((0, 2))]
+    for xy in polylines:
+        xy = np.asarray(xy, float).reshape(-1, 2)
+        ok = np.all(np.isfinite(xy[:-1]), axis=1) & np.all(np.isfinite(xy[1:]), axis=1)
+        out += [xy[k] + s * (xy[k + 1] - xy[k]) for k in np.flatnonzero(ok)]
+        out += [xy[-1:]] if len(xy) and np.all(np.isfinite(xy[-1])) else []
+    return np.vstack(out)
+
+
 def place_labels(fig, ax, labels, fontsize=7, offsets=OFFSETS, markers=(), boxed=False) -> int:
     """Write each label (anchor in data coordinates, or in 3-D for a 3-D axes; text; colour; alpha) at the
     first of `offsets` from its anchor (points, optionally with the label's alignment there; default OFFSETS,

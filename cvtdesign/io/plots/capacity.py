@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.io.plots.base import LABEL_BESIDE, figure_parts, place_labels, save
+from cvtdesign.io.plots.base import LABEL_BESIDE, figure_parts, place_labels, points_along, save
 from cvtdesign.io.plots.compare import variant_colours
 
 
@@ -24,16 +24,6 @@ def _capacity_runs(gammas, contacts) -> list[tuple[float, str]]:
                 runs.append((0.5 * (gammas[start] + gammas[k - 1]), contacts[start]))
             start = k
     return runs
-
-
-def along(g, tau, per_segment=6) -> np.ndarray:
-    """Points along the curve τ(γ) between its finite neighbours (per_segment a segment), which the contacts'
-    names keep off as they keep off the markers (`place_labels`' markers)."""
-    ok = np.isfinite(tau[:-1]) & np.isfinite(tau[1:])
-    s = np.linspace(0, 1, per_segment + 1)[1:-1, None]
-    seg = [np.column_stack([g[k] + s[:, 0] * (g[k + 1] - g[k]), tau[k] + s[:, 0] * (tau[k + 1] - tau[k])])
-           for k in np.flatnonzero(ok)]
-    return np.vstack(seg) if seg else np.empty((0, 2))
 
 
 def capacity_figure(records: list[dict], path: Path):
@@ -63,7 +53,7 @@ def capacity_figure(records: list[dict], path: Path):
             seen |= {"stopped"} if np.isfinite(held).any() else set()
             marks += [(x, y) for x, y in zip(g, held) if np.isfinite(y)]
             names = [", ".join(row[f"contacts_{side}"]) for row in r["capacity"]]
-            marks += [(x, y) for x, y in zip(g, tau) if np.isfinite(y)] + list(along(g, tau))
+            marks += [(x, y) for x, y in zip(g, tau) if np.isfinite(y)] + list(points_along(np.column_stack([g, tau])))
             labels += [((x, np.interp(x, g[np.isfinite(tau)], tau[np.isfinite(tau)])), text, c, 1.0)
                        for x, text in _capacity_runs(g, [n if np.isfinite(t) else "" for n, t in zip(names, tau)])]
         pivots = [p["gamma_deg"] for p in r["pivoting"]["points"]]
