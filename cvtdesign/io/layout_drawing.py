@@ -206,26 +206,26 @@ def layout_figure(layout, phi: float, gamma: float, path: Path) -> int:
 
 
 def beside_figure(layouts: list[tuple[str, object]], gamma: float, path: Path) -> int:
-    """Layouts side by side, a row each (its title, e.g. 'base design' or 'optimum: d = 31.94 mm'), in
-    the three orthogonal views on one scale, at commanded γ [rad] (each at its own steering angle): the
+    """Layouts side by side, a column each (its title, e.g. 'base design' or 'optimum: d = 31.94 mm'), in
+    the three orthogonal views (a row each, so that the same view of each layout sits side by side, each view
+    about half the figure's width) on one scale, at commanded γ [rad] (each at its own steering angle): the
     optimum of optimise's report beside its base design. Written to `path` (PNG); returns the number of
     labels left out for want of room."""
     mpl = figure_parts()
     scenes = [(title, layout_scene(L, steering_angle(L, gamma), gamma)) for title, L in layouts]
     reach = max(s["R"] + 2 * max(r["radius"] for r in s["rollers"]) for _, s in scenes)
-    fig = mpl.figure(figsize=(13, 4.8 * len(scenes) + 0.9))
-    rows = fig.subfigures(len(scenes), 1)
+    fig = mpl.figure(figsize=(6.6 * len(scenes) + 0.4, 20.5))
+    columns = np.atleast_1d(fig.subfigures(1, len(scenes)))
     labels = {}
-    for sub, (title, scene) in zip(rows, scenes):
-        sub.suptitle(f"{title}, at commanded γ = {np.degrees(gamma):g}°", fontsize=11)
+    for sub, (title, scene) in zip(columns, scenes):
+        sub.suptitle(f"{title},\nat commanded γ = {np.degrees(gamma):g}°", fontsize=11)
         for k, view in enumerate(VIEWS):
-            ax = sub.add_subplot(1, 3, k + 1)
+            ax = sub.add_subplot(3, 1, k + 1)
             labels[ax] = _view(ax, scene, view, mpl)
             ax.set_xlim(-reach, reach)
             ax.set_ylim(-reach, reach)
-        sub.subplots_adjust(left=0.06, right=0.98, bottom=0.14, top=0.86, wspace=0.25)
-    rows[-1].subplots_adjust(bottom=0.26)
-    _legend(rows[-1], scenes[0][1], mpl)
+        sub.subplots_adjust(left=0.1, right=0.98, bottom=0.06, top=0.935, hspace=0.14)
+    _legend(fig, scenes[0][1], mpl)
     left_out = sum(place_labels(fig, ax, ls, markers=off) for ax, (ls, off) in labels.items())
-    save(fig, path, dpi=80)
+    save(fig, path, dpi=90)
     return left_out
