@@ -18,7 +18,8 @@ from cvtdesign.io.units import degrees, engineering
 from cvtdesign.io.variant import load_variant
 
 FIGURES = [
-    ("Figure 1", "the base design (top row) and the optimum (bottom row) in the three orthogonal views, on one "
+    ("Figure 1", "the base design (left column) and the optimum (right column) in the three orthogonal views (a row "
+                 "each, the same view of both side by side), on one "
                  "scale, at commanded γ = 45°: each roller labelled with its role and its shaft or fork"),
     ("Figure 2", "how the solve converged: left, the best start's IPOPT iterations, its objective and its primal "
                  "infeasibility (how far the constraints are from holding; log scale), each working-set round "

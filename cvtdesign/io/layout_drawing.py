@@ -10,8 +10,9 @@ What is drawn is what the machine has:
   in other directions they would mean nothing;
 - the commanded sphere axis u(γ).
 
-Labels are placed one after another where they overlap no label already placed (`plots.place_labels`),
-so that no two overlap at the drawing's default size.
+Labels are placed one after another where they overlap no label already placed and cover no arrow
+(u(γ), the frame vectors, the front axles) and no front shaft (`plots.place_labels`, `plots.points_along`),
+so that no two overlap at the drawing's default size and none hides what it names.
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ import numpy as np
 
 from cvtdesign.core.geometry import FRAME, pose, steering_angle
 from cvtdesign.core.kinematics import shaft_frame
-from cvtdesign.io.plots import figure_parts, place_labels, save
+from cvtdesign.io.plots import figure_parts, place_labels, points_along, save
 
 SHAFT_NAMES = {1: "motor shaft 1", 2: "brake shaft 2"}
 SHAFT_COLOURS = {1: "tab:red", 2: "tab:green"}
@@ -69,8 +70,11 @@ def layout_scene(layout, phi: float, gamma: float) -> dict:
             "command": np.asarray(frame.axis(gamma), float).ravel(), "law": frame.law_text()}
 
 
-def _arrow(ax, p0, p1, colour, lw=1.2):
+def _arrow(ax, p0, p1, colour, lw=1.2, keep_off=None):
+    """An arrow from p0 to p1 (data); `keep_off`: the list of lines the labels keep off, which it joins."""
     ax.annotate("", xy=p1, xytext=p0, arrowprops={"arrowstyle": "->", "color": colour, "lw": lw})
+    if keep_off is not None:
+        keep_off.append(np.array([p0, p1], float))
 
 
 def shaft_line(r: dict) -> np.ndarray | None:
@@ -84,21 +88,22 @@ def shaft_line(r: dict) -> np.ndarray | None:
 def _view(ax, scene, view, mpl) -> list:
     """One orthographic view of the scene: horizontal/vertical axes i, j; rollers whose centre lies behind
     the sphere's mid-plane drawn dashed and faint. Returns its labels for `plots.place_labels`: (anchor (x, y),
-    text, colour, alpha), the front rollers' first."""
+    text, colour, alpha), the front rollers' first; and the points along its arrows and front shafts, which
+    the labels keep off (`plots.points_along`)."""
     title, i, j, k, sense = view
     R = scene["R"]
     ax.add_patch(mpl.Circle((0, 0), R, fc="lightgrey", ec="k", alpha=0.35, lw=1, zorder=1))
     for f in scene["forks"]:
         end = f["reach"] * f["axis"]
         ax.plot([0, end[i]], [0, end[j]], ":", color=FORK_COLOUR, lw=1.4, zorder=2)
-    labels, behind = [], []
+    labels, behind, lines = [], [], []
     for name, v in scene["frames"].items():
         if np.hypot(v[i], v[j]) > 0.2:
-            _arrow(ax, (0, 0), (0.6 * R * v[i], 0.6 * R * v[j]), "dimgrey", lw=0.8)
+            _arrow(ax, (0, 0), (0.6 * R * v[i], 0.6 * R * v[j]), "dimgrey", lw=0.8, keep_off=lines)
             behind.append(((0.68 * R * v[i], 0.68 * R * v[j]), name, "dimgrey", 1.0))
     u = scene["command"]
     if np.hypot(u[i], u[j]) > 0.1:
-        _arrow(ax, (0, 0), (R * u[i], R * u[j]), "k", lw=2)
+        _arrow(ax, (0, 0), (R * u[i], R * u[j]), "k", lw=2, keep_off=lines)
         labels.append(((1.1 * R * u[i], 1.1 * R * u[j]), "u(γ)", "k", 1.0))
     for r in sorted(scene["rollers"], key=lambda r: sense * r["centre"][k]):
         front = sense * r["centre"][k] >= -1e-9
@@ -110,9 +115,11 @@ def _view(ax, scene, view, mpl) -> list:
         if shaft is not None:
             ax.plot(shaft[:, i], shaft[:, j], "-", color=SHAFT_COLOURS[r["shaft"]], lw=2.5 if front else 1.2,
                     alpha=1 if front else 0.4, solid_capstyle="butt", zorder=4 if front else 0)
+            lines += [shaft[:, [i, j]]] if front else []
         tip = c + 0.7 * r["radius"] * r["axle"]
         if np.hypot(*(tip - c)[[i, j]]) > 0.15 * r["radius"]:
-            _arrow(ax, (c[i], c[j]), (tip[i], tip[j]), "navy" if front else "lightsteelblue")
+            _arrow(ax, (c[i], c[j]), (tip[i], tip[j]), "navy" if front else "lightsteelblue",
+                   keep_off=lines if front else None)
         at = c + 1.25 * r["radius"] * r["normal"]
         (labels if front else behind).append(((at[i], at[j]), roller_label(r), "k", 1.0 if front else 0.55))
     ax.set_title(title, fontsize=10)
@@ -120,7 +127,7 @@ def _view(ax, scene, view, mpl) -> list:
     ax.set_ylabel(f"{'xyz'[j]} [mm]")
     ax.set_aspect("equal")
     ax.grid(alpha=0.2)
-    return labels + behind
+    return labels + behind, points_along(*lines, per_segment=12)
 
 
 def _view_3d(ax, scene) -> list:
@@ -182,7 +189,7 @@ def layout_figure(layout, phi: float, gamma: float, path: Path) -> int:
     scene = layout_scene(layout, phi, gamma)
     fig = mpl.figure(figsize=(13, 13.4))
     ax3d = fig.add_subplot(2, 2, 1, projection="3d")
-    labels = {ax3d: _view_3d(ax3d, scene)}
+    labels = {ax3d: (_view_3d(ax3d, scene), ())}
     reach = scene["R"] + 2 * max(r["radius"] for r in scene["rollers"])
     for k, view in enumerate(VIEWS):
         ax = fig.add_subplot(2, 2, k + 2)
@@ -193,32 +200,32 @@ def layout_figure(layout, phi: float, gamma: float, path: Path) -> int:
     fig.suptitle(f"{layout.name}: layout at commanded γ = {np.degrees(gamma):g}° (steering angle "
                  f"φ = {np.degrees(phi):.2f}°); ideal law {scene['law']}", fontsize=11)
     fig.subplots_adjust(left=0.06, right=0.97, bottom=0.1, top=0.94, wspace=0.2, hspace=0.18)
-    left_out = sum(place_labels(fig, ax, ls) for ax, ls in labels.items())
+    left_out = sum(place_labels(fig, ax, ls, markers=off) for ax, (ls, off) in labels.items())
     save(fig, path, dpi=90)
     return left_out
 
 
 def beside_figure(layouts: list[tuple[str, object]], gamma: float, path: Path) -> int:
-    """Layouts side by side, a row each (its title, e.g. 'base design' or 'optimum: d = 31.94 mm'), in
-    the three orthogonal views on one scale, at commanded γ [rad] (each at its own steering angle): the
+    """Layouts side by side, a column each (its title, e.g. 'base design' or 'optimum: d = 31.94 mm'), in
+    the three orthogonal views (a row each, so that the same view of each layout sits side by side, each view
+    about half the figure's width) on one scale, at commanded γ [rad] (each at its own steering angle): the
     optimum of optimise's report beside its base design. Written to `path` (PNG); returns the number of
     labels left out for want of room."""
     mpl = figure_parts()
     scenes = [(title, layout_scene(L, steering_angle(L, gamma), gamma)) for title, L in layouts]
     reach = max(s["R"] + 2 * max(r["radius"] for r in s["rollers"]) for _, s in scenes)
-    fig = mpl.figure(figsize=(13, 4.8 * len(scenes) + 0.9))
-    rows = fig.subfigures(len(scenes), 1)
+    fig = mpl.figure(figsize=(6.6 * len(scenes) + 0.4, 20.5))
+    columns = np.atleast_1d(fig.subfigures(1, len(scenes)))
     labels = {}
-    for sub, (title, scene) in zip(rows, scenes):
-        sub.suptitle(f"{title}, at commanded γ = {np.degrees(gamma):g}°", fontsize=11)
+    for sub, (title, scene) in zip(columns, scenes):
+        sub.suptitle(f"{title},\nat commanded γ = {np.degrees(gamma):g}°", fontsize=11)
         for k, view in enumerate(VIEWS):
-            ax = sub.add_subplot(1, 3, k + 1)
+            ax = sub.add_subplot(3, 1, k + 1)
             labels[ax] = _view(ax, scene, view, mpl)
             ax.set_xlim(-reach, reach)
             ax.set_ylim(-reach, reach)
-        sub.subplots_adjust(left=0.06, right=0.98, bottom=0.14, top=0.86, wspace=0.25)
-    rows[-1].subplots_adjust(bottom=0.26)
-    _legend(rows[-1], scenes[0][1], mpl)
-    left_out = sum(place_labels(fig, ax, ls) for ax, ls in labels.items())
-    save(fig, path, dpi=80)
+        sub.subplots_adjust(left=0.1, right=0.98, bottom=0.06, top=0.935, hspace=0.14)
+    _legend(fig, scenes[0][1], mpl)
+    left_out = sum(place_labels(fig, ax, ls, markers=off) for ax, (ls, off) in labels.items())
+    save(fig, path, dpi=90)
     return left_out

@@ -5,7 +5,9 @@ units included), `Note` (a line of text) and `Figure` (a PNG, embedded as base64
 blocks (cli.printing.show) and hands the same blocks to `html_report`, so the report holds the printed data.
 A report adds blocks that only it shows: `Summary` (the answer in plain words, then how sure it is: what a
 report opens with), `Heading` (a section's title) and `Glossary` (what each figure and column means).
-The page fits any width: wide tables scroll inside their own box, images shrink to the page.
+The page fits any width: wide tables scroll inside their own box; a figure shrinks to the page down to
+READABLE of its own width (its text stays legible), and below that keeps that width and scrolls inside its own
+box (a compare figure at 700 px).
 Every text is HTML-escaped; the file references nothing outside itself (no scripts, styles or images
 fetched), so it can be mailed or archived as it is.
 """
@@ -20,6 +22,7 @@ from pathlib import Path
 from cvtdesign.errors import InputError
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+READABLE = 0.8      # the smallest share of its own width a figure is shown at: below, it scrolls in its own box
 STYLES = ("", "good", "bad", "warn", "bold")     # what a row or a note stands for (colours in print and HTML)
 
 
@@ -122,8 +125,9 @@ def _block_html(block) -> str:
     if isinstance(block, Figure):
         data = base64.b64encode(block.png).decode("ascii")
         caption = html.escape(block.caption)
-        return (f'<figure><img alt="{caption}" src="data:image/png;base64,{data}">'
-                f"<figcaption>{caption}</figcaption></figure>")
+        width = int.from_bytes(block.png[16:20], "big")            # the PNG's IHDR width [pixels]
+        return (f'<figure><div class="scroll"><img alt="{caption}" style="min-width: {round(READABLE * width)}px" '
+                f'src="data:image/png;base64,{data}"></div><figcaption>{caption}</figcaption></figure>')
     if isinstance(block, Summary):
         return (f'<section class="summary" id="summary"><h2>Summary</h2><p class="answer">{html.escape(block.answer)}'
                 f'</p><p class="sureness">{html.escape(block.sureness)}</p></section>')

@@ -4,7 +4,7 @@ process in `process` (a command that draws while it computes hands it the figure
 
 The names below are the package's interface: `from cvtdesign.io import plots; plots.compare_figure(...)`.
 """
-from cvtdesign.io.plots.base import figure_parts, place_labels, save
+from cvtdesign.io.plots.base import figure_parts, place_labels, points_along, save
 from cvtdesign.io.plots.cad import cad_picture, scale_bar
 from cvtdesign.io.plots.capacity import capacity_figure
 from cvtdesign.io.plots.compare import (
@@ -23,5 +23,5 @@ from cvtdesign.io.plots.process import Background, Forked, describe, worker
 
 __all__ = ["Background", "COMPARE_KEYS", "Forked", "describe", "EXISTING_COLOUR", "IDEAL_COLOUR", "PANELS_MAX", "cad_picture",
            "capacity_figure", "compare_figure", "contact_figures", "diagnosis_fit_figure", "figure_parts",
-           "life_figure", "pareto_figure", "place_labels", "residual_map_figure", "resteer_figure", "save", "scale_bar",
+           "life_figure", "pareto_figure", "place_labels", "points_along", "residual_map_figure", "resteer_figure", "save", "scale_bar",
            "temperature_figure", "tolerance_figure", "variant_colours", "worker"]

@@ -56,13 +56,27 @@ LABEL_BESIDE = [spot for r in (1.6, 3, 5) for spot in ((6 * r, 0, "left", "cente
                                                        (6 * r, -7 * r, "left", "top"), (-6 * r, 7 * r, "right", "bottom"))]
 
 
-def place_labels(fig, ax, labels, fontsize=7, offsets=OFFSETS, markers=(), boxed=False) -> int:
+def points_along(*polylines, per_segment=6) -> np.ndarray:
+    """Points (n, 2) strewn along each polyline ((m, 2) data points; a segment with a non-finite end is
+    skipped), per_segment a segment: a drawn line or arrow that labels keep off, handed to `place_labels`
+    as its markers."""
+    s = np.linspace(0, 1, per_segment + 1)[:-1, None]
+    out = [np.empty((0, 2))]
+    for xy in polylines:
+        xy = np.asarray(xy, float).reshape(-1, 2)
+        ok = np.all(np.isfinite(xy[:-1]), axis=1) & np.all(np.isfinite(xy[1:]), axis=1)
+        out += [xy[k] + s * (xy[k + 1] - xy[k]) for k in np.flatnonzero(ok)]
+        out += [xy[-1:]] if len(xy) and np.all(np.isfinite(xy[-1])) else []
+    return np.vstack(out)
+
+
+def place_labels(fig, ax, labels, fontsize=7, offsets=OFFSETS, markers=(), boxed=False, gap=0.0) -> int:
     """Write each label (anchor in data coordinates, or in 3-D for a 3-D axes; text; colour; alpha) at the
     first of `offsets` from its anchor (points, optionally with the label's alignment there; default OFFSETS,
     centred) where it overlaps no label already placed and stays inside the axes;
     a label with no such place is left out. Call it once the axes' limits and the figure's layout are
     final. `markers`: data points (n, 2) that no label may cover either; `boxed`: each label on a white box
-    (over a picture). Returns how many were left out."""
+    (over a picture); `gap`: pixels kept clear between two labels. Returns how many were left out."""
     renderer = fig.canvas.get_renderer()
     ax.apply_aspect()
     inside = ax.get_window_extent(renderer)
@@ -80,7 +94,7 @@ def place_labels(fig, ax, labels, fontsize=7, offsets=OFFSETS, markers=(), boxed
             t = ax.annotate(text, xy=anchor, xytext=(dx, dy), textcoords="offset points", fontsize=fontsize,
                             ha=ha, va=va, color=colour, alpha=alpha, zorder=6, annotation_clip=False,
                             bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1} if boxed else None)
-            box = t.get_window_extent(renderer).expanded(1.04, 1.1)
+            box = t.get_window_extent(renderer).expanded(1.04, 1.1).padded(gap)
             if (box.x0 >= inside.x0 and box.x1 <= inside.x1 and box.y0 >= inside.y0 and box.y1 <= inside.y1
                     and not any(box.overlaps(p) for p in placed)):
                 placed.append(box)

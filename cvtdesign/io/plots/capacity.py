@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.io.plots.base import LABEL_BESIDE, figure_parts, place_labels, save
+from cvtdesign.io.plots.base import LABEL_BESIDE, figure_parts, place_labels, points_along, save
 from cvtdesign.io.plots.compare import variant_colours
 
 
@@ -51,13 +51,15 @@ def capacity_figure(records: list[dict], path: Path):
                              for row in r["capacity"]], float)
             ax.plot(g, held, "+", color=c, ms=10, mew=2, ls="none")
             seen |= {"stopped"} if np.isfinite(held).any() else set()
+            marks += [(x, y) for x, y in zip(g, held) if np.isfinite(y)]
             names = [", ".join(row[f"contacts_{side}"]) for row in r["capacity"]]
-            marks += [(x, y) for x, y in zip(g, tau) if np.isfinite(y)]
+            marks += [(x, y) for x, y in zip(g, tau) if np.isfinite(y)] + list(points_along(np.column_stack([g, tau])))
             labels += [((x, np.interp(x, g[np.isfinite(tau)], tau[np.isfinite(tau)])), text, c, 1.0)
                        for x, text in _capacity_runs(g, [n if np.isfinite(t) else "" for n, t in zip(names, tau)])]
         pivots = [p["gamma_deg"] for p in r["pivoting"]["points"]]
         ax.plot(pivots, np.zeros(len(pivots)), "*", color=c, ms=13, mec="k", mew=0.6, ls="none", zorder=5)
         seen |= {"pivoting"} if pivots else set()
+        marks += [(x, 0.0) for x in pivots]
     for limit, (marker, text) in LIMIT_MARKERS.items():
         if limit in seen:
             ax.plot([], [], marker, color="k", mfc="white" if limit != "gross_slip" else "k", ls="none", label=text)
@@ -66,7 +68,9 @@ def capacity_figure(records: list[dict], path: Path):
                 label="drive rollers pivot and slide\nwith no load (a loss, no limit)")
     if "stopped" in seen:
         ax.plot([], [], "+", color="k", ms=10, mew=2, ls="none", label="the model stops here\n(no steady state; no capacity)")
-    ax.fill_between([], [], [], color="grey", alpha=0.2, label="operating envelope")
+    for r in records:                               # the band's own colour, as drawn
+        ax.fill_between([], [], [], color=colours[r["name"]], alpha=0.12,
+                        label="operating envelope" + (f" ({r['name']})" if len(records) > 1 else ""))
     ax.axhline(0, color="k", lw=0.5)
     safety = {r["safety"] for r in records}
     bound = {float(b) if b is not None and np.isfinite(b) else None for b in (r["max_slip_deg"] for r in records)}

@@ -5,7 +5,15 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.io.plots.base import LABEL_BESIDE, figure_parts, place_labels, save
+from cvtdesign.io.plots.base import LABEL_BESIDE, figure_parts, place_labels, points_along, save
+
+# centred over or under its point, where a label is plainly that point's (on the flat end of a front the points
+# sit closer than a label is wide: they alternate), then the front's outside (up, right), then the other spots
+FRONT_BESIDE = [spot for r in (1.6, 3, 5) for spot in ((0, 7 * r, "center", "bottom"), (0, -7 * r, "center", "top"),
+                                                       (6 * r, 7 * r, "left", "bottom"), (6 * r, 0, "left", "center"),
+                                                       (-6 * r, 7 * r, "right", "bottom"),
+                                                       (6 * r, -7 * r, "left", "top"), (-6 * r, 0, "right", "center"),
+                                                       (-6 * r, -7 * r, "right", "top"))]
 
 
 def pareto_figure(chains: list[tuple[str, list[dict], int]], path: Path):
@@ -15,10 +23,11 @@ def pareto_figure(chains: list[tuple[str, list[dict], int]], path: Path):
     point)."""
     mpl = figure_parts()
     fig, ax = mpl.subplots(figsize=(9, 6.5))
-    labels = []
+    labels, fronts = [], []
     for label, pts, k in chains:
         ok = [p for p in pts if p["success"]]
         line, = ax.plot([p["worst_alpha_deg"] for p in ok], [p["power_loss_W"] for p in ok], "o-", label=label)
+        fronts.append(np.array([[p["worst_alpha_deg"], p["power_loss_W"]] for p in ok], float).reshape(-1, 2))
         labels += [((p["worst_alpha_deg"], p["power_loss_W"]), p["label"], line.get_color(), 1.0) for p in ok
                    if p.get("label")]
         kp = next((p for p in ok if p["point"] == k), None)
@@ -32,7 +41,8 @@ def pareto_figure(chains: list[tuple[str, list[dict], int]], path: Path):
     ax.margins(x=0.25, y=0.15)          # room for the labels of the end points
     ax.legend(fontsize=8, loc="upper right")
     fig.tight_layout()
-    place_labels(fig, ax, labels, fontsize=7, offsets=LABEL_BESIDE, markers=[anchor for anchor, *_ in labels])
+    place_labels(fig, ax, labels, fontsize=7, offsets=FRONT_BESIDE, markers=points_along(*fronts, per_segment=12),
+                 gap=4)
     save(fig, path, dpi=110)
 
 

@@ -24,18 +24,19 @@ from cvtdesign.cli.printing import kind_of
 from cvtdesign.cli.study import best_optima, optima_table, pareto_blocks
 from cvtdesign.core.effects import EFFECTS
 from cvtdesign.diagnosis import rig
-from cvtdesign.io.report import Note, Table, html_report
+from cvtdesign.io.report import READABLE, Note, Table, html_report
 from cvtdesign.io.units import degrees, engineering, number
 from cvtdesign.io.variant import load_variant
 
 BOX = ROOT / "variants" / "box_kim.yaml"
 EXISTING = ROOT / "variants" / "existing_kim.yaml"
 BROWSER = next((shutil.which(b) for b in ("chromium", "chromium-browser", "google-chrome") if shutil.which(b)), None)
-# run once the page and its images have loaded: each <img> gets its decoded width; the body the page's width,
+# run once the page and its images have loaded: each <img> gets its decoded width and the width it is shown at; the body the page's width,
 # its scroll width and the elements that reach past the page's edges (a table scrolling in its own box may),
 # and a mark
-ONLOAD = ('<script>window.addEventListener("load", () => { for (const i of document.images) '
+ONLOAD = ('<script>window.addEventListener("load", () => { for (const i of document.images) { '
           'i.setAttribute("data-natural-width", i.naturalWidth); '
+          'i.setAttribute("data-shown-width", i.getBoundingClientRect().width); } '
           'const w = document.documentElement.clientWidth, out = []; '
           'for (const e of document.body.querySelectorAll("*")) { if (e.parentElement.closest(".scroll")) continue; '
           'const r = e.getBoundingClientRect(); if (r.right > w + 0.5 || r.left < -0.5) out.push(e.tagName); } '
@@ -153,8 +154,9 @@ def rendered(report: Path, tmp_path: Path, width: int | None = None) -> Tables:
 
 
 def fits(report: Path, tmp_path: Path, widths=(1280, 700)) -> list[Path]:
-    """Open the report at each width: nothing reaches past the page's edges (a wide table scrolls in its own
-    box), the page does not scroll sideways, every image decodes. Keeps a screenshot of each (its first 2400
+    """Open the report at each width: nothing reaches past the page's edges (a wide table or figure scrolls in
+    its own box), the page does not scroll sideways, every image decodes and is shown at READABLE of its own
+    width or more (issue 38: compare's figure at 700 px was shrunk to half, its text unreadable). Keeps a screenshot of each (its first 2400
     pixels), in tmp_path; returns them."""
     shots = []
     for w in widths:
@@ -162,6 +164,9 @@ def fits(report: Path, tmp_path: Path, widths=(1280, 700)) -> list[Path]:
         assert doc.body["data-overflow"] == "none", f"{w} px: {doc.body['data-overflow']}"
         assert int(doc.body["data-scroll-width"]) <= int(doc.body["data-page-width"]) <= w
         assert doc.images and all(int(img["data-natural-width"]) > 300 for img in doc.images)
+        for img in doc.images:
+            natural, shown = int(img["data-natural-width"]), float(img["data-shown-width"])
+            assert shown >= READABLE * natural - 1, f"{w} px: a {natural} px figure shown {shown:.0f} px wide"
         shot = tmp_path / f"{report.stem}_{w}px.png"
         browser(tmp_path, f"--window-size={w},2400", f"--screenshot={shot}", report.as_uri())
         assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 20_000
@@ -329,3 +334,25 @@ def test_study_summary_names_designs_in_units():
     assert t.rows == [["box_kim.yaml", "r_steer = 30 mm", "42.11 mm", "1.807°", "—", "2 starts", "v0.yaml"]]
     rms = optima_table(best.assign(worst_alpha_deg=2.2), starts, "rms_alpha", kinds)    # the objective is another figure
     assert rms.headers[3:5] == ["worst |α|", "RMS α"] and rms.rows[0][3:5] == ["2.2°", "1.807°"]
+
+
+def test_a_wide_figure_stays_readable_at_700_px(tmp_path):
+    """compare's figure (960 px) at 700 px was shrunk into the page to two thirds of its width and its text could
+    not be read. Now a figure is shown at READABLE of its width or more, scrolling inside its own box, and
+    nothing reaches past the page's edges (`fits`); a narrow one is shown at its own width."""
+    from cvtdesign.io.plots import figure_parts, save
+    from cvtdesign.io.report import png_figure
+
+    mpl = figure_parts()
+    blocks = []
+    for name, inches in (("wide", 12.0), ("narrow", 5.0)):
+        fig, ax = mpl.subplots(figsize=(inches, 4))
+        ax.plot([0, 1], [0, 1])
+        ax.set_title("a title in the figure's own small print, which must stay legible")
+        save(fig, tmp_path / f"{name}.png", dpi=80)
+        blocks.append(png_figure(tmp_path / f"{name}.png", f"Figure: {name}"))
+    report = tmp_path / "figures.html"
+    report.write_text(html_report("figures", "cvtdesign compare x.yaml", "1.0", blocks))
+    assert len(fits(report, tmp_path)) == 2
+    doc = rendered(report, tmp_path, 700)
+    assert [float(i["data-shown-width"]) for i in doc.images] == [pytest.approx(round(READABLE * 960), abs=1), 400]

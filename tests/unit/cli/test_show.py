@@ -177,3 +177,34 @@ def test_default_gamma_shows_a_working_machine_and_files_are_named_after_the_fil
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["existing_kim_layout_gamma30.png", "my_copy_layout.png"]
     code, out, _ = cli("show", copy, "--out", tmp_path / "o")
     assert code == 0 and "(replaced the earlier drawing of this file at this γ)" in out
+
+
+def arrows_and_shafts(ax) -> np.ndarray:
+    """Points [pixels] along every arrow of an orthographic view (u(γ), the frame vectors, the front rollers'
+    axles: annotations without text) and every front shaft (the thick shaft-coloured lines)."""
+    from matplotlib.colors import to_rgba
+
+    from cvtdesign.io.plots import points_along
+
+    behind = to_rgba("lightsteelblue")
+    lines = [np.array([t.xyann, t.xy], float) for t in ax.texts if not t.get_text() and t.arrow_patch is not None
+             and not np.allclose(t.arrow_patch.get_edgecolor(), behind)]
+    lines += [l.get_xydata() for l in ax.get_lines() if l.get_linewidth() == 2.5]
+    return ax.transData.transform(points_along(*lines, per_segment=40))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["existing", "box", "unequal"])
+def test_labels_keep_off_the_arrows_and_shafts(name, monkeypatch, cli, tmp_path):
+    """In the side view d1 and d2 were written on the u(γ) arrow and u(γ) on the brake shaft; in the front
+    view the box's A and B_ read as one block. Now no label covers an arrow or a front shaft, in any view."""
+    fig, _ = drawn(monkeypatch, cli, tmp_path, ROOT / f"variants/{name}.yaml")
+    renderer = fig.canvas.get_renderer()
+    for title, *_ in layout_drawing.VIEWS:
+        _, ax = view_labels(fig, title)
+        pts = arrows_and_shafts(ax)
+        for t in ax.texts:
+            if t.get_text():
+                box = t.get_window_extent(renderer)
+                on = (pts[:, 0] > box.x0) & (pts[:, 0] < box.x1) & (pts[:, 1] > box.y0) & (pts[:, 1] < box.y1)
+                assert not on.any(), f"{title}: {t.get_text()!r} covers an arrow or a shaft"

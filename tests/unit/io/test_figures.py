@@ -46,3 +46,35 @@ def test_resteer_ticks_are_the_ratios_asked_for(monkeypatch, tmp_path):
     shown = [t.get_text() for t in ax.get_xticklabels(minor=False) + ax.get_xticklabels(minor=True) if t.get_text()]
     assert shown == ["0.4", "0.5", "0.8", "1", "1.25", "2", "2.5"]
     assert text_problems(fig) == []
+
+
+def test_pareto_labels_keep_off_the_front_and_each_name_its_nearest_point(monkeypatch, tmp_path):
+    """box_pareto's pareto.png (issue 38): along the flat end of the front the labels crowded each other, one
+    nearer its neighbour's point than its own, some on the line. Now each label is nearer its own point than any
+    other, keeps 4 px from every other label and covers no part of the front."""
+    from cvtdesign.io.plots import points_along
+
+    figures = captured(monkeypatch, plots)
+    alpha = [1.92, 2.68, 3.45, 4.22, 4.99, 5.74, 6.5, 7.28]
+    loss = [8.0, 5.03, 3.705, 3.03, 2.66, 2.45, 2.35, 2.31]
+    pts = front([300.0, 179.0, 121.9, 90.18, 70.42, 56.93, 47.24, 40.0])
+    for p, a, w in zip(pts, alpha, loss):
+        p["worst_alpha_deg"], p["power_loss_W"] = a, w
+    label_points(pts, {"preload": "force", "d": "length"})
+    plots.pareto_figure([("box_kim_pareto (d = 48.8 mm at every point)", pts, 2)], tmp_path / "pareto.png")
+    fig = figures[-1]
+    ax = fig.axes[0]
+    renderer = fig.canvas.get_renderer()
+    markers = ax.transData.transform(np.column_stack([alpha, loss]))
+    line = ax.transData.transform(points_along(np.column_stack([alpha, loss]), per_segment=60))
+    boxes = {t.get_text(): t.get_window_extent(renderer) for t in ax.texts}
+    for p in pts:
+        box = boxes[p["label"]]
+        gap = [np.hypot(max(box.x0 - x, 0, x - box.x1), max(box.y0 - y, 0, y - box.y1)) for x, y in markers]
+        assert int(np.argmin(gap)) == p["point"], f"{p['label']} is nearer another point than its own"
+        on = (line[:, 0] > box.x0) & (line[:, 0] < box.x1) & (line[:, 1] > box.y0) & (line[:, 1] < box.y1)
+        assert not on.any(), f"{p['label']} covers the front"
+        for q in pts:
+            if q is not p:
+                assert not box.expanded(1, 1).padded(4).overlaps(boxes[q["label"]]), f"{p['label']} crowds {q['label']}"
+    assert text_problems(fig) == []
