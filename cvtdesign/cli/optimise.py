@@ -9,6 +9,7 @@ from rich.console import Console
 from cvtdesign.cli import optimise_report
 from cvtdesign.cli.export import export_steps
 from cvtdesign.cli.printing import json_text, kind_of, progress_bar, report_text, show
+from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.design import solve
 from cvtdesign.design.objectives import objective
 from cvtdesign.design.study_file import load_study
@@ -37,7 +38,7 @@ def run(args):
                       transient=True) as progress:
         res = solve.run(args.study, args.out, args.starts, progress, write=False, calibration=args.calibration)
     variables = design_kinds(args.study, res["design"])
-    blocks = result_blocks(res, variables)
+    blocks = result_blocks(res, variables) + law_notes(args.study, res, variables)
     # the optimum's variant file, the JSON and the HTML report: written together, all or nothing
     files = res.pop("pending_files")
     kinds = {p: "variant file" for p in files}
@@ -74,6 +75,22 @@ def design_kinds(study_path, design: dict) -> dict:
         out[n] = (kind_of(params.get(n), v.lower, v.upper), parameter_value(v.lower, f"{study_path}: design.{n}.lower", {}),
                   parameter_value(v.upper, f"{study_path}: design.{n}.upper", {}))
     return out
+
+
+def law_notes(study_path, res: dict, variables: dict) -> list:
+    """Under a contact law with fitted creep constants (Kim's), the creep does not depend on a roller's radius,
+    crown or material: a length that ends on its bound is said to rest on that, not on the physics."""
+    law = contact_law(load_spec(load_study(study_path)[1]).contact.law)
+    if not (law.fitted and res["success"]):
+        return []
+    ends = [n for n, (k, lo, hi) in variables.items() if k == "length" and
+            min(abs(res["design"][n] - lo), abs(res["design"][n] - hi)) <= 1e-6 * max(abs(lo), abs(hi))]
+    if not ends:
+        return []
+    return [Note(f"{', '.join(ends)} ended on {'its bound' if len(ends) == 1 else 'their bounds'} under contact law "
+                 f"{law.name}, whose fitted creep constants do not depend on a roller's radius, crown or material: "
+                 "nothing in that law holds a roller's size back. The default law's creep does depend on them "
+                 "(docs/optimisation.md).", "bad")]
 
 
 def objective_text(kind: str, value) -> str:

@@ -84,3 +84,15 @@ def test_no_ordering_is_claimed_between_existing_and_a_101_N_copy(tmp_path):
     got = compare(tmp_path, a, b)
     assert got["orderings"] and not any(o["resolved"] for o in got["orderings"])
     assert all(0.5 <= o["p_better"] < 0.975 for o in got["orderings"])
+
+
+def test_optimise_says_when_kims_law_lets_a_radius_run_to_its_bound():
+    """Optimising the box under Kim's law shrank the steering rollers to their 20 mm bound without a word; the
+    law's fitted constants do not depend on a roller's radius. Now the optimum says so, under that law only."""
+    from conftest import ROOT
+    from cvtdesign.cli.optimise import law_notes
+    variables = {"r_steer": ("length", 0.020, 0.045), "d": ("length", 0.030, 0.11)}
+    res = {"success": True, "design": {"r_steer": 0.020, "d": 0.0319}}
+    kim = law_notes(ROOT / "studies" / "box_placement_kim.yaml", res, variables)
+    assert len(kim) == 1 and kim[0].text.startswith("r_steer ended on its bound under contact law kim")
+    assert law_notes(ROOT / "studies" / "box_placement.yaml", res, variables) == []
