@@ -61,8 +61,8 @@ def write_yaml(path: Path, data: dict) -> Path:
 
 
 # module fixtures that take seconds to build (a study run, a tolerance study, a STEP export, a kalker run with
-# --points, a life run with its intervals): a test that uses one is a slow check (-m slow), as the tests marked slow themselves are
-SLOW_FIXTURES = {"finished", "exported", "kalker_points", "life_run"}
+# --points, a life run with its intervals, capacity searches on both laws): a test that uses one is a slow check (-m slow), as the tests marked slow themselves are
+SLOW_FIXTURES = {"finished", "exported", "kalker_points", "life_run", "envelopes"}
 
 
 @pytest.hookimpl(tryfirst=True)

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.io.plots.base import LABEL_BESIDE, figure_parts, place_labels, points_along, save
+from cvtdesign.io.plots.base import figure_parts, place_labels, points_along, save
 
 # centred over or under its point, where a label is plainly that point's (on the flat end of a front the points
 # sit closer than a label is wide: they alternate), then the front's outside (up, right), then the other spots

@@ -83,6 +83,7 @@ def test_cache_clear_reports_what_it_removed_beside_what_it_could_not(tmp_path, 
     assert keep.exists() and not gone.exists()
 
 
+@pytest.mark.slow
 def test_a_cache_that_cannot_be_written_gives_one_notice(unchangeable, tmp_path, monkeypatch, capfd):
     """compare compiles three models (box, Kim's CVT, the ideal CVT) with CVTDESIGN_COMPILE=always: one notice
     naming the folder, and the same figures as interpreted."""

@@ -3,6 +3,8 @@ the same variants on the first file's envelope. It is now `<stems>_on_<FILE's st
 `--as-written` `<stems>_as_written.png`."""
 import hashlib
 
+import pytest
+
 from conftest import variant_data, write_yaml
 
 from cvtdesign.cli import main
@@ -16,6 +18,7 @@ def small(tmp_path, name, load_stop):
     return write_yaml(tmp_path / f"{name}.yaml", d)
 
 
+@pytest.mark.slow
 def test_each_basis_its_own_figure(tmp_path, capsys):
     a, b = small(tmp_path, "wide", 1), small(tmp_path, "narrow", 0.5)
     out = tmp_path / "p"

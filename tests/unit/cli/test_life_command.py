@@ -93,6 +93,7 @@ def test_duty_is_required(capsys):
     assert e.value.code == 2 and "--duty" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_compare_takes_duty(tmp_path, capsys):
     """compare --duty adds each variant's life, limit and contact (the same as life's), '—' for the ideal CVT."""
     assert main(["compare", str(ROOT / "variants" / "box.yaml"), "--duty", DUTY, "--out", str(tmp_path / "c"),

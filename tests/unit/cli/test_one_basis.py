@@ -39,6 +39,7 @@ def compare(tmp_path, *variants, extra=()):
     return json.loads(out.read_text())
 
 
+@pytest.mark.slow
 def test_pu95_on_steel_takes_mu_from_its_pair(tmp_path, capsys):
     """PU 95A on steel runs at the pair's μ (0.6, not the smaller of two materials' values: steel's 0.15 sent
     128 of 357 points into gross slip), and its calibration is transferred from the urethanes', never fitted."""

@@ -335,6 +335,7 @@ def test_study_summary_names_designs_in_units():
     assert rms.headers[3:5] == ["worst |α|", "RMS α"] and rms.rows[0][3:5] == ["2.2°", "1.807°"]
 
 
+@pytest.mark.slow
 def test_a_wide_figure_stays_readable_at_700_px(tmp_path):
     """compare's figure (960 px) at 700 px was shrunk into the page to two thirds of its width and its text could
     not be read. Now a figure is shown at READABLE of its width or more, scrolling inside its own box, and

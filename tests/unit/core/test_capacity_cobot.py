@@ -107,6 +107,7 @@ def test_drive_rollers_pivoting_at_gamma_0_are_reported(envelopes, name, rollers
     assert p["loss_W"] > 0.9 * res["power_loss"] and (name != "box" or abs(p["loss_W"] - 2.75) < 0.01)
 
 
+@pytest.mark.slow
 def test_pivoting_not_modelled_under_kims_law(cli, tmp_path):
     """Kim's law has no spin moment: the pivoting is 'not modelled', never 'none'."""
     from conftest import variant_path

@@ -99,6 +99,7 @@ def test_a_calibration_absorbs_its_own_assumptions_and_not_anothers(tmp_path):
     assert kims < 0.06 and other > 2 * kims, (kims, other)
 
 
+@pytest.mark.slow
 def test_sampling_checks_every_interval(tmp_path):
     """The sampled check of compare (core.uncertainty.checked_by_sampling): each reported interval's ends lie
     within 15 % of its width of the 2.5–97.5 % range of an independent set of 400 samples (another seed), or the

@@ -1,6 +1,7 @@
 """optimise's report: the optimum beside its base design (issue 38: in placement.html the layout thumbnails were
 tiny, three views a row in a figure shown at the page's width, each view under a third of it)."""
 import numpy as np
+import pytest
 from figure_checks import captured, text_problems
 
 from conftest import ROOT
@@ -8,6 +9,7 @@ from cvtdesign.io import layout_drawing
 from cvtdesign.io.variant import load_variant
 
 
+@pytest.mark.slow
 def test_each_view_takes_about_half_the_figure_and_no_text_overlaps(monkeypatch, tmp_path):
     figures = captured(monkeypatch, layout_drawing)
     box = ROOT / "variants/box_kim.yaml"

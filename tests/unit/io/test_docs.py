@@ -93,6 +93,7 @@ def yaml_blocks(name: str) -> list[str]:
     return re.findall(r"```yaml\n(.*?)```", (DOCS / name).read_text(encoding="utf-8"), re.S)
 
 
+@pytest.mark.slow
 def test_tutorial_variant_gives_the_figures_it_quotes(tmp_path):
     text = (DOCS / "writing-a-variant.md").read_text(encoding="utf-8")
     full = [b for b in yaml_blocks("writing-a-variant.md") if b.startswith("name:")]
