@@ -10,9 +10,8 @@ import pytest
 import yaml
 
 from conftest import ROOT
-from test_every_command import check_promise, cli, deadline, make_env, snapshot
+from test_every_command import cli, run_and_check
 
-from cvtdesign.cli import main
 
 KALKER = ROOT / "variants" / "box.yaml"
 CASES = []
@@ -182,18 +181,7 @@ def _self_library(env):
 
 @pytest.mark.parametrize("build, expect", CASES)
 def test_bad_input(build, expect, tmp_path, capfd, monkeypatch):
-    env = make_env(tmp_path)
-    monkeypatch.chdir(env.work)
-    argv = build(env)
-    before = snapshot(tmp_path)
-    capfd.readouterr()
-    try:
-        with deadline(60):
-            rc = main(argv)
-    except SystemExit as e:
-        rc = e.code
-    out, err = capfd.readouterr()
-    check_promise(rc, out, err, expect, before, snapshot(tmp_path))
+    run_and_check(build, expect, tmp_path, capfd, monkeypatch, 60)
 
 
 def test_at_least_thirty():

@@ -13,9 +13,8 @@ from __future__ import annotations
 
 import pytest
 
-from test_every_command import check_promise, cli, deadline, make_env, snapshot
+from test_every_command import cli, run_and_check
 
-from cvtdesign.cli import main
 
 CASES = []
 
@@ -75,18 +74,7 @@ case("capacity: --plots '  '", ("--plots", "empty"), "capacity", "{v}", "--plots
 
 @pytest.mark.parametrize("build, expect", CASES)
 def test_refused_in_one_line(build, expect, tmp_path, capfd, monkeypatch):
-    env = make_env(tmp_path)
-    monkeypatch.chdir(env.work)
-    argv = build(env)
-    before = snapshot(tmp_path)
-    capfd.readouterr()
-    try:
-        with deadline(60):
-            rc = main(argv)
-    except SystemExit as e:
-        rc = e.code
-    out, err = capfd.readouterr()
-    check_promise(rc, out, err, expect, before, snapshot(tmp_path))
+    run_and_check(build, expect, tmp_path, capfd, monkeypatch, 60)
 
 
 def test_an_empty_table_axis_is_refused_by_the_parser_itself():
