@@ -11,11 +11,13 @@ from pathlib import Path
 import numpy as np
 from rich.console import Console
 
+from cvtdesign.cli.arguments import check_samples
 from cvtdesign.cli.printing import json_text, progress_bar, show
 from cvtdesign.core import basis
 from cvtdesign.core.capacity import LIMITS, MAX_SLIP, PIVOT_SHARE, capacity, smallest_capacity
+from cvtdesign.core.capacity_interval import figure, with_intervals
+from cvtdesign.core.inputs import uncertain_model
 from cvtdesign.core.metrics import allowable_pressures
-from cvtdesign.core.model import compile_model
 from cvtdesign.errors import InputError
 from cvtdesign.io import plots
 from cvtdesign.io.limits import load_capacity
@@ -65,9 +67,11 @@ def side_record(model, cap: dict, side: str, i: int) -> dict:
             f"held_gamma_axis_{side}_deg": np.degrees(cap[f"held_axis_{side}"][i])}
 
 
-def variant_record(name: str, model, cap: dict) -> dict:
+def variant_record(name: str, model, cap: dict, samples: int | None = None) -> dict:
     """One variant's JSON record: its capacity at every γ of its envelope (the `capacity --json` interface),
-    the envelope, the safety factor, the contacts whose pressure is not checked and the search's bound."""
+    the envelope, the safety factor, the contacts whose pressure is not checked and the search's bound; with
+    `samples` (not None), each capacity's 95 % interval and budget (core.capacity_interval), checked by that
+    many samples (0: first order)."""
     L = model.layout
     rows = []
     for i, g in enumerate(cap["gamma"]):
@@ -75,6 +79,8 @@ def variant_record(name: str, model, cap: dict) -> dict:
         for side in ("max", "min"):
             row |= side_record(model, cap, side, i)
         rows.append(row)
+    if samples is not None:
+        rows = with_intervals(model, cap, rows, samples)
     unchecked = [n for n, p in zip(model.roller_names, allowable_pressures(L)) if not np.isfinite(p)]
     return {"name": name, "file": L.file, "safety": cap["safety"], "max_slip_deg": np.degrees(cap["max_slip"]),
             "capacity": rows, "pivoting": pivoting_record(model, cap),
@@ -97,6 +103,23 @@ def pivoting_record(model, cap: dict) -> dict:
                            "moment_share": piv["share"][k, i], "loss_W": float(piv["loss"][k, i].sum()),
                            "power_loss_W": piv["power_loss"][i]})
     return {"modelled": piv["modelled"], "share": PIVOT_SHARE, "points": points}
+
+
+def with_smallest_interval(record: dict) -> dict:
+    """The record with its smallest capacity's interval, budget and method (those of the γ and side where it is
+    taken), as 'tau_perp_Nm_interval', … in `smallest` (|τ⊥|: the interval of τ⊥ < 0 is turned over)."""
+    least = record["smallest"]
+    if least["tau_perp_Nm"] is None or least["tau_perp_Nm"] == 0:
+        return record
+    row = next(r for r in record["capacity"] if r["gamma_deg"] == least["gamma_deg"])
+    f = figure(least["side"])
+    if row.get(f"{f}_interval") is not None:
+        lo, hi = sorted(abs(v) for v in row[f"{f}_interval"])
+        least |= {"tau_perp_Nm_interval": [lo, hi], "tau_perp_Nm_budget": row[f"{f}_budget"],
+                  "tau_perp_Nm_interval_method": row[f"{f}_interval_method"]}
+    elif f"{f}_interval_method" in row:
+        least |= {"tau_perp_Nm_interval": None, "tau_perp_Nm_interval_method": row[f"{f}_interval_method"]}
+    return record
 
 
 def smallest_record(model, cap: dict) -> dict:
@@ -137,8 +160,13 @@ def _cell(row: dict, side: str) -> list[str]:
     if unknown is not None:
         return ["—", unknown.replace("_", " ") + " ³", "", "", ""]
     limit = LIMIT_WORDS[row[f"limit_{side}"]] + (" without load" if tau == 0 else "")
-    return [torque_text(tau), limit, _where(row, side), torque_text(row[f"tau_1_{side}_Nm"]),
-            torque_text(row[f"tau_2_{side}_Nm"])]
+    return [torque_text(tau) + interval_text(row.get(f"{figure(side)}_interval")), limit, _where(row, side),
+            torque_text(row[f"tau_1_{side}_Nm"]), torque_text(row[f"tau_2_{side}_Nm"])]
+
+
+def interval_text(interval) -> str:
+    """' [0.30, 0.65]': a capacity's 95 % interval [N·m] after its value; '' where it has none."""
+    return "" if interval is None else f" [{interval[0]:.2f}, {interval[1]:.2f}]"
 
 
 def capacity_blocks(record: dict) -> list:
@@ -153,7 +181,7 @@ def capacity_blocks(record: dict) -> list:
     for row in record["capacity"]:
         t.add(number(row["gamma_deg"], 4), *_cell(row, "max"), *_cell(row, "min"),
               style="bad" if row["unknown_max"] or row["unknown_min"] else "")
-    blocks = [t, Note(summary_text(record)), Note(bound_note(record))]
+    blocks = [t, Note(summary_text(record)), Note(interval_note(record)), Note(bound_note(record))]
     if s != 1:
         blocks.append(Note(f"safety factor {s:g} on friction: a contact counts as slipping grossly once its "
                            f"utilisation F/(μN) reaches 1/{s:g} = {1 / s:.3g}; lost contact and the allowable "
@@ -175,6 +203,22 @@ def capacity_blocks(record: dict) -> list:
                            f"{', '.join(record['pressure_not_checked'])} (no allowable_pressure in either material)",
                            "warn"))
     return blocks
+
+
+def interval_note(record: dict) -> str:
+    """How the capacities' intervals were found, and what the smallest capacity's depends on most."""
+    least, name = record["smallest"], record["name"]
+    methods = {r.get(f"{figure(s)}_interval_method") for r in record["capacity"] for s in ("max", "min")} - {None}
+    if not methods:
+        return f"{name}: no interval (no uncertain input, or no capacity under load)"
+    how = "; ".join(sorted(methods))
+    budget = least.get("tau_perp_Nm_budget") or {}
+    first = ", ".join(f"{k} {v:.0%}" for k, v in list(budget.items())[:3] if v >= 0.005)
+    return (f"{name}: [ ] 95 % intervals from every uncertain input (the calibration, the preloads, the moduli, the "
+            f"pairs' friction, the law's own error; docs/capacity.md): {how}"
+            + ("" if any(m.startswith("first order, checked") or m.startswith("sampled") for m in methods)
+               else " (--samples N checks them by sampling)")
+            + (f". The smallest capacity's spread comes from {first}: measure those first" if first else ""))
 
 
 def bound_text(record: dict) -> str:
@@ -248,7 +292,8 @@ def summary_text(record: dict) -> str:
     tau = least["tau_perp_Nm"]
     if tau == 0:
         return no_capacity_text(record, where, least["limit"])
-    return (f"{record['name']}: smallest capacity {number(tau, 4)} N·m ({where}: {LIMIT_WORDS[least['limit']]}, "
+    return (f"{record['name']}: smallest capacity {number(tau, 4)} N·m"
+            f"{interval_text(least.get('tau_perp_Nm_interval'))} ({where}: {LIMIT_WORDS[least['limit']]}, "
             f"{_where(row, side)}), {tau / env:.3g}× the envelope's largest load {number(env, 4)} N·m")
 
 
@@ -265,7 +310,7 @@ def no_capacity_text(record: dict, where: str, limit: str) -> str:
 
 
 def run(args):
-    safety, max_slip = check_safety(args.safety), check_max_slip(args.max_slip)
+    safety, max_slip, samples = check_safety(args.safety), check_max_slip(args.max_slip), check_samples(args.samples)
     files = [Path(f) for f in args.variants]
     layouts = [load_variant(f) for f in files]
     names = basis.distinct_names(layouts)
@@ -273,11 +318,12 @@ def run(args):
     records = []
     with progress_bar(console, "capacity", lambda item: item, transient=True) as progress:
         for i, (L, name) in enumerate(zip(layouts, names)):
-            model = compile_model(dataclasses.replace(L, name=name))
+            model = uncertain_model(dataclasses.replace(L, name=name))
             cap = capacity(model, L.gamma_grid, load_capacity(L), safety, max_slip,
                            progress=lambda d, t, item, i=i, n=name: progress(i * t + d, len(layouts) * t,
                                                                              f"{n}: {item or 'done'}"))
-            records.append(variant_record(name, model, cap))
+            progress(i + 1, len(layouts), f"{name}: intervals" + (f" ({samples} samples)" if samples else ""))
+            records.append(with_smallest_interval(variant_record(name, model, cap, samples)))
     written = []       # the files first, then the terminal (a reader closing stdout early loses no file)
     if args.plots:
         figure = make_folder(args.plots, kind="--plots") / named_after(files, "_capacity.png")

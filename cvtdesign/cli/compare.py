@@ -9,6 +9,7 @@ import numpy as np
 from rich.console import Console
 
 from cvtdesign.cli import compare_report
+from cvtdesign.cli.arguments import check_samples
 from cvtdesign.cli.life import life_cell, life_fields
 from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
 from cvtdesign.core import basis
@@ -141,7 +142,6 @@ def finish(args, painter, rows: list[dict], blocks: list, figure: Path, ranked: 
     return error
 
 
-MAX_SAMPLES = 10_000
 DEFAULT_SAMPLES, SAMPLED_POINTS = 128, 2000   # samples by default, on envelopes of at most this many points
 
 
@@ -150,9 +150,7 @@ def sample_count(given: int | None, points: int) -> int:
     on an envelope of at most SAMPLED_POINTS points and none on a larger one (the notes then say unchecked)."""
     if given is None:
         return DEFAULT_SAMPLES if points <= SAMPLED_POINTS else 0
-    if not 0 <= given <= MAX_SAMPLES or 0 < given < 20:
-        raise InputError(f"--samples: {given}; expected 0 (first order only) or 20 to {MAX_SAMPLES:,} samples")
-    return given
+    return check_samples(given)
 
 
 def with_intervals(spread, row: dict, samples: list[dict] | None) -> dict:

@@ -127,6 +127,9 @@ def _add_capacity(p):
                    help="usable-ratio bound: the capacity ends where the CVT slip angle |α| passes it (default "
                         "2deg, about 10%% speed-ratio error at ratios 0.4 and 2.5; 90deg: no bound; a plain "
                         "number is in rad)")
+    p.add_argument("--samples", type=int, default=0,
+                   help="samples of every uncertain input that check each capacity's first-order interval, each "
+                        "a whole search (default 0: first order only; a runaway's interval is always sampled)")
 
 
 def _add_life(p):

@@ -87,7 +87,7 @@ def limit_codes(model: CompiledModel, res: dict, allow: np.ndarray, safety: floa
 
 
 def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, max_slip: float | None = MAX_SLIP,
-             progress=None) -> dict:
+             progress=None, design=None, theta=None) -> dict:
     """The load capacity of `model` at each commanded γ [rad] (module docstring), searched up to |τ⊥| =
     `bound` [N m] (e.g. io.limits.load_capacity: all the traction the preloads allow), a contact counted as
     slipping grossly once its utilisation |F|/(μN) reaches 1/`safety` (safety ≥ 1), the ratio no longer usable
@@ -107,22 +107,29 @@ def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, ma
        the point was evaluated and held (NaN elsewhere), for saying how far the model went, and
        held_axis_<side> [rad] the sphere's axis angle γ_axis there.
     Also max_slip (NaN where not bounded) and pivoting (`pivoting`, at zero load).
-    `progress(done, total, item)` is called after each evaluation."""
+    `progress(done, total, item)` is called after each evaluation. `design` and `theta` (rows: one per γ),
+    where given, are the model's design vector and θ at each γ: a sampled capacity (core.capacity_interval)
+    searches many draws of the inputs in one call."""
     g = np.atleast_1d(np.asarray(gammas, float))
     n = g.size
     allow = allowable_pressures(model.layout)
     G = np.concatenate([g, g])
     sign = np.repeat([1.0, -1.0], n)
     h = float(bound) / SCAN_STEPS
+    at = {k: None if v is None else np.concatenate([v, v]) for k, v in (("design", design), ("theta", theta))}
+
+    def per_point(columns):
+        return {k: None if v is None else np.repeat(v, columns, axis=0) for k, v in at.items()}
 
     def judge(loads):
-        res = model.evaluate(G[:, None], sign[:, None] * np.atleast_2d(loads))
+        loads = np.atleast_2d(loads)
+        res = model.evaluate(G[:, None], sign[:, None] * loads, **per_point(loads.shape[1]))
         return limit_codes(model, res, allow, safety, max_slip)
 
     steps = SCAN_STEPS // SCAN_BLOCK + int(np.ceil(np.log2(1 / RTOL))) + 1
     lo, hi, code, contact = _scan(judge, 2 * n, h, progress, steps)
     lo, hi, code, contact = _bisect(judge, lo, hi, code, contact, progress, steps)
-    res = model.evaluate(G, sign * lo)      # the last load that held (0 where none)
+    res = model.evaluate(G, sign * lo, **per_point(1))      # the last load that held (0 where none)
     code = np.where(_ran_away(res, code, lo), RUNAWAY, code)
     limited = np.isin(code, [STATUS.index("gross_slip"), STATUS.index("lost_contact"), PRESSURE, USABLE, RUNAWAY])
     known = limited & (hi > 0)          # failing without load: the limit is named, there is no capacity
@@ -130,7 +137,8 @@ def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, ma
     names = {**dict(enumerate(STATUS)), PRESSURE: "pressure", USABLE: "usable_ratio", RUNAWAY: "runaway",
              NO_LIMIT: "none"}
     out = {"gamma": g, "bound": float(bound), "safety": float(safety),
-           "max_slip": np.nan if max_slip is None else float(max_slip), "pivoting": pivoting(model, g)}
+           "max_slip": np.nan if max_slip is None else float(max_slip),
+           "pivoting": pivoting(model, g) if design is None and theta is None else {"modelled": False}}
     for side, part in (("max", slice(0, n)), ("min", slice(n, 2 * n))):
         held = known[part] & res["ok"][part]
         at_zero = limited[part] & (hi[part] == 0)        # a limit met without load: the capacity is 0

@@ -66,15 +66,18 @@ def sensitivities(model: CompiledModel, res: dict, points: np.ndarray, theta_idx
 
 def _jacobian(model: CompiledModel, res: dict, points: np.ndarray, columns: dict, outputs) -> dict:
     """d(output)/d(θ[columns['theta']], design[columns['design']]) at the given flat point indices, in that
-    column order: one Function (built once per model, outputs and columns) mapped over the points."""
-    key = ("jacobian", tuple(outputs), tuple(columns["theta"]), tuple(columns["design"]))
+    column order, then d(output)/d(load) where columns['load'] (a capacity's interval: core.capacity_interval):
+    one Function (built once per model, outputs and columns) mapped over the points."""
+    load = bool(columns.get("load"))
+    key = ("jacobian", tuple(outputs), tuple(columns["theta"]), tuple(columns["design"]), load)
     if key not in model._maps:
         pf = model.point_function(list(outputs))
         ins = [ca.MX.sym(n, pf.sparsity_in(i)) for i, n in enumerate(pf.name_in())]
         outs = pf.call(ins)
-        th, de = (ins[pf.name_in().index(w)] for w in ("theta", "design"))
+        th, de, lo = (ins[pf.name_in().index(w)] for w in ("theta", "design", "load"))
         model._maps[key] = ca.Function("sens", ins, [ca.horzcat(ca.jacobian(o, th)[:, columns["theta"]],
-                                                                ca.jacobian(o, de)[:, columns["design"]])
+                                                                ca.jacobian(o, de)[:, columns["design"]],
+                                                                *([ca.jacobian(o, lo)] if load else []))
                                                      for o in outs])
     jac = model._maps[key]
     g, t = np.ravel(res["gamma_cmd"])[points], np.ravel(res["load"])[points]
@@ -83,7 +86,7 @@ def _jacobian(model: CompiledModel, res: dict, points: np.ndarray, columns: dict
     mapped = jac.map(points.size, "thread", 2)
     got = mapped.call([g, w, t, np.zeros(points.size), phi0, model.param_values,
                        np.zeros((model.design.numel(), 1))])
-    k = len(columns["theta"]) + len(columns["design"])
+    k = len(columns["theta"]) + len(columns["design"]) + load
     out = {}
     for n, v in zip(outputs, got):
         v = np.asarray(v).reshape(-1, points.size, k).transpose(1, 0, 2)      # (points, rows, k)
@@ -91,11 +94,13 @@ def _jacobian(model: CompiledModel, res: dict, points: np.ndarray, columns: dict
     return out
 
 
-def jacobians(model: CompiledModel, res: dict, points: np.ndarray, inputs: list[Input], outputs=OUTPUTS) -> dict:
+def jacobians(model: CompiledModel, res: dict, points: np.ndarray, inputs: list[Input], outputs=OUTPUTS,
+              load: bool = False) -> dict:
     """d(output)/d(input) at the given flat point indices for every input of `inputs` (core.inputs, θ ones
-    first): {output: array (points, [contacts,] k)}."""
+    first), then, with `load`, d(output)/d(load) [per N m]: {output: array (points, [contacts,] k)}."""
     columns = {"theta": [model.param_names.index(i.target) for i in inputs if i.in_theta],
-               "design": list(range(model.design.numel())) if any(not i.in_theta for i in inputs) else []}
+               "design": list(range(model.design.numel())) if any(not i.in_theta for i in inputs) else [],
+               "load": load}
     return _jacobian(model, res, points, columns, outputs)
 
 
@@ -331,15 +336,20 @@ def draw(inputs: list[Input], n: int, seed: int = 0) -> np.ndarray:
     return np.column_stack([by_key[i.key] for i in inputs]) if inputs else np.zeros((n, 0))
 
 
-def sampled_figures(model: CompiledModel, n: int, seed: int = 0) -> list[dict]:
-    """The figures (core.metrics.metrics) of n samples of every uncertain input of an uncertain_model."""
-    inputs = model_inputs(model)
-    x = draw(inputs, n, seed)
-    theta = np.tile(np.asarray(model.param_values, float), (n, 1))
+def sample_arguments(model: CompiledModel, inputs: list[Input], x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The model's θ and design vector for each row of draws x (samples × inputs, `draw`): (θ rows, design
+    rows), the θ inputs added to the model's own θ."""
+    theta = np.tile(np.asarray(model.param_values, float), (len(x), 1))
     for j, i in enumerate(inputs):
         if i.in_theta:
             theta[:, model.param_names.index(i.target)] += x[:, j]
-    design = x[:, [j for j, i in enumerate(inputs) if not i.in_theta]]
+    return theta, x[:, [j for j, i in enumerate(inputs) if not i.in_theta]]
+
+
+def sampled_figures(model: CompiledModel, n: int, seed: int = 0) -> list[dict]:
+    """The figures (core.metrics.metrics) of n samples of every uncertain input of an uncertain_model."""
+    inputs = model_inputs(model)
+    theta, design = sample_arguments(model, inputs, draw(inputs, n, seed))
     chunk = max(1, CHUNK_POINTS // model.layout.gamma_grid.size // model.layout.load_grid.size)
     return [metrics(model, r) for k in range(0, n, chunk) for r in envelopes(model, design[k:k + chunk], theta[k:k + chunk])]
 
