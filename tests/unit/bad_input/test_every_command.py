@@ -898,6 +898,9 @@ for id, expect, args in [
     ("--max-slip not an angle", ("--max-slip", "expected an angle", "2 mm"), ("--max-slip", "2 mm")),
     ("--max-slip nan", ("--max-slip", "finite"), ("--max-slip", "nan deg")),
     ("--max-slip not a number", ("--max-slip", "expected an angle"), ("--max-slip", "two degrees")),
+    ("--samples too few", ("--samples", "expected 0 (first order only) or 20 to"), ("--samples", "5")),
+    ("--samples negative", ("--samples", "expected 0"), ("--samples", "-1")),
+    ("--samples not a number", "argument --samples: invalid int value", ("--samples", "many")),
 ]:
     case(f"capacity: {id}", expect, cli("capacity", "{v}", "--json", "{out}/c.json", *args), "capacity", "command line")
 case("capacity: missing file", ("nope.yaml", "cannot read file"), cli("capacity", "{in}/nope.yaml"), "capacity",

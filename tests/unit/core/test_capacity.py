@@ -68,6 +68,11 @@ def test_json_interface_and_every_gamma_named(box_and_existing):
                     assert row[f"contact_{side}"] is None and row[f"contacts_{side}"] == []
                 else:
                     assert row[f"contact_{side}"] in row[f"contacts_{side}"]
+                lo, hi = row[f"tau_perp_{side}_Nm_interval"]        # every capacity's 95 % interval, runaways too
+                assert lo < row[f"tau_perp_{side}_Nm"] < hi
+                assert sum(row[f"tau_perp_{side}_Nm_budget"].values()) == pytest.approx(1.0)
+                assert row[f"tau_perp_{side}_Nm_interval_method"] == "first order"
+        assert v["smallest"]["tau_perp_Nm_interval"][0] < v["smallest"]["tau_perp_Nm"]
     assert runaways == [("box_kim", -80, "min"), ("box_kim", 80, "max"), ("existing_kim", -80, "min")]
     assert (plots / "box_kim+existing_kim_capacity.png").stat().st_size > 10_000
     assert "box_kim: runaway at γ -80°, τ⊥ < 0 at 4.473 N·m; γ 80°, τ⊥ > 0 at 4.473 N·m" in " ".join(out.split())
