@@ -245,6 +245,8 @@ def _add_tolerance(p):
     p.add_argument("--tolerances", required=True, metavar="FILE.yaml",
                    help="the toleranced dimensions and their distributions (docs/tolerances.md; e.g. studies/box_tolerances.yaml)")
     p.add_argument("--samples", type=int, default=200, help="Monte Carlo samples (default 200)")
+    p.add_argument("--dimensions-only", action="store_true", help="sample the toleranced dimensions alone (default: "
+                   "the variant's physical inputs too: calibration, preload, moduli, friction, the law's own error)")
     p.add_argument("--json", help="also write the figures' distributions, first-order predictions and effects to this JSON file")
     p.add_argument("--plots", help="folder for <variant stem>_<tolerances stem>_tolerance.png")
     p.add_argument("--store", help="store of the samples, resumed when run again (default: results/<variant stem>_<name>)")

@@ -1,8 +1,10 @@
 """`cvtdesign tolerance`: how sensitive a variant is to manufacturing. Monte Carlo over the toleranced
-dimensions of a tolerances file on Dask, resumable, against the first-order prediction from the model's exact
-derivatives, with the tolerances ranked by their effect (design.tolerance, docs/tolerances.md)."""
+dimensions of a tolerances file and the variant's physical inputs (unless --dimensions-only) on Dask,
+resumable, against the first-order prediction from the model's exact derivatives, with the tolerances and
+inputs ranked together by their effect (design.tolerance, docs/tolerances.md)."""
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +36,7 @@ RANKED = 10          # dimensions ranked in the printed table and the figure (al
 
 def run(args):
     check_run(args.samples, args.workers, args.scheduler)
-    content = tolerance_content(args.variant, args.tolerances)
+    content = tolerance_content(args.variant, args.tolerances, args.dimensions_only)
     model, nominal = built_model(content)
     check_directions(model, content.dims, args.tolerances)
     store = Path(args.store or Path("results") / f"{Path(args.variant).stem}_{content.name}")
@@ -47,19 +49,19 @@ def run(args):
             progress(done, total, row)
         table, failed = run_samples(content, args.samples, store, (args.scheduler, args.workers), follow,
                                     lambda text: console.print(text, style="yellow", markup=False, soft_wrap=True))
-    xs = table[[f"x.{d.label}" for d in content.dims]].to_numpy(float)
-    fo = first_order(model, nominal, content.dims, xs, content.seed)
-    eff = effects(model, nominal, fo, content.dims)
+    xs = table[[f"x.{d.label}" for d in content.sources]].to_numpy(float)
+    fo = first_order(model, nominal, content, xs)
+    eff = effects(model, nominal, fo, content.sources)
     out = {"variant": content.layout.name, "variant_file": args.variant, "tolerances_file": args.tolerances,
            "contact_law": content.layout.contact_law, "store": str(store),
-           **summary(table, figures(model, nominal), fo, eff, slopes(table, fo, content.dims), content.dims)}
+           **summary(table, figures(model, nominal), fo, eff, slopes(table, fo, content.sources), content)}
     written = [f"store: {store} ({min(start[0], args.samples)} samples were there, the rest drawn now)"]
     if args.json:
         write_file(args.json, json_text(out), kind="--json")
         written.append(f"figures written to {args.json}")
     if args.plots:
         written.append(f"plot: {plot(args, content, table, fo, out)}")
-    show(console, [figure_table(out, content), effect_table(out, content), *notes(out, failed)])
+    show(console, [figure_table(out, content), effect_table(out, content), *notes(out, failed, content)])
     for line in written:
         console.print(line, markup=False)
     return 0 if out["samples_held"] else 1
@@ -69,18 +71,20 @@ def plot(args, content, table, fo: dict, out: dict) -> Path:
     """The figure of max |α|: its sampled and first-order distributions, and the tolerances ranked."""
     path = make_folder(args.plots, kind="--plots") / f"{Path(args.variant).stem}_{Path(args.tolerances).stem}_tolerance.png"
     key = FIGURES[0]
-    by_label = {d.label: d for d in content.dims}
-    ranked = [(f"{e['dimension']}, {tolerance_text(by_label[e['dimension']])}", e["effect"]) for e in out["effects"][key]]
+    ranked = [(textwrap.fill(f"{source_name(e)}, {source_text(e, content)}", 48), e["effect"])   # inputs' labels
+              for e in out["effects"][key]]                                                   # are long
+    also = f" and {len(content.inputs)} physical inputs" if content.inputs else ""
     return plots.tolerance_figure(f"{content.layout.name}: {LABELS[key]} under the tolerances of "
-                                  f"{Path(args.tolerances).name} (law {content.layout.contact_law})", LABELS[key],
+                                  f"{Path(args.tolerances).name}{also} (law {content.layout.contact_law})", LABELS[key],
                                   table[key].where(table["status"] == "ok"), fo["values"][:, 0],
                                   out["figures"][key]["nominal"], ranked, path, top=RANKED)
 
 
 def figure_table(out: dict, content) -> Table:
     """Each figure: nominal, the samples' mean, σ and 5–95 % range, and the first-order mean and σ."""
-    t = Table(f"{out['variant']}: compare's figures over {out['samples_held']} samples of {Path(content.path).name} "
-              f"(law {out['contact_law']})", ["figure", "nominal", "mean", "σ", "5 % … 95 %", "first order: mean",
+    also = f" and {len(content.inputs)} physical inputs" if content.inputs else " (dimensions only)"
+    t = Table(f"{out['variant']}: compare's figures over {out['samples_held']} samples of {Path(content.path).name}"
+              f"{also} (law {out['contact_law']})", ["figure", "nominal", "mean", "σ", "5 % … 95 %", "first order: mean",
                                               "first order: σ"])
     for key in FIGURES:
         f, fmt = out["figures"][key], FORMATS[key]
@@ -101,24 +105,51 @@ def tolerance_text(d) -> str:
     return ("σ " if d.distribution == "normal" else "± ") + size
 
 
+def source_name(e: dict) -> str:
+    """An effect's dimension, or 'input: <label>' for a physical input."""
+    return e["dimension"] if "dimension" in e else f"input: {e['input']}"
+
+
+def source_text(e: dict, content) -> str:
+    """An effect's tolerance (tolerance_text), or a physical input's relative spread: 'σ 20 % (assumed)',
+    '± 25 %' (uniform: its half-width)."""
+    if "dimension" in e:
+        return tolerance_text(next(d for d in content.dims if d.label == e["dimension"]))
+    s = next(s for s in content.inputs if s.label == e["input"])
+    return ("σ " if s.distribution == "normal" else "± ") + f"{100 * s.size:.2g} %" + (" (assumed)" if s.assumed else "")
+
+
 def effect_table(out: dict, content) -> Table:
-    """The dimensions that matter most for max |α|: each alone, first order; and the check of its sensitivity
-    against the samples: the least-squares slope × σ of the samples less that of the first order at the same
-    deviations (0 where the exact derivative is the samples' own; the draws' noise is in both)."""
+    """The dimensions and physical inputs that matter most for max |α|: each alone, first order; and the check
+    of its sensitivity against the samples: the least-squares slope × σ of the samples less that of the first
+    order at the same deviations (0 where the exact derivative is the samples' own; the draws' noise is in
+    both)."""
     key = FIGURES[0]
     ranked = out["effects"][key]
-    by_label = {d.label: d for d in content.dims}
-    t = Table(f"which tolerance matters most for {LABELS[key]}: each alone, first order "
+    what = "tolerance or input" if content.inputs else "tolerance"
+    t = Table(f"which {what} matters most for {LABELS[key]}: each alone, first order "
               f"({min(RANKED, len(ranked))} of {len(ranked)}; all in --json)",
-              ["dimension", "tolerance", "effect [°]", "check: sampled − first-order slope × σ [°]"])
+              ["dimension" + (" or input" if content.inputs else ""), "tolerance" + (" or σ" if content.inputs else ""),
+               "effect [°]", "check: sampled − first-order slope × σ [°]"])
     for e in ranked[:RANKED]:
         check = None if e["slope_sampled"] is None else e["slope_sampled"] - e["slope_first_order"]
-        t.add(e["dimension"], tolerance_text(by_label[e["dimension"]]), _cell(e["effect"], "{:.3g}"),
-              _cell(check, "{:+.2g}"))
+        t.add(source_name(e), source_text(e, content), _cell(e["effect"], "{:.3g}"), _cell(check, "{:+.2g}"))
     return t
 
 
-def notes(out: dict, failed: list) -> list[Note]:
+def inputs_note(out: dict, content) -> Note:
+    """Which physical inputs were sampled beside the dimensions (or that none were), and which were left out."""
+    if not content.inputs:
+        return Note("dimensions only (--dimensions-only): the physical inputs (calibration, preload, moduli, "
+                    "friction, the law's own error) are held at their values")
+    sampled = ", ".join(f"{s.label} {source_text({'input': s.label}, content)}" for s in content.inputs)
+    text = f"physical inputs sampled with the dimensions (as compare's intervals take them): {sampled}"
+    if out["inputs_left_out"]:
+        text += "; left out: " + "; ".join(f"{k} ({v})" for k, v in out["inputs_left_out"].items())
+    return Note(text + "; --dimensions-only leaves them out")
+
+
+def notes(out: dict, failed: list, content) -> list[Note]:
     """The check of the first order against the samples, what was left out, and how the first order is taken."""
     key = FIGURES[0]
     f, at = out["figures"][key], out["first_order_at_samples"][key]
@@ -128,6 +159,7 @@ def notes(out: dict, failed: list) -> list[Note]:
                           f"{at['mean'] - f['nominal']:+.3g}° (sampled {f['mean'] - f['nominal']:+.3g}°), σ "
                           f"{at['std']:.3g}° ({f['std']:.3g}°), each sample within {at['rms_difference']:.2g}° RMS"))
     lines.append(slope_note(out))
+    lines.append(inputs_note(out, content))
     if out["samples_left_out"]:
         why = ", ".join(f"{k} in {v}" for k, v in out["samples_left_out"].items())
         lines.append(Note(f"{out['samples'] - out['samples_held']} of {out['samples']} samples left out, with no figures: "

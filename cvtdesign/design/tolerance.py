@@ -1,5 +1,9 @@
-"""Tolerance studies (`cvtdesign tolerance`): Monte Carlo over a variant's toleranced dimensions on Dask, and
-what the model's exact derivatives predict of it to first order.
+"""Tolerance studies (`cvtdesign tolerance`): Monte Carlo over a variant's toleranced dimensions and its
+uncertain physical inputs on Dask, and what the model's exact derivatives predict of it to first order.
+
+The physical inputs (design.tolerance_inputs: compare's, with compare's distributions) are sampled with the
+dimensions unless the study is `dimensions_only`; what is said of the dimensions below holds for them too,
+their relative deviations following the dimensions' in the model's design vector (or θ, for the calibration).
 
 The model. The variant is compiled once with the deviations x of its toleranced dimensions (io.tolerance_file,
 core.tolerances) as symbols: its rollers are as built (core.tolerances.as_built), while the ideal law, γ, α
@@ -53,6 +57,7 @@ import pandas as pd
 
 from cvtdesign.core import native
 from cvtdesign.core.contact.laws import contact_law
+from cvtdesign.core.inputs import deviated
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.metrics import envelope, envelopes, metrics
 from cvtdesign.core.model import STATUS, CompiledModel, compile_model, library_model
@@ -60,6 +65,8 @@ from cvtdesign.core.tolerances import DIRECTIONS, as_built, draw
 from cvtdesign.design import cluster
 from cvtdesign.design.store import done_cases, prepare_store, read_store, store_lock
 from cvtdesign.design.study import Interrupted, run_cases
+from cvtdesign.design.tolerance_inputs import design_inputs, model_arguments, sampled_inputs
+from cvtdesign.design.tolerance_inputs import draw as draw_inputs
 from cvtdesign.io.output import remove_stale_temps
 from cvtdesign.errors import InputError
 from cvtdesign.io.tolerance_file import load_tolerances
@@ -90,22 +97,43 @@ class ToleranceContent:
     dims: tuple
     seed: int
     code: str | None = None     # the C source of the model's point function (run_samples): workers load it
+    inputs: tuple = ()          # the physical inputs sampled beside the dimensions (design.tolerance_inputs)
+    left_out: tuple = ()        # ((label, why), …) of the physical inputs not sampled
+
+    @property
+    def sources(self) -> tuple:
+        """What each sample draws, in its columns' order: the dimensions, then the physical inputs."""
+        return tuple(self.dims) + tuple(self.inputs)
+
+    @property
+    def design_size(self) -> int:
+        return len(self.dims) + len(design_inputs(self.inputs))
 
 
-def tolerance_content(variant, tolerances) -> ToleranceContent:
-    """Read and check the variant and the tolerances file (one InputError line for a bad one)."""
+def tolerance_content(variant, tolerances, dimensions_only: bool = False) -> ToleranceContent:
+    """Read and check the variant and the tolerances file (one InputError line for a bad one); with the
+    variant's physical inputs to sample beside the dimensions unless `dimensions_only`."""
     layout = load_variant(variant)
     spec, dims = load_tolerances(tolerances, layout)
+    inputs, left_out = ((), {}) if dimensions_only else sampled_inputs(layout, dims)
     h = hashlib.sha256(Path(variant).read_bytes())
     h.update(Path(tolerances).read_bytes())
     h.update(f"chunk {CHUNK}, figures {', '.join(FIGURES)}".encode())    # what a store's files hold
-    return ToleranceContent(str(tolerances), spec.name, h.hexdigest()[:16], layout, dims, spec.seed)
+    if inputs:
+        h.update(("inputs " + "; ".join(f"{s.key} {s.std!r} {s.distribution}" for s in inputs)).encode())
+    return ToleranceContent(str(tolerances), spec.name, h.hexdigest()[:16], layout, dims, spec.seed, None, inputs,
+                            tuple(left_out.items()))
 
 
-def tolerance_model(layout: Layout, dims) -> CompiledModel:
-    """The layout compiled with its dimensions' deviations as the design symbols (module docstring)."""
-    x = ca.SX.sym("x", len(dims))
-    return compile_model(layout, design=x, as_built=as_built(layout, dims, [x[j] for j in range(len(dims))]))
+def tolerance_model(layout: Layout, dims, inputs=()) -> CompiledModel:
+    """The layout compiled with its dimensions' deviations, then its sampled physical inputs' (design
+    inputs only: design.tolerance_inputs), as the design symbols (module docstring)."""
+    phys = design_inputs(inputs)
+    x = ca.SX.sym("x", len(dims) + len(phys))
+    built = as_built(layout, dims, [x[j] for j in range(len(dims))])
+    if phys:
+        built = deviated(built, phys, [x[len(dims) + j] for j in range(len(phys))])
+    return compile_model(layout, design=x, as_built=built)
 
 
 _MODELS: dict = {}      # process-local: the content's model and its envelope at the drawing, by digest
@@ -116,9 +144,9 @@ def built_model(content: ToleranceContent) -> tuple[CompiledModel, dict]:
     source (`code`: a worker), loaded from it (evaluation only; built where there is no C compiler)."""
     if content.digest not in _MODELS:
         _MODELS.clear()
-        model = content.code and library_model(content.layout, content.code, len(content.dims))
-        model = model or tolerance_model(content.layout, content.dims)
-        _MODELS[content.digest] = model, envelope(model, design=np.zeros(len(content.dims)))
+        model = content.code and library_model(content.layout, content.code, content.design_size)
+        model = model or tolerance_model(content.layout, content.dims, content.inputs)
+        _MODELS[content.digest] = model, envelope(model, design=np.zeros(content.design_size))
     return _MODELS[content.digest]
 
 
@@ -145,11 +173,11 @@ def check_directions(model: CompiledModel, dims, where: str) -> None:
         status, ft, fa = (np.asarray(v, float).ravel() for v in pf(g, L.motor_speed, t, 0.0, phi0, model.param_values, x))
         return status[0], np.column_stack([ft, fa])
 
-    _, drawn = forces(np.zeros(len(dims)))
+    _, drawn = forces(np.zeros(model.design.numel()))
     for j, d in enumerate(dims):
         if d.kind not in DIRECTIONS:
             continue
-        x = np.zeros(len(dims))
+        x = np.zeros(model.design.numel())
         x[j] = PROBE * (float(L.sphere_radius) if d.kind == "contact" else 1.0)
         status, built = forces(x)
         force = float(np.max(np.linalg.norm(built - drawn, axis=1)))
@@ -169,8 +197,18 @@ def check_directions(model: CompiledModel, dims, where: str) -> None:
 
 
 def chunk_draws(content: ToleranceContent, chunk: int) -> np.ndarray:
-    """The deviations of chunk `chunk`'s CHUNK samples, (CHUNK, dimensions) [SI]."""
-    return draw(content.dims, np.random.default_rng([content.seed, chunk]), CHUNK)
+    """The deviations of chunk `chunk`'s CHUNK samples, (CHUNK, dimensions + inputs) [SI]."""
+    return stream_draws(content, chunk, CHUNK)
+
+
+def stream_draws(content: ToleranceContent, stream: int, n: int) -> np.ndarray:
+    """n samples of stream `stream` (a chunk, or the first order's LINEAR_STREAM), (n, dimensions + inputs):
+    the dimensions' deviations [SI] from the seed sequence (seed, stream), then the physical inputs' relative
+    ones from a stream of their own (design.tolerance_inputs.draw)."""
+    dims = draw(content.dims, np.random.default_rng([content.seed, stream]), n)
+    if not content.inputs:
+        return dims
+    return np.column_stack([dims, draw_inputs(content.inputs, n, content.seed, stream)])
 
 
 def figures(model: CompiledModel, res: dict) -> dict:
@@ -181,7 +219,8 @@ def figures(model: CompiledModel, res: dict) -> dict:
 
 def sample_row(model: CompiledModel, nominal: dict, dims, x: np.ndarray, res: dict) -> dict:
     """One sample of deviations x [SI] and its envelope `res`: its status ('ok', or how many of the drawing's
-    ok points stopped holding, by status), its figures (NaN unless ok) and its deviations x.<dimension>."""
+    ok points stopped holding, by status), its figures (NaN unless ok) and its deviations x.<label> (`dims`:
+    the content's sources, dimensions and inputs)."""
     lost = np.ravel(nominal["ok"] & ~res["ok"])
     codes = np.ravel(res["status"])[lost]
     status = "ok" if not lost.any() else ", ".join(f"{STATUS[c]} ×{int(np.sum(codes == c))}" for c in np.unique(codes))
@@ -194,9 +233,10 @@ def run_chunk(content: ToleranceContent, case: dict, out_dir: str) -> dict:
     chunk's envelopes are one call of the compiled model over its samples × points (core.metrics.envelopes)."""
     model, nominal = built_model(content)
     x = chunk_draws(content, case["chunk"])
-    rows = [{"case_id": case["id"], "sample": case["chunk"] * CHUNK + i} | sample_row(model, nominal, content.dims,
+    design, theta = model_arguments(model, len(content.dims), content.inputs, x)
+    rows = [{"case_id": case["id"], "sample": case["chunk"] * CHUNK + i} | sample_row(model, nominal, content.sources,
                                                                                       x[i], res)
-            for i, res in enumerate(envelopes(model, x))]
+            for i, res in enumerate(envelopes(model, design, theta))]
     return {"rows": rows, "files": {}}
 
 

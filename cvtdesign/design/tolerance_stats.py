@@ -12,27 +12,43 @@ import pandas as pd
 from cvtdesign.core import steering
 from cvtdesign.core.metrics import efficiency
 from cvtdesign.core.model import CompiledModel
-from cvtdesign.core.tolerances import KINDS, draw
+from cvtdesign.core.tolerances import KINDS
 from cvtdesign.core.uncertainty import OUTPUTS, sensitivities
-from cvtdesign.design.tolerance import FIGURES, LINEAR_DRAWS, LINEAR_STREAM, figures
+from cvtdesign.design.tolerance import FIGURES, LINEAR_DRAWS, LINEAR_STREAM, figures, stream_draws
+from cvtdesign.design.tolerance_inputs import columns
 
 EFFECT_NODES = 33       # equal-probability points of a dimension's distribution for its effect
 STANDSTILL_STEP = 1e-3  # × σ: the step of the standstill torque's central differences along each slope
 
 
-def first_order(model: CompiledModel, nominal: dict, dims, xs: np.ndarray, seed: int) -> dict:
+def first_order(model: CompiledModel, nominal: dict, content, xs: np.ndarray) -> dict:
     """The linearised envelope and its figures: {"draws": LINEAR_DRAWS deviations of its own (draws,
-    dimensions), "values": its figures at them (draws, FIGURES), "at_samples": its figures at the deviations
-    `xs`, "ok": the points it is taken over (flat indices), "slopes": every output's derivatives there}."""
+    dimensions + inputs), "values": its figures at them (draws, FIGURES), "at_samples": its figures at the
+    deviations `xs`, "ok": the points it is taken over (flat indices), "slopes": every output's derivatives
+    there, in each dimension and each physical input}."""
     ok = np.flatnonzero(np.ravel(nominal["ok"]))
-    # OUTPUTS include core.steering.INPUTS, what the standstill torque is made of
-    slopes = sensitivities(model, nominal, ok, list(range(len(dims))), OUTPUTS, wrt="design")
-    slopes["steering_torque_standstill"] = standstill_slopes(model, nominal, ok, slopes, dims)
+    slopes = derivatives(model, nominal, ok, content)
+    slopes["steering_torque_standstill"] = standstill_slopes(model, nominal, ok, slopes, content.sources)
     for name in steering.INPUTS[1:]:
         del slopes[name]
-    draws = draw(dims, np.random.default_rng([seed, LINEAR_STREAM]), LINEAR_DRAWS)
+    draws = stream_draws(content, LINEAR_STREAM, LINEAR_DRAWS)
     return {"draws": draws, "values": linearised_figures(model, nominal, ok, slopes, draws),
             "at_samples": linearised_figures(model, nominal, ok, slopes, xs), "ok": ok, "slopes": slopes}
+
+
+def derivatives(model: CompiledModel, nominal: dict, ok: np.ndarray, content) -> dict:
+    """Every output's exact derivatives at the ok points `ok` in each dimension, then each physical input
+    (design.tolerance_inputs.columns: a θ input through its θ entries, a design one through its column):
+    {output: (points, [contacts,] dimensions + inputs)}. OUTPUTS include core.steering.INPUTS, what the
+    standstill torque is made of."""
+    if not content.inputs:
+        return sensitivities(model, nominal, ok, list(range(len(content.dims))), OUTPUTS, wrt="design")
+    theta_idx, E = columns(model, len(content.dims), content.inputs)
+    d = sensitivities(model, nominal, ok, list(range(model.design.numel())), OUTPUTS, wrt="design")
+    if theta_idx:
+        t = sensitivities(model, nominal, ok, theta_idx, OUTPUTS, wrt="theta")
+        d = {k: np.concatenate([t[k], v], axis=-1) for k, v in d.items()}
+    return {k: v @ E for k, v in d.items()}
 
 
 def linearised_figures(model: CompiledModel, nominal: dict, ok: np.ndarray, slopes: dict, xs: np.ndarray) -> np.ndarray:
@@ -61,7 +77,7 @@ def standstill_slopes(model: CompiledModel, nominal: dict, ok: np.ndarray, slope
     out = np.zeros((ok.size, len(dims)))
     for j, d in enumerate(dims):
         along = {k: slopes[k][:, :, j].T for k in steering.INPUTS}
-        out[:, j] = steering.standstill_slope(at, along, ratios, STANDSTILL_STEP * d.std)
+        out[:, j] = steering.standstill_slope(at, along, ratios, STANDSTILL_STEP * (d.std or 1.0))   # σ 0: any step
     return out
 
 
@@ -100,13 +116,14 @@ def slopes(table: pd.DataFrame, fo: dict, dims) -> np.ndarray:
     return out
 
 
-def summary(table: pd.DataFrame, nominal: dict, fo: dict, eff: np.ndarray, slope: np.ndarray, dims) -> dict:
+def summary(table: pd.DataFrame, nominal: dict, fo: dict, eff: np.ndarray, slope: np.ndarray, content) -> dict:
     """The study's JSON body: `samples` and `figures` (each: nominal, mean, std, p05, p95 over the samples
     that held; first_order_mean, first_order_std of the linearised envelope), `first_order_at_samples`
     (mean, std and RMS difference from the samples of the first-order values at the samples' own
-    deviations), `effects` (per figure, the dimensions ranked by their first-order effect `eff`, from
-    `effects`, each with its `slopes` check: slope_sampled, slope_first_order), the samples left out by
-    status, and the dimensions."""
+    deviations), `effects` (per figure, the dimensions and physical inputs ranked by their first-order effect
+    `eff`, from `effects`, each with its `slopes` check: slope_sampled, slope_first_order), the samples left
+    out by status, the dimensions, and the physical inputs sampled (`inputs`) and not (`inputs_left_out`)."""
+    dims = content.dims
     held = (table["status"] == "ok").to_numpy()
     sampled = table[list(FIGURES)].to_numpy(float)
     out = {"samples": int(len(table)), "samples_held": int(held.sum()),
@@ -120,12 +137,23 @@ def summary(table: pd.DataFrame, nominal: dict, fo: dict, eff: np.ndarray, slope
         out["first_order_at_samples"][key] = {"mean": _mean(at[both]), "std": _std(at[both]), "rms_difference":
                                               _value(np.sqrt(np.mean((at[both] - v[both]) ** 2)) if both.any() else None)}
         rank = np.argsort(-np.nan_to_num(np.abs(eff[f]), nan=-1.0))
-        out["effects"][key] = [{"dimension": dims[j].label, "effect": _value(eff[f, j]), "slope_sampled":
-                                _value(slope[0, f, j]), "slope_first_order": _value(slope[1, f, j])} for j in rank]
+        out["effects"][key] = [_source(content, j) | {"effect": _value(eff[f, j]), "slope_sampled": _value(
+            slope[0, f, j]), "slope_first_order": _value(slope[1, f, j])} for j in rank]
     out["dimensions"] = [{"label": d.label, "dimension": d.kind, "rollers": list(d.rollers), "distribution": d.distribution,
                           "size": d.size, "std": d.std, "unit": {"angle": "rad", "length": "m"}.get(KINDS[d.kind], "")}
                          for d in dims]
+    out["inputs"] = [{"label": s.label, "key": s.key, "kind": s.kind, "distribution": s.distribution, "size": s.size,
+                      "std": s.std, "assumed": s.assumed, "unit": "relative"} for s in content.inputs]
+    out["inputs_left_out"] = dict(content.left_out)
     return out
+
+
+def _source(content, j: int) -> dict:
+    """How an effect names the j-th thing sampled: {"dimension": label}, or {"input": label, "kind": kind}."""
+    if j < len(content.dims):
+        return {"dimension": content.dims[j].label}
+    s = content.inputs[j - len(content.dims)]
+    return {"input": s.label, "kind": s.kind}
 
 
 def _value(v):

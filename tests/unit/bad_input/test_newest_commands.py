@@ -86,6 +86,8 @@ line("tolerance: --store is a file", ("--store", "is not a folder"), *T, "--stor
 line("tolerance: --json to a directory", ("--json", "is a directory"), *T, "--json", "{adir}")
 line("tolerance: --samples 1.5", ("argument --samples",), *T, "--samples", "1.5")
 line("tolerance: --workers 0", ("--workers",), *T, "--workers", "0")
+line("tolerance: --dimensions-only given a value", ("argument --dimensions-only", "ignored explicit argument 'no'"), *T,
+     "--dimensions-only=no")
 
 case("tolerance: name with a space", ("t.yaml", "name"), tolerances(name="my set"))
 case("tolerance: shared 'yes'", ("t.yaml", "shared"), tolerances(entry(shared="yes")))

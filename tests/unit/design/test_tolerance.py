@@ -61,16 +61,17 @@ def kalker(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def content(kalker):
-    return tolerance_content(kalker, AXLES)
+    """The dimensions alone (the physical inputs sampled beside them: test_tolerance_inputs.py)."""
+    return tolerance_content(kalker, AXLES, dimensions_only=True)
 
 
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory, kalker, shared):
-    """(folder, the --json of a 30-sample study of the 8 axles at σ 0.1°, the figures drawn, stdout)."""
+    """(folder, the --json of a 30-sample study of the 8 axles at σ 0.1°, dimensions only, the figures drawn)."""
     folder = tmp_path_factory.mktemp("finished")
     with pytest.MonkeyPatch.context() as mp:
         drawn = captured(mp, plots)
-        assert main(["tolerance", str(kalker), "--tolerances", str(AXLES), "--samples", "30", "--json",
+        assert main(["tolerance", str(kalker), "--tolerances", str(AXLES), "--dimensions-only", "--samples", "30", "--json",
                      str(folder / "t.json"), "--plots", str(folder / "plots"), "--store", str(folder / "store"),
                      "--scheduler", shared]) == 0
     return folder, json.loads((folder / "t.json").read_text()), drawn
@@ -210,7 +211,7 @@ def test_a_second_run_resumes_and_more_samples_add_to_the_same_draws(finished, k
     same samples; a changed tolerances file is another study, refused on that store."""
     folder, first, _ = finished
     capsys.readouterr()
-    assert main(["tolerance", str(kalker), "--tolerances", str(AXLES), "--samples", "40", "--json",
+    assert main(["tolerance", str(kalker), "--tolerances", str(AXLES), "--dimensions-only", "--samples", "40", "--json",
                  str(folder / "t40.json"), "--store", str(folder / "store"), "--scheduler", shared]) == 0
     assert "(30 samples were there, the rest drawn now)" in capsys.readouterr().out
     table = read_store(folder / "store", COLUMNS).sort_values("sample")
