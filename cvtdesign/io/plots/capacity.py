@@ -43,6 +43,7 @@ def capacity_figure(records: list[dict], path: Path):
             tau = np.array([np.nan if row[f"tau_perp_{side}_Nm"] is None else row[f"tau_perp_{side}_Nm"]
                             for row in r["capacity"]], float)
             ax.plot(g, tau, "-", color=c, lw=1.2, label=f"{r['name']}" if side == "max" else None)
+            seen |= {"interval"} if _interval_band(ax, g, r["capacity"], side, c) else set()
             for limit, (marker, _) in LIMIT_MARKERS.items():
                 on = np.array([row[f"limit_{side}"] == limit for row in r["capacity"]]) & np.isfinite(tau)
                 seen |= {limit} if on.any() else set()
@@ -68,6 +69,9 @@ def capacity_figure(records: list[dict], path: Path):
                 label="drive rollers pivot and slide\nwith no load (a loss, no limit)")
     if "stopped" in seen:
         ax.plot([], [], "+", color="k", ms=10, mew=2, ls="none", label="the model stops here\n(no steady state; no capacity)")
+    if "interval" in seen:
+        ax.fill_between([], [], [], facecolor="none", edgecolor="grey", hatch="////", lw=0,
+                        label="95 % interval of the capacity\n(every uncertain input)")
     for r in records:                               # the band's own colour, as drawn
         ax.fill_between([], [], [], color=colours[r["name"]], alpha=0.12,
                         label="operating envelope" + (f" ({r['name']})" if len(records) > 1 else ""))
@@ -87,3 +91,13 @@ def capacity_figure(records: list[dict], path: Path):
     fig.tight_layout()
     place_labels(fig, ax, labels, fontsize=8, offsets=LABEL_BESIDE, markers=marks)
     save(fig, path, dpi=110)
+
+
+def _interval_band(ax, g, rows: list[dict], side: str, colour) -> bool:
+    """Hatch each capacity's 95 % interval (`tau_perp_<side>_Nm_interval`) between its ends over γ; whether
+    there was any."""
+    ends = np.array([row.get(f"tau_perp_{side}_Nm_interval") or (np.nan, np.nan) for row in rows], float)
+    if not np.isfinite(ends).any():
+        return False
+    ax.fill_between(g, ends[:, 0], ends[:, 1], facecolor="none", edgecolor=colour, hatch="////", lw=0, alpha=0.5)
+    return True
