@@ -127,8 +127,44 @@ def result_blocks(res: dict, kinds: dict) -> list:
                            f"{degrees(r['worst_alpha_deg'])} over its {len(r['corners'])} corners "
                            f"({'; '.join(r['corners'])}); {degrees(r['nominal_worst_alpha_deg'])} at the nominal "
                            "calibration"))
-    return blocks + [t, constraint_table(res, kinds),
+    return blocks + [t, *interval_blocks(res["intervals"]), constraint_table(res, kinds),
                      Note(f"optimised variant: {res['variant_file']}  (try: cvtdesign compare {res['variant_file']})")]
+
+
+INTERVAL_ROWS = [("max_abs_alpha_deg", "max |α| [°]", "{:.3f}"), ("rms_alpha_deg", "RMS α [°]", "{:.3f}"),
+                 ("min_efficiency", "worst efficiency", "{:.3f}"), ("max_loss_no_output_W", "loss, no output [W]", "{:.3g}")]
+
+
+def interval_blocks(got: dict) -> list:
+    """The base design's and the optimum's figures with their 95 % intervals (design.optimum_intervals), and
+    whether the optimum's gain is resolved at that uncertainty or which input would settle it."""
+    t = Table("the base design and the optimum, each figure with its 95 % interval from every uncertain input",
+              ["figure", "base", "optimum", "first in the optimum's budget"])
+    for key, label, fmt in INTERVAL_ROWS:
+        cells = []
+        for row in (got["base"], got["optimum"]):
+            iv = row.get(f"{key}_interval")
+            value = row.get(key)
+            cells.append("—" if value is None else fmt.format(value)
+                         + ("" if iv is None else f" [{fmt.format(iv[0])}, {fmt.format(iv[1])}]"))
+        budget = got["optimum"].get(f"{key}_budget") or {}
+        t.add(label, *cells, next((f"{k} ({v:.0%})" for k, v in budget.items()), "—"))
+    blocks = [t]
+    for key, how in (("orderings", "as two builds, each with its own preload"),
+                     ("orderings_one_preload", "at one preload")):
+        notes = []
+        for o in got[key]:
+            label = next(lab for k, lab, _ in INTERVAL_ROWS if k == o["figure"]).split(" [")[0]
+            if o["resolved"]:
+                notes.append(f"the {o['better']} is better by {label} (P = {o['p_better']:.3f})")
+            else:
+                settle = f"; {o['settle']} would settle it" if o.get("settle") else ""
+                notes.append(f"cannot tell by {label} (P = {o['p_better']:.2f} that the {o['better']} is "
+                             f"better{settle})")
+        blocks.append(Note(f"{how}: " + "; ".join(notes), "" if all(o["resolved"] for o in got[key]) else "warn"))
+    blocks.append(Note("both designs share their materials, pairs, calibration and law, so those cancel in the "
+                       "difference (docs/optimisation.md, 'How sure is an optimum')"))
+    return blocks
 
 
 def constraint_table(res: dict, kinds: dict) -> Table:

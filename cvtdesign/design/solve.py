@@ -21,6 +21,7 @@ from scipy.stats import qmc
 
 from cvtdesign.design.infeasibility import unmet_constraints
 from cvtdesign.design.objectives import objective
+from cvtdesign.design.optimum_intervals import optimum_intervals
 from cvtdesign.design.problem import Problem, build_problem, nlpsol
 from cvtdesign.design.report import constraint_report, variant_text, write_variant
 from cvtdesign.design.solution import Solution
@@ -309,6 +310,7 @@ def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, pr
                   constraints=report, active_constraints=[r["name"] for r in report if r["active"]],
                   variant_file=str(variant), objective_kind=problem.spec.objective.kind,
                   base_variant=str(problem.base_file), base_design=base_design)
+    result["intervals"] = optimum_intervals(problem, best.design)
     if problem.spec.robust is not None:     # the worst case over the region, and the same design at its middle
         result["robust"] = {"confidence": problem.spec.robust.confidence, "corners": problem.parts.nlp.scenarios,
                             "worst_alpha_deg": best.objective,
