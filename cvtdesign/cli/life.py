@@ -13,7 +13,7 @@ from rich.console import Console
 from cvtdesign.cli.printing import json_text, progress_bar, report_text, show
 from cvtdesign.core import basis
 from cvtdesign.core.life.run import DutyOutsideModel, life_interval, machine_life, worn_ratio_error
-from cvtdesign.core.model import compile_model
+from cvtdesign.core.inputs import uncertain_model
 from cvtdesign.errors import InputError
 from cvtdesign.io import plots
 from cvtdesign.io.ageing import roller_ageing
@@ -123,7 +123,8 @@ def _figures(records, lives, ages, intervals, files, folder: Path) -> list[Path]
 def _evaluate(files, duty, console) -> tuple[list, list, list, list, list]:
     layouts = [load_variant(f) for f in files]
     names = basis.distinct_names(layouts)
-    models = [compile_model(dataclasses.replace(L, name=n)) for L, n in zip(layouts, names)]
+    # the uncertain model (core.inputs): its design vector moves the preloads, moduli, friction and spin moment
+    models = [uncertain_model(dataclasses.replace(L, name=n)) for L, n in zip(layouts, names)]
     ages = [ageing_of(f, m) for f, m in zip(files, models)]
     records, lives, intervals, worn = [], [], [], []
     with progress_bar(console, "life", lambda item: item, transient=True) as progress:
