@@ -86,7 +86,8 @@ def life_blocks(record: dict, life, duty, worn: tuple) -> list:
               ("bold" if k["contact"] == record["contact"] and k["life_h"] == record["life_h"] else ""))
     lo, hi = record["life_h_interval"]
     blocks = [t, Note(f"{record['name']}: life {number(record['life_h'], 3)} h [{number(lo, 3)}, {number(hi, 3)}] "
-                      f"(95 % from the materials' σ), limited by {record['limit']} at {record['contact']}", "bold")]
+                      f"(95 % from the materials' σ, the creep calibration's and the other model inputs'), limited by "
+                      f"{record['limit']} at {record['contact']}", "bold")]
     why = [c for c in life.contacts if c.why]
     if why:
         blocks.append(Note(f"{record['name']}: runaway at {why[0].name}: {why[0].why}", "bad"))

@@ -179,6 +179,18 @@ def consistent_state(model: CompiledModel, duty: DutyCycle, ageing: list, theta=
     return {**last, "runaway": runaway}
 
 
+def warm_theta(model: CompiledModel, duty: DutyCycle, ageing: list, design=None) -> tuple[np.ndarray, np.ndarray]:
+    """(the model's θ with each side's creep scale at its rollers' consistent temperatures, those temperatures
+    [K]) over the duty cycle, at the design `design` (consistent_state); the ambient's θ and temperatures
+    where the model does not hold on the duty at the ambient. Where it runs away, its last iterate's."""
+    try:
+        T = consistent_state(model, duty, ageing, design=design)["T"]
+    except DutyOutsideModel:
+        T = np.full(len(model.layout.rollers), duty.ambient)
+    scales, _ = _softening(model, ageing, T)
+    return _theta(model, scales), T
+
+
 def _contact(model, duty, ageing, state, i) -> ContactLife:
     """One contact's figures and life from the consistent state."""
     r, (ra, sa) = model.layout.rollers[i], ageing[i]
