@@ -129,9 +129,12 @@ def test_miner_published_example():
 @pytest.mark.parametrize("name", ["box_kim", "existing_kim", pytest.param("box", marks=pytest.mark.slow),
                                   "existing"])
 def test_energy_balance_at_every_duty_point(name):
-    """Σ contact losses (creep, spin and hysteresis) = P_in − P_out at every duty point, and the model's
-    own: Σ creep and spin losses = τ1 ω1 + τ2 ω2. The hysteresis each contact loses is Johnson's with the
-    model's normal force, patch and rolling speed at the consistent temperature."""
+    """What is checked, at every duty point (docs/life.md): (1) independently, the model's creep and spin
+    losses against its shafts: Σ = τ1 ω1 + τ2 ω2; (2) the bookkeeping of the hysteresis the motor supplies
+    (added after the solve, first order): P_in is the driving shaft's power plus Σ F_R·V, so Σ contact losses
+    (creep, spin and hysteresis) = P_in − P_out, with every contact's hysteresis loss positive. The hysteresis
+    each contact loses is Johnson's with the model's normal force, patch and rolling speed at the consistent
+    temperature."""
     model = shipped_model(name)
     f = str(ROOT / "variants" / f"{name}.yaml")
     ages = roller_ageing(f, load_spec(f), model.roller_names)
@@ -144,4 +147,12 @@ def test_energy_balance_at_every_duty_point(name):
     assert np.all(np.isfinite(friction)) and np.max(friction) > 0.05
     hyst = sum(c.hysteresis for c in life.contacts)
     np.testing.assert_allclose(loss - hyst, friction, rtol=1e-12)
+    res = model.evaluate(duty.gamma, duty.load, speeds=duty.speed, theta=_warm(model, duty, ages))
+    np.testing.assert_allclose(friction, res["tau_1"] * res["omega_1"] + res["tau_2"] * res["omega_2"], rtol=1e-9)
+    assert all(np.all(c.hysteresis > 0) for c in life.contacts)
     assert life.limit in ("temperature", "wear", "fatigue", "runaway") and life.contact in model.roller_names
+
+
+def _warm(model, duty, ages):
+    from cvtdesign.core.life.run import warm_theta
+    return warm_theta(model, duty, [ages[n] for n in model.roller_names])[0]
