@@ -191,6 +191,13 @@ def warm_theta(model: CompiledModel, duty: DutyCycle, ageing: list, design=None)
     return _theta(model, scales), T
 
 
+def fatigue_reference(m) -> tuple | None:
+    """A steel's fatigue test contact (semi-axis along rolling, across, track) [m], or None where its material
+    does not give it (core.life.fatigue: the contact is then taken at the test's size and shape)."""
+    keys = ("fatigue_rolling", "fatigue_across", "fatigue_track")
+    return tuple(m[k] for k in keys) if m.has(*keys) else None
+
+
 def _contact(model, duty, ageing, state, i) -> ContactLife:
     """One contact's figures and life from the consistent state."""
     r, (ra, sa) = model.layout.rollers[i], ageing[i]
@@ -211,8 +218,10 @@ def _contact(model, duty, ageing, state, i) -> ContactLife:
     G_mean = float(np.sum(s * G))
     lives["temperature"] = thermal.warm_up_time(T_max - (T_peak - T_mean), T_mean, duty.ambient, C, G_mean)
     if ra.has("fatigue_pressure") and sa.has("fatigue_pressure"):
+        patch = (res["a"][i], res["b"][i], 2 * math.pi * r.radius)      # both bodies on the roller's track
         l10 = np.minimum(*(fatigue.l10_seconds(res["p_max"][i], V[i], r.radius, m["fatigue_pressure"],
-                                               m["fatigue_cycles"], m["fatigue_exponent"]) for m in (ra, sa)))
+                                               m["fatigue_cycles"], m["fatigue_exponent"], patch,
+                                               fatigue_reference(m)) for m in (ra, sa)))
         lives["fatigue"] = fatigue.miner_life(l10, s)
     limit_name = min(lives, key=lives.get)
     curve = thermal.cycle_curve(starts, state["heat"][i], G, duty.seconds, C, duty.ambient)

@@ -159,3 +159,28 @@ def _scaled(a, factors):
         if a.material == m:
             a = a.scaled(k, f)
     return a
+
+
+def test_fatigue_life_takes_each_contacts_patch_and_track():
+    """Steel on steel: each contact's fatigue life is Miner's sum over the duty of Lundberg–Palmgren's L10 at
+    the model's peak pressure, patch (a along rolling, b across) and the roller's track 2πr, against the
+    steel's test contact (core.life.fatigue), with its rolling speed's stress cycles."""
+    from cvtdesign.core.life import fatigue
+    from cvtdesign.core.life.run import fatigue_reference, rolling_speeds, warm_theta
+    from cvtdesign.io.ageing import material_ageing
+    model = shipped_model("existing_kim")
+    f = ROOT / "variants" / "existing_kim.yaml"
+    steel = material_ageing(str(f), load_spec(f), "steel")
+    ages = [(steel, steel)] * len(model.roller_names)
+    life = machine_life(model, DUTY, ages)
+    res = model.evaluate(DUTY.gamma, DUTY.load, speeds=DUTY.speed, theta=warm_theta(model, DUTY, ages)[0])
+    V = rolling_speeds(model, res)
+    ref = fatigue_reference(steel)
+    assert ref is not None
+    for i, (r, c) in enumerate(zip(model.layout.rollers, life.contacts)):
+        l10 = fatigue.l10_seconds(res["p_max"][i], V[i], r.radius, steel["fatigue_pressure"], steel["fatigue_cycles"],
+                                  steel["fatigue_exponent"], (res["a"][i], res["b"][i], 2 * math.pi * r.radius), ref)
+        assert c.lives["fatigue"] == pytest.approx(fatigue.miner_life(l10, DUTY.shares), rel=1e-9)
+        short = fatigue.miner_life(fatigue.l10_seconds(res["p_max"][i], V[i], r.radius, steel["fatigue_pressure"],
+                                                       steel["fatigue_cycles"], steel["fatigue_exponent"]), DUTY.shares)
+        assert c.lives["fatigue"] != pytest.approx(short, rel=0.05)     # the stressed volume matters here
