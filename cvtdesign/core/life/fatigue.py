@@ -26,21 +26,29 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 H = 7.0 / 3.0           # Lundberg–Palmgren's depth exponent h
 E_WEIBULL = 10.0 / 9.0  # their Weibull slope e (point contact)
 
 
-def _t(ratio: float) -> float:
-    """Lundberg–Palmgren's auxiliary t of a patch whose semi-axes (along rolling / across) are `ratio`."""
-    return brentq(lambda t: (t * t - 1.0) * (2.0 * t - 1.0) - ratio * ratio, 1.0, 2.0 + 2.0 * ratio)
+def _t(ratio):
+    """Lundberg–Palmgren's auxiliary t ≥ 1 of patches whose semi-axes (along rolling / across) are `ratio`:
+    the root of (t² − 1)(2t − 1) = ratio², by Newton's method from t = 1 + ratio, where the cubic is already
+    ≥ 0; it is increasing and convex for t ≥ 1, so the iterates fall monotonically onto the root."""
+    r2 = np.asarray(ratio, float) ** 2
+    t = 1.0 + np.sqrt(r2)
+    for _ in range(100):
+        step = ((t * t - 1.0) * (2.0 * t - 1.0) - r2) / (6.0 * t * t - 2.0 * t - 2.0)
+        t = t - step
+        if np.all(np.abs(step) <= 1e-15 * t):
+            break
+    return t
 
 
 def shear_factors(rolling, across):
     """(τ0/p_max, z0/b) of patches with semi-axes `rolling` (b, along rolling) and `across` (a) [m]
     (module docstring)."""
-    t = np.vectorize(_t)(np.asarray(rolling, float) / np.asarray(across, float))
+    t = _t(np.asarray(rolling, float) / np.asarray(across, float))
     root = np.sqrt(2.0 * t - 1.0)
     return root / (2.0 * t * (t + 1.0)), 1.0 / ((t + 1.0) * root)
 
