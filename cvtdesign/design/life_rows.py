@@ -73,7 +73,8 @@ def life_rows(nlp, rows) -> None:
     min_life_s = to_si(nlp.spec.constraints.min_life_h, "time", f"{nlp.where}: constraints.min_life_h")
     inverse, name = inverse_lives(nlp)
     rows.add(min_life_s * inverse, -np.inf, 1.0, "life",
-             [f"wear life of {n} ≥ {min_life_s / 3600:g} h (over {name})" for n in nlp.model.roller_names])
+             [f"wear life of {n} ≥ {min_life_s / 3600:g} h (over {name}, at the base design's temperatures)"
+              for n in nlp.model.roller_names])
 
 
 LIFE_SCALE = 1e-5 / 3600    # [1/s] the inverse life the objective is measured in units of (100 000 h)
