@@ -13,7 +13,7 @@ from rich.console import Console
 from cvtdesign.cli.printing import json_text, progress_bar, report_text, show
 from cvtdesign.core import basis
 from cvtdesign.core.life.run import DutyOutsideModel, life_interval, machine_life, worn_ratio_error
-from cvtdesign.core.model import compile_model
+from cvtdesign.core.inputs import uncertain_model
 from cvtdesign.errors import InputError
 from cvtdesign.io import plots
 from cvtdesign.io.ageing import roller_ageing
@@ -86,7 +86,8 @@ def life_blocks(record: dict, life, duty, worn: tuple) -> list:
               ("bold" if k["contact"] == record["contact"] and k["life_h"] == record["life_h"] else ""))
     lo, hi = record["life_h_interval"]
     blocks = [t, Note(f"{record['name']}: life {number(record['life_h'], 3)} h [{number(lo, 3)}, {number(hi, 3)}] "
-                      f"(95 % from the materials' σ), limited by {record['limit']} at {record['contact']}", "bold")]
+                      f"(95 % from the materials' σ, the creep calibration's and the other model inputs'), limited by "
+                      f"{record['limit']} at {record['contact']}", "bold")]
     why = [c for c in life.contacts if c.why]
     if why:
         blocks.append(Note(f"{record['name']}: runaway at {why[0].name}: {why[0].why}", "bad"))
@@ -123,7 +124,8 @@ def _figures(records, lives, ages, intervals, files, folder: Path) -> list[Path]
 def _evaluate(files, duty, console) -> tuple[list, list, list, list, list]:
     layouts = [load_variant(f) for f in files]
     names = basis.distinct_names(layouts)
-    models = [compile_model(dataclasses.replace(L, name=n)) for L, n in zip(layouts, names)]
+    # the uncertain model (core.inputs): its design vector moves the preloads, moduli, friction and spin moment
+    models = [uncertain_model(dataclasses.replace(L, name=n)) for L, n in zip(layouts, names)]
     ages = [ageing_of(f, m) for f, m in zip(files, models)]
     records, lives, intervals, worn = [], [], [], []
     with progress_bar(console, "life", lambda item: item, transient=True) as progress:

@@ -7,9 +7,11 @@ A roller's running track wears at k·P_f/(4π r b) (core.life.wear: Archard's la
 power its creep and spin dissipate, b the patch's half-width), so its wear life over a duty cycle of
 shares s_k is limit / Σ_k s_k k P_f,k/(4π r b_k). The row is L_min · Σ_k s_k k P_f,k/(4π r b_k) / limit ≤ 1
 per roller, with the model's own losses and patch at the duty points, as functions of the design, at the
-ambient temperature: the temperature's feedback and the other limits (temperature, fatigue) are left to
-`cvtdesign life` on the optimum, which gives its full life. Wear limits every shipped variant on the shipped
-cobot duty, with the rollers within a few kelvin of the air.
+temperatures `cvtdesign life` finds for the study's base design (core.life.run.warm_theta: each side's creep
+scale softened by its hottest roller's E^(−1/3)), held over the design space: the temperatures of the
+optimum differ from the base's by what its losses differ (a kelvin or so on the shipped cobot duty). The
+other limits (temperature, fatigue) are left to `cvtdesign life` on the optimum, which gives its full life.
+Wear limits every shipped variant on the shipped cobot duty, with the rollers within a few kelvin of the air.
 """
 from __future__ import annotations
 
@@ -21,6 +23,8 @@ import numpy as np
 
 from cvtdesign.core.geometry import steering_angle_guess, steering_data
 from cvtdesign.core.life.duty import WEAR_LIMIT_RATIO
+from cvtdesign.core.life.run import warm_theta
+from cvtdesign.core.model import compile_model
 from cvtdesign.errors import InputError
 from cvtdesign.io.ageing import roller_ageing
 from cvtdesign.io.duty_file import duty_from_data, load_duty
@@ -40,8 +44,8 @@ def life_duty(spec, where: str):
 
 
 def inverse_lives(nlp):
-    """Each roller's inverse wear life [1/s] over the study's duty cycle, as a function of the design (module
-    docstring): Σ_k s_k k P_f,k/(4π r b_k) / limit; with the duty's name."""
+    """Each roller's inverse wear life [1/s] over the study's duty cycle, as a function of the design, at the
+    base design's temperatures (module docstring): Σ_k s_k k P_f,k/(4π r b_k) / limit; with the duty's name."""
     duty = life_duty(nlp.spec, nlp.where)
     ages = roller_ageing(nlp.base.file, nlp.vspec, nlp.model.roller_names)
     k = np.array([ages[n][0].values.get("wear_coefficient", math.nan) for n in nlp.model.roller_names])
@@ -49,9 +53,11 @@ def inverse_lives(nlp):
         n = nlp.model.roller_names[int(np.flatnonzero(~np.isfinite(k))[0])]
         raise InputError(f"{nlp.base.file}: materials.{ages[n][0].material}.ageing.wear_coefficient: missing; "
                          f"expected one for a life constraint or objective (docs/life.md)")
+    base = compile_model(nlp.base, effects=nlp.model.effects)        # the life chain runs on numbers
+    theta, _ = warm_theta(base, duty, [ages[n] for n in base.roller_names])
     phi, _ = steering_angle_guess(*steering_data(nlp.base), duty.gamma)
     loss, b = nlp.model.point_function(["loss", "b"]).map(duty.gamma.size, "serial")(
-        duty.gamma, duty.speed[None, :], duty.load, 0.0, phi, nlp.theta, nlp.P)
+        duty.gamma, duty.speed[None, :], duty.load, 0.0, phi, theta, nlp.P)
     radii = ca.Function("radii", [nlp.p], [ca.vertcat(*[r.radius for r in nlp.layout.rollers])])(nlp.P)
     s = ca.DM(duty.shares)
     out = []
@@ -67,7 +73,8 @@ def life_rows(nlp, rows) -> None:
     min_life_s = to_si(nlp.spec.constraints.min_life_h, "time", f"{nlp.where}: constraints.min_life_h")
     inverse, name = inverse_lives(nlp)
     rows.add(min_life_s * inverse, -np.inf, 1.0, "life",
-             [f"wear life of {n} ≥ {min_life_s / 3600:g} h (over {name})" for n in nlp.model.roller_names])
+             [f"wear life of {n} ≥ {min_life_s / 3600:g} h (over {name}, at the base design's temperatures)"
+              for n in nlp.model.roller_names])
 
 
 LIFE_SCALE = 1e-5 / 3600    # [1/s] the inverse life the objective is measured in units of (100 000 h)

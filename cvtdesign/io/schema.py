@@ -107,6 +107,11 @@ AGEING = {   # constant → (kind, meaning); `cvtdesign life` (docs/life.md)
     "fatigue_cycles": ("dimensionless", "steels: the L10 life in stress cycles at fatigue_pressure"),
     "fatigue_exponent": ("dimensionless", "steels: the stress-life exponent n, L10 ∝ p_max^-n "
                                           "(Lundberg–Palmgren, point contact: 9)"),
+    "fatigue_rolling": ("length", "steels: the fatigue test contact's patch semi-axis along rolling; with "
+                                  "fatigue_across and fatigue_track, Lundberg–Palmgren's stressed volume "
+                                  "(without them a contact is taken at the test's size and shape)"),
+    "fatigue_across": ("length", "steels: the fatigue test contact's patch semi-axis across rolling"),
+    "fatigue_track": ("length", "steels: the length of the fatigue test contact's running track"),
 }
 AgeingSpec = type("AgeingSpec", (Strict,), {
     "__doc__": "How a material heats, wears and tires (`cvtdesign life`, docs/life.md); every constant optional.",

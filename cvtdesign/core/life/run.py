@@ -24,6 +24,7 @@ import numpy as np
 
 from cvtdesign.core.effects import CALIBRATION, EFFECTS
 from cvtdesign.core.geometry import roller_pose
+from cvtdesign.core.inputs import model_inputs
 from cvtdesign.core.life import fatigue, hysteresis, thermal, wear
 from cvtdesign.core.life.duty import WEAR_LIMIT_RATIO, DutyCycle
 from cvtdesign.core.life.props import friction_factor, modulus_factor
@@ -82,8 +83,8 @@ def rolling_speeds(model: CompiledModel, res: dict) -> np.ndarray:
     return L.sphere_radius * np.abs(np.einsum("jk,jki->ik", om, a))
 
 
-def _theta(model: CompiledModel, scales: dict) -> np.ndarray:
-    th = np.array(model.param_values, float)
+def _theta(model: CompiledModel, scales: dict, theta=None) -> np.ndarray:
+    th = np.array(model.param_values if theta is None else theta, float)
     for side, name in CREEP_SCALES.items():
         if name in model.param_names:
             th[model.param_names.index(name)] *= scales[side]
@@ -98,8 +99,8 @@ def _softening(model, ageing, T) -> tuple[dict, np.ndarray]:
     return {s: float(np.max(f[ix] ** (-1 / 3))) if ix else 1.0 for s, ix in sides.items()}, f
 
 
-def _evaluate(model, duty, theta):
-    res = model.evaluate(duty.gamma, duty.load, speeds=duty.speed, theta=theta)
+def _evaluate(model, duty, theta, design=None):
+    res = model.evaluate(duty.gamma, duty.load, speeds=duty.speed, theta=theta, design=design)
     return res, rolling_speeds(model, res) if np.all(res["ok"]) else None
 
 
@@ -143,14 +144,16 @@ def _thermal(model, ageing, duty, heat, V):
     return out
 
 
-def consistent_state(model: CompiledModel, duty: DutyCycle, ageing: list) -> dict:
-    """Iterate model ⇄ temperatures to the consistent state (module docstring). Returns the state's arrays,
-    with `runaway` (None, or (contact index, why)) and the iterations taken."""
+def consistent_state(model: CompiledModel, duty: DutyCycle, ageing: list, theta=None, design=None) -> dict:
+    """Iterate model ⇄ temperatures to the consistent state (module docstring). `theta` (the model's θ at
+    25 °C, default its own) and `design` (an uncertain_model's deviations of its physical inputs, core.inputs)
+    move the model's own inputs. Returns the state's arrays, with `runaway` (None, or (contact index, why))
+    and the iterations taken."""
     T = np.full(len(model.layout.rollers), duty.ambient)
     runaway, last = None, None
     for it in range(1, MAX_ITER + 1):
         scales, Efac = _softening(model, ageing, T)
-        res, V = _evaluate(model, duty, _theta(model, scales))
+        res, V = _evaluate(model, duty, _theta(model, scales, theta), design)
         if V is None:
             k, status, contact = _not_ok(model, res)
             if it == 1:
@@ -176,6 +179,25 @@ def consistent_state(model: CompiledModel, duty: DutyCycle, ageing: list) -> dic
     return {**last, "runaway": runaway}
 
 
+def warm_theta(model: CompiledModel, duty: DutyCycle, ageing: list, design=None) -> tuple[np.ndarray, np.ndarray]:
+    """(the model's θ with each side's creep scale at its rollers' consistent temperatures, those temperatures
+    [K]) over the duty cycle, at the design `design` (consistent_state); the ambient's θ and temperatures
+    where the model does not hold on the duty at the ambient. Where it runs away, its last iterate's."""
+    try:
+        T = consistent_state(model, duty, ageing, design=design)["T"]
+    except DutyOutsideModel:
+        T = np.full(len(model.layout.rollers), duty.ambient)
+    scales, _ = _softening(model, ageing, T)
+    return _theta(model, scales), T
+
+
+def fatigue_reference(m) -> tuple | None:
+    """A steel's fatigue test contact (semi-axis along rolling, across, track) [m], or None where its material
+    does not give it (core.life.fatigue: the contact is then taken at the test's size and shape)."""
+    keys = ("fatigue_rolling", "fatigue_across", "fatigue_track")
+    return tuple(m[k] for k in keys) if m.has(*keys) else None
+
+
 def _contact(model, duty, ageing, state, i) -> ContactLife:
     """One contact's figures and life from the consistent state."""
     r, (ra, sa) = model.layout.rollers[i], ageing[i]
@@ -196,8 +218,10 @@ def _contact(model, duty, ageing, state, i) -> ContactLife:
     G_mean = float(np.sum(s * G))
     lives["temperature"] = thermal.warm_up_time(T_max - (T_peak - T_mean), T_mean, duty.ambient, C, G_mean)
     if ra.has("fatigue_pressure") and sa.has("fatigue_pressure"):
+        patch = (res["a"][i], res["b"][i], 2 * math.pi * r.radius)      # both bodies on the roller's track
         l10 = np.minimum(*(fatigue.l10_seconds(res["p_max"][i], V[i], r.radius, m["fatigue_pressure"],
-                                               m["fatigue_cycles"], m["fatigue_exponent"]) for m in (ra, sa)))
+                                               m["fatigue_cycles"], m["fatigue_exponent"], patch,
+                                               fatigue_reference(m)) for m in (ra, sa)))
         lives["fatigue"] = fatigue.miner_life(l10, s)
     limit_name = min(lives, key=lives.get)
     curve = thermal.cycle_curve(starts, state["heat"][i], G, duty.seconds, C, duty.ambient)
@@ -207,10 +231,11 @@ def _contact(model, duty, ageing, state, i) -> ContactLife:
                        lives[limit_name], limit_name, lives, curve, warm)
 
 
-def machine_life(model: CompiledModel, duty: DutyCycle, ageing: list) -> MachineLife:
+def machine_life(model: CompiledModel, duty: DutyCycle, ageing: list, theta=None, design=None) -> MachineLife:
     """Every contact's life over the duty cycle and the machine's: its first contact's (module docstring).
-    `ageing`: per roller, in the layout's order, (its material's Ageing, the sphere's)."""
-    state = consistent_state(model, duty, ageing)
+    `ageing`: per roller, in the layout's order, (its material's Ageing, the sphere's); `theta`, `design`: the
+    model's own inputs moved (consistent_state)."""
+    state = consistent_state(model, duty, ageing, theta, design)
     contacts = [_contact(model, duty, ageing, state, i) for i in range(len(model.layout.rollers))]
     if state["runaway"] is not None:
         i, why = state["runaway"]
@@ -251,19 +276,51 @@ def worn_ratio_error(model: CompiledModel, duty: DutyCycle, life: MachineLife) -
     return (math.nan, None) if k is None else (float(err[k]), int(at[k]))
 
 
+def moves(model: CompiledModel, ageing: list) -> list[tuple[str, object]]:
+    """Every uncertain input of the life chain, each with its +1σ move: (label, move). The materials' ageing
+    constants with a σ (a move: (material, key, relative σ)), and the model's own inputs (core.inputs
+    model_inputs: the creep calibration's σ and fitted effect parameters in θ; on an uncertain_model also the
+    preloads, moduli, friction and the law's spin moment as its design vector), one move per input key
+    (inputs that share a key are one quantity and move together): (θ, design)."""
+    out = [(f"{m}: {k}", (m, k, sd)) for m, k, sd in
+           sorted({(a.material, k, a.std[k]) for pair in ageing for a in pair for k in a.values if a.std.get(k)})]
+    inputs = model_inputs(model)
+    design_inputs = [i for i in inputs if not i.in_theta]
+    for key in dict.fromkeys(i.key for i in inputs):
+        th = np.array(model.param_values, float)
+        d = np.zeros(model.design.numel())
+        for i in inputs:
+            if i.key == key and i.in_theta:
+                th[model.param_names.index(i.target)] += i.std
+        for j, i in enumerate(design_inputs):
+            if i.key == key:
+                d[j] = i.std
+        out.append((key, (th, d)))
+    return out
+
+
+def moved_life(model, duty, ageing, move) -> MachineLife:
+    """The machine's life with one input moved (a move of `moves`)."""
+    if len(move) == 3:
+        material, key, sd = move
+        return machine_life(model, duty, [tuple(a.scaled(key, 1 + sd) if a.material == material else a
+                                                for a in pair) for pair in ageing])
+    return machine_life(model, duty, ageing, *move)
+
+
 def life_interval(model, duty, ageing, base: MachineLife, z: float = 1.96, progress=None) -> dict:
-    """Intervals [s] of the machine's life ('machine') and of each contact's (by name) from the materials'
-    uncertainties: each constant with a σ moved by +1σ alone, the changes in log life added in quadrature
-    (first order), ± z of that about the life. Each move re-runs the whole chain (model ⇄ temperature).
-    `progress(done, total)` is told after each. A life that is 0 or infinite keeps itself as its interval."""
-    moves = sorted({(a.material, k, a.std[k]) for pair in ageing for a in pair for k in a.values if a.std.get(k)})
+    """Intervals [s] of the machine's life ('machine') and of each contact's (by name) from every uncertain
+    input of the chain (`moves`: the materials' ageing constants and the model's own inputs): each moved by
+    +1σ alone, the changes in log life added in quadrature (first order), ± z of that about the life. Each
+    move re-runs the whole chain (model ⇄ temperature). `progress(done, total)` is told after each. A life
+    that is 0 or infinite keeps itself as its interval."""
+    todo = moves(model, ageing)
     names = ["machine"] + [c.name for c in base.contacts]
     lives0 = [base.life] + [c.life for c in base.contacts]
     var = np.zeros(len(names))
-    for j, (material, key, sd) in enumerate(moves):
-        moved = [tuple(a.scaled(key, 1 + sd) if a.material == material else a for a in pair) for pair in ageing]
+    for j, (_, move) in enumerate(todo):
         try:
-            m = machine_life(model, duty, moved)
+            m = moved_life(model, duty, ageing, move)
             lives = [m.life] + [c.life for c in m.contacts]
         except DutyOutsideModel:
             lives = [0.0] * len(names)
@@ -271,6 +328,6 @@ def life_interval(model, duty, ageing, base: MachineLife, z: float = 1.96, progr
             if math.isfinite(l0) and l0 > 0 and math.isfinite(l1):
                 var[i] += math.log(max(l1, 1e-300) / l0) ** 2
         if progress:
-            progress(j + 1, len(moves))
+            progress(j + 1, len(todo))
     return {n: (l0 * math.exp(-z * math.sqrt(v)), l0 * math.exp(z * math.sqrt(v))) if math.isfinite(l0) and l0 > 0
             else (l0, l0) for n, l0, v in zip(names, lives0, var)}

@@ -10,6 +10,7 @@ import yaml
 from conftest import ROOT, shipped_model
 
 from cvtdesign.core.life import wear
+from cvtdesign.core.life.run import machine_life
 from cvtdesign.design.problem import build_problem
 from cvtdesign.design.solve import solve_from, starts
 from cvtdesign.errors import InputError
@@ -21,20 +22,23 @@ STUDY = ROOT / "studies" / "box_placement_life.yaml"
 
 
 def test_life_rows_are_the_wear_life_at_the_base_design():
-    """At the base design (box_kim.yaml) the row of roller i is L_min · Σ_k s_k k P_f,k/(4π r b_k) / (1 % r), with
-    the model's losses and patch at the duty points (the ambient temperature: no feedback)."""
+    """At the base design (box_kim.yaml) the row of roller i is L_min over the wear life `cvtdesign life` gives
+    it: L_min · Σ_k s_k k P_f,k/(4π r b_k) / (1 % r), with the model's losses and patch at the duty points at
+    the rollers' consistent temperatures (core.life.run: the heat's feedback on the creep), not at the air's."""
     pr = build_problem(STUDY)
     z = (pr.base_values - pr.lower) / (pr.upper - pr.lower)
     g = np.asarray(pr.evaluate(np.append(z, 4.0))[1]).ravel()
     life = np.array([f == "life" for f in pr.g_family])
     model, duty = shipped_model("box_kim"), load_duty(ROOT / "studies" / "cobot_duty.yaml")
     ages = roller_ageing(str(ROOT / "variants/box_kim.yaml"), load_spec(ROOT / "variants/box_kim.yaml"), model.roller_names)
-    res = model.evaluate(duty.gamma, duty.load, speeds=duty.speed)
-    expected = []
-    for i, r in enumerate(model.layout.rollers):
-        rate = wear.wear_rate(ages[r.name][0]["wear_coefficient"], res["loss"][i], r.radius, res["b"][i])
-        expected.append(60000 * 3600 * float(duty.shares @ rate) / (0.01 * r.radius))
+    warm = machine_life(model, duty, [ages[n] for n in model.roller_names])
+    expected = [60000 * 3600 / c.lives["wear"] for c in warm.contacts]
     np.testing.assert_allclose(g[life], expected, rtol=1e-6)
+    res = model.evaluate(duty.gamma, duty.load, speeds=duty.speed)       # at the air's temperature: shorter rows
+    cold = [60000 * 3600 * float(duty.shares @ wear.wear_rate(ages[r.name][0]["wear_coefficient"], res["loss"][i],
+                                                               r.radius, res["b"][i])) / (0.01 * r.radius)
+            for i, r in enumerate(model.layout.rollers)]
+    assert np.all(np.asarray(cold) < g[life])
     assert pr.g_ub[life].tolist() == [1.0] * len(expected) and "N1" in pr.g_labels[np.flatnonzero(life)[4]]
 
 
