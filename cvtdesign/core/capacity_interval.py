@@ -34,7 +34,8 @@ import numpy as np
 from cvtdesign.core.capacity import LIMITS, capacity
 from cvtdesign.core.inputs import Input, model_inputs
 from cvtdesign.core.model import CompiledModel
-from cvtdesign.core.uncertainty import Spread, checked_by_sampling, draw, intervals, jacobians, sample_arguments
+from cvtdesign.core.uncertainty import (Spread, checked_by_sampling, draw, intervals, jacobians, keyed_spread,
+                                        sample_arguments)
 
 MEASURE = {"gross_slip": "utilisation", "lost_contact": "N", "pressure": "p_max", "usable_ratio": "alpha",
            "runaway": "alpha"}
@@ -57,7 +58,7 @@ def capacity_spreads(model: CompiledModel, cap: dict) -> list[Spread | None]:
         for side in SIDES:
             for i, g in _first_order(model, cap, side, inputs).items():
                 grads[i][figure(side)] = g
-    return [_spread(inputs, g) if g else None for g in grads]
+    return [keyed_spread(inputs, g) if g else None for g in grads]
 
 
 def _first_order(model: CompiledModel, cap: dict, side: str, inputs: list[Input]) -> dict:
@@ -74,16 +75,6 @@ def _first_order(model: CompiledModel, cap: dict, side: str, inputs: list[Input]
             if row[-1] != 0 and np.all(np.isfinite(row)):
                 out[i] = -row[:-1] / row[-1]
     return out
-
-
-def _spread(inputs: list[Input], grads: dict) -> Spread:
-    """A Spread of {figure: d figure/d input (k,)}, inputs of one key added."""
-    by_key = {f: {} for f in grads}
-    for f, g in grads.items():
-        for inp, v in zip(inputs, g):
-            by_key[f][inp.key] = by_key[f].get(inp.key, 0.0) + float(v)
-    return Spread(by_key, {i.key: i.std for i in inputs}, {i.key: i.label for i in inputs},
-                  {i.key: i.assumed for i in inputs})
 
 
 def with_intervals(model: CompiledModel, cap: dict, rows: list[dict], samples: int = 0, seed: int = 0) -> list[dict]:

@@ -153,7 +153,11 @@ def spread(model: CompiledModel, res: dict) -> Spread | None:
     inputs = model_inputs(model)
     if not inputs or not res["ok"].any():
         return None
-    grads = figure_gradients(model, res, inputs)
+    return keyed_spread(inputs, figure_gradients(model, res, inputs))
+
+
+def keyed_spread(inputs: list[Input], grads: dict) -> Spread:
+    """The Spread of {figure: d figure/d input (k,)}, the derivatives of inputs of one key (one quantity) added."""
     by_key = {}
     for figure, g in grads.items():
         by_key[figure] = {}
