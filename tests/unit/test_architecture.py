@@ -250,8 +250,18 @@ def test_a_toy_effect_is_one_entry(tmp_path, monkeypatch):
     assert "### `toy_gain`" in reference.effects_markdown()
 
 
-def test_a_toy_contact_law_is_one_class(tmp_path, monkeypatch):
-    """A contact law added as one class of core.contact.laws (registered in LAWS, nowhere else) is accepted
+@pytest.fixture
+def law_register():
+    """The register of contact laws, restored after the test (a law registers itself as its class is defined)."""
+    from cvtdesign.core.contact.base import LAWS
+    before = dict(LAWS)
+    yield LAWS
+    LAWS.clear()
+    LAWS.update(before)
+
+
+def test_a_toy_contact_law_is_one_class(tmp_path, monkeypatch, law_register):
+    """A contact law added as one subclass (registered in LAWS by its definition, nowhere else) is accepted
     by a variant file's contact.law, compiles, and changes the model as its class says."""
     from cvtdesign.core.contact import laws
     from cvtdesign.core.model import compile_model
@@ -260,12 +270,13 @@ def test_a_toy_contact_law_is_one_class(tmp_path, monkeypatch):
     class StiffLaw(laws.KimLaw):
         """Kim's law with the theory's compliances halved."""
         name = "toy_stiff"
+        ideal = False
 
         def constants(self, layout, roller):
             c = super().constants(layout, roller)
             return {**c, "eps0": c["eps0"] / 2}
 
-    monkeypatch.setitem(laws.LAWS, "toy_stiff", StiffLaw())
+    assert "toy_stiff" in law_register
     monkeypatch.setenv("CVTDESIGN_COMPILE", "never")
     kim = load_variant(_toy_variant(tmp_path))
     kim_pairs = {"drive": ["urethane_82A", "bowling_ball"], "steering": ["urethane_84A", "bowling_ball"]}

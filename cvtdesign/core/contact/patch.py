@@ -14,7 +14,8 @@ import dataclasses
 import numpy as np
 
 from cvtdesign.core.contact import kalker, surface
-from cvtdesign.core.contact.laws import contact_law, patch_constants
+from cvtdesign.core.contact.base import patch_constants
+from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.core.layout import CreepSource, Layout, Roller
 
 CURVE_POINTS = 41        # points of each creep–force curve
