@@ -148,8 +148,8 @@ def _add_optimise(p):
     p.add_argument("--report", help="also write an HTML report (the design and constraint tables) to this file")
     p.add_argument("--step", action="store_true", help="also export the optimum as a STEP assembly (+ SVG, PNG)")
     p.add_argument("--calibration", metavar="FITTED.json", help="a diagnosis report (cvtdesign diagnose --json): "
-                   "the base variant carries its fitted effect parameters (under contact law kalker, the "
-                   "calibration of the Kalker compliances)")
+                   "the base variant carries its fitted effect parameters (under a contact law without fitted "
+                   "creep constants, the calibration of its theory's compliances)")
 
 
 def _add_study(p):

@@ -167,10 +167,10 @@ def pivoting(model: CompiledModel, gammas) -> dict:
     capacity at γ = 0 ends on a limit like elsewhere), so it is reported, not counted as a capacity.
 
     Returns {'modelled': False} where the law gives no spin moment at any contact although the drive contacts
-    spin (Kim's law: the pivoting is not modelled, which is not 'none'); else {'modelled': True, 'share':
-    (contacts × γ) |Mz|/(μNℓ) of the drive and follower rollers (NaN for steering rollers and where the point
-    fails), 'pivots' (contacts × γ) share ≥ PIVOT_SHARE, 'loss' (contacts × γ) [W] each contact's power loss,
-    'power_loss' (γ) [W] the whole loss}."""
+    spin (a law without spin moment: the pivoting is not modelled, which is not 'none'); else {'modelled':
+    True, 'share': (contacts × γ) |Mz|/(μNℓ) of the drive and follower rollers (NaN for steering rollers and
+    where the point fails), 'pivots' (contacts × γ) share ≥ PIVOT_SHARE, 'loss' (contacts × γ) [W] each
+    contact's power loss, 'power_loss' (γ) [W] the whole loss}."""
     g = np.atleast_1d(np.asarray(gammas, float))
     res = model.evaluate(g, np.zeros_like(g))
     drive = np.array([r.role != "steering" for r in model.layout.rollers])

@@ -10,10 +10,10 @@ Equations (derived from the vectors; the effects' terms come from effects.py, by
    (no slip: r_i ω_i = −R Ω·a_i, so shaft s turns at ω_s = g_s·Ω, kinematics.py);
  * creep law, dissipative (F·s ≤ 0), by the variant's contact law (core.contact.laws): two rows per contact
    relating s_i, the spin Ω·n_i and F_i, and the spin moment Mz_i the patch puts on the sphere:
-   - kim: s_t + c_t·F_t = 0, s_a + c_a·F_a = 0, with the compliances c the effects contribute, rigid where no
-     effect adds compliance; no spin moment;
-   - kalker: the Hertz patch at N_i, creep and spin combined by FASTSIM's creep-force surface
-     (core.contact.surface), scaled by the calibration;
+   - a linear law (fitted creep constants): s_t + c_t·F_t = 0, s_a + c_a·F_a = 0, with the compliances c
+     the effects contribute, rigid where no effect adds compliance; no spin moment;
+   - a law on Kalker's theory: the Hertz patch at N_i, creep and spin combined by FASTSIM's creep-force
+     surface (core.contact.surface), scaled by the calibration;
  * sphere moment balance: Σ R n_i × F_i + Σ Mz_i n_i − Σ M_i a_i = 0 (M_i: `resistance` moments on the
    rollers);
  * sphere force balance on preloaded compliant mounts: N_i = P_i + k_i n_i·δ, Σ (F_i − N_i n_i) = 0, solved
@@ -396,26 +396,26 @@ def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX
     """(x, several): the operating point's solution, and whether the equations hold another one there.
 
     Past the envelope the equations can have more than one root, and the Newton solve from the ideal
-    kinematics (no forces) can land on either, depending on round-off: an asymmetric box under Kalker's law
-    reaches α = 2.612° written one way and 2.610° rotated, both converged, where loading from rest reaches
-    2.679°. The state then depends on how the load came, which no steady-state model can tell, so such a
+    kinematics (no forces) can land on either, depending on round-off: an asymmetric box under Hertz + Kalker
+    + FASTSIM reaches α = 2.612° written one way and 2.610° rotated, both converged, where loading from rest
+    reaches 2.679°. The state then depends on how the load came, which no steady-state model can tell, so such a
     point carries no number (`multiple_roots`).
 
     Where the contact law can have several roots (laws.*.several_roots), the direct root stands unless it
     failed or some contact uses more than UTIL_CHECK of its friction: a second root needs the law to bend,
     which it does near saturation (existing.yaml at γ = −16°, τ⊥ = 2.5 N·m, contacts at 0.68 μN: the
     direct solve reaches α = 18.49°, loading from rest 18.35°; inside the shipped envelopes no contact passes
-    0.38 μN, and the shipped kalker variants and an asymmetric box have no second root below 0.5 μN over
-    γ ±88°, τ⊥ ±4 N·m). There the point is also solved as a rig reaches it, the load applied from rest in
+    0.38 μN, and the shipped variants of such a law and an asymmetric box have no second root below 0.5 μN
+    over γ ±88°, τ⊥ ±4 N·m). There the point is also solved as a rig reaches it, the load applied from rest in
     LOAD_STEPS equal steps, each solve starting from the last converged one. Where both hold and differ (by
     more than ROOT_TOL in the scaled unknowns), the point is `multiple_roots`; where only one holds, that one
     is the solution. The stepped solution alone is no answer: near a fold its steps land on whichever root
     they reach, and its α can jump by 0.6° between loads one ulp apart.
 
-    Under Kim's law the roots inside the envelopes are unique, and the stepped solve only replaces a direct
-    one that fails or turns backwards (existing_kim.yaml at (−80°, 2.1 N·m) is `reversed` from the ideal
-    kinematics and ω2 = −20.2 rad/s from rest). Derivatives are those of the solve whose root is returned,
-    by the implicit function theorem."""
+    Under a linear law (fitted creep constants) the roots inside the envelopes are unique, and the stepped
+    solve only replaces a direct one that fails or turns backwards (existing_kim.yaml at (−80°, 2.1 N·m) is
+    `reversed` from the ideal kinematics and ω2 = −20.2 rad/s from rest). Derivatives are those of the solve
+    whose root is returned, by the implicit function theorem."""
     def good(x, q):      # converged, on a forward root (as _status judges them)
         return ca.logic_and(_converged(residual(x, q)), ca.dot(x[0:3], x0_fn(q)[0:3]) > 0)
 

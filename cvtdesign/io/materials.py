@@ -191,8 +191,9 @@ def check_fitted_pair(variant_file: str, spec: VariantSpec, roller: str, role: s
 
 def contact_calibration(variant_file: str, spec: VariantSpec, role: str, roller_material: str,
                         sphere_material: str) -> CreepSource:
-    """Where a contact's creep compliance comes from, in this order: the variant's own constants (kim's
-    creep_drive or creep_steering, kalker's calibration factors, with contact.uncertainty), a library
+    """Where a contact's creep compliance comes from, in this order: the variant's own constants (a
+    fitted law's creep_drive or creep_steering, or the calibration factors on a theory, with
+    contact.uncertainty), a library
     calibration of its two materials, else the theory alone (uncalibrated)."""
     c, side = spec.contact, "drive" if role != "steering" else "steering"
     source = functools.partial(CreepSource, materials=(roller_material, sphere_material))

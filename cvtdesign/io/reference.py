@@ -194,6 +194,21 @@ WRITING = """\
 """
 
 
+def laws_markdown() -> list[str]:
+    """The contact laws (core.contact.laws.LAWS), each with its title, the constants it takes and the first
+    paragraph of its class's description: a law added there is listed here with no other edit."""
+    out = ["The contact laws:", ""]
+    for name, law in LAWS.items():
+        takes = ("fitted creep constants: creep_drive, creep_steering, creep_reference_force" if law.fitted
+                 else "calibration factors on its theory (or the materials library's calibration)")
+        flags = [w for w, on in (("the default", law.default), ("the ideal CVT's, with no effect on", law.ideal),
+                                 ("no spin moment: the figures made of it are not modelled", law.spin_error is None))
+                 if on]
+        about = " ".join((type(law).__doc__ or "").strip().split("\n\n")[0].split())
+        out.append(f"* `{name}`{' (' + '; '.join(flags) + ')' if flags else ''}: {law.title}; takes {takes}. {about}")
+    return out
+
+
 def reference_markdown() -> str:
     """The text of docs/variant-reference.md: every field of a variant file, from io.schema."""
     out = ["# Variant file reference", "", GENERATED, "",
@@ -209,6 +224,8 @@ def reference_markdown() -> str:
         out += ["| field | type | unit (SI; example) | default | plausible range | meaning |",
                 "| --- | --- | --- | --- | --- | --- |"]
         out += [field_row(prefix, n, info, inherited) for n, info in model.model_fields.items()]
+        if prefix == "contact.":
+            out += ["", *laws_markdown()]
         if prefix == "envelope.load.":
             out += ["", (f"The load is also refused beyond what the variant's contacts can carry: {LOAD_MARGIN:g} × "
                          "Σ μ·P·max(R, r) over the contacts (μ the friction coefficient of the roller's material on "

@@ -3,8 +3,9 @@
 - Layers: a subpackage imports only from the layers below it (LAYERS), so the import graph has no cycle.
 - No function or method is longer than MAX_FUNCTION_LINES, no module longer than MAX_MODULE_LINES.
 - Each kind of change has one place: effects are named only in core/effects.py (and the laws and the
-  independent simulator), contact laws only in core/contact/laws.py; every effect entry is complete; a toy
-  effect and a toy law, each added in its one place, work end to end (these tests import the package).
+  independent simulator), a contact law only in the module that defines its class, in code and in prose
+  (string constants, f-strings, docstrings); every effect entry is complete; a toy effect and a toy law, each
+  added in its one place, work end to end (these tests import the package).
 - Imports sit at the top of each module; only the heavy optional libraries (LAZY) are imported inside a
   function, and each of those in one module only (its boundary).
 - No private name (`_x`) is imported from another module.
@@ -154,32 +155,88 @@ def test_nothing_points_outside_the_repository():
 
 # --- each kind of change in one place ----------------------------------------------------------------------
 
-# the modules that may name an effect or a contact law by its string: the vocabulary itself, the laws (which
-# say which effects they contain), and the independent simulator (which writes every effect a second time, in
-# its own forms, by design)
+# the modules that may name an effect by its string: the vocabulary itself, the laws (which say which effects
+# they contain), and the independent simulator (which writes every effect a second time, in its own forms, by
+# design). A law is named only by the module that defines its class (law_homes).
 EFFECT_HOMES = {"cvtdesign.core.effects", "cvtdesign.core.contact.laws", "cvtdesign.verification.independent_sim",
                 "cvtdesign.verification.independent_rig"}
-LAW_HOMES = {"cvtdesign.core.contact.laws"}
+# a name in prose that another session's refactor of design/ removes; each entry must still be found (so it
+# is dropped when that lands): (module, the text around it)
+PENDING = {("cvtdesign.design.tolerance", "expected contact.law: kalker, under which every direction"),
+           ("cvtdesign.design.tolerance", "Under Kim's law the drive")}
 
 
-def _names_used(tree: ast.Module, names: set) -> list[int]:
-    """Lines where a string constant (not a docstring) is one of `names`."""
-    docs = {id(n.body[0].value) for n in ast.walk(tree)
-            if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef)) and ast.get_docstring(n) is not None}
-    return [n.lineno for n in ast.walk(tree)
-            if isinstance(n, ast.Constant) and n.value in names and id(n) not in docs]
+def law_homes(laws: dict) -> set[str]:
+    """The modules that define the laws' classes (a base class they share names none of them)."""
+    return {type(law).__module__ for law in laws.values()}
+
+
+def _strings(tree: ast.Module):
+    """(line, text) of every string in the module: constants, the literal parts of f-strings, docstrings."""
+    for n in ast.walk(tree):
+        if isinstance(n, ast.Constant) and isinstance(n.value, str):
+            yield n.lineno, n.value
+
+
+def law_patterns(laws: dict) -> list[re.Pattern]:
+    """What names a law in prose: its name as written in a variant file (a word in its own case, not part of a
+    module path such as core.contact.kalker, of a file name or of a hyphenated id), its class's name, or '<Name>'s law',
+    '<name> law' and 'law <name>' in any case (so 'Kim et al.' and 'Kalker's coefficients', which cite a paper
+    or a theory, pass)."""
+    out = []
+    for name, law in laws.items():
+        n = re.escape(name)
+        out += [re.compile(rf"(?<![\w.-]){n}(?![\w.(-])"), re.compile(rf"\b{type(law).__name__}\b"),
+                re.compile(rf"(?i)\b{n}(?:'s)?(?: contact)? law\b|\blaw:? `?{n}\b")]
+    return out
+
+
+def prose_naming(modules: dict, homes: set, patterns: list) -> list[str]:
+    """'module:line: text' of every string outside `homes` that one of `patterns` finds."""
+    bad = []
+    for m, tree in modules.items():
+        if m in homes:
+            continue
+        for line, text in _strings(tree):
+            if any(p.search(text) for p in patterns) and not any(m == pm and t in text for pm, t in PENDING):
+                bad.append(f"{m}:{line}: {' '.join(text.split())[:100]}")
+    return bad
+
+
+def effect_patterns(effects) -> list[re.Pattern]:
+    """An effect's name as a word (its parameters' 'effect.param' included)."""
+    return [re.compile(rf"^{re.escape(e)}$") for e in effects]
 
 
 def test_effects_and_laws_are_named_in_one_place():
-    """No module outside the homes compares or picks an effect or a law by its name: adding one touches its
-    home only (the toy tests below add one each)."""
+    """No module outside the homes names an effect or a law, in code or in prose (string constants, f-strings
+    and docstrings): adding one touches its home only (the toy tests below add one each), and no message or
+    description goes stale when a law or an effect is added."""
     from cvtdesign.core.contact.laws import LAWS
     from cvtdesign.core.effects import EFFECTS
-    bad = [f"{m}:{line} names an effect" for m, tree in MODULES.items() if m not in EFFECT_HOMES
-           for line in _names_used(tree, set(EFFECTS))]
-    bad += [f"{m}:{line} names a contact law" for m, tree in MODULES.items() if m not in LAW_HOMES
-            for line in _names_used(tree, set(LAWS))]
-    assert not bad, bad
+    bad = [f"{b} (names an effect)" for b in prose_naming(MODULES, EFFECT_HOMES, effect_patterns(EFFECTS))]
+    bad += [f"{b} (names a contact law)" for b in prose_naming(MODULES, law_homes(LAWS), law_patterns(LAWS))]
+    assert not bad, "\n".join(bad)
+
+
+def test_the_scan_finds_names_in_prose():
+    """The scan itself: a law named in an f-string, a docstring or a message is found, and so is an effect;
+    citations of a paper or a theory are not; each PENDING entry still stands where it says."""
+    from cvtdesign.core.contact.laws import LAWS
+    from cvtdesign.core.effects import EFFECTS
+    laws = {"kalker": LAWS["kalker"], "kim": LAWS["kim"]}
+    src = ast.parse('''
+def f(x):
+    """Applies to law kalker only."""
+    return f"{x}: expected contact.law: kim with it"
+MESSAGE = "under Kim's law the creep is fitted; see core.contact.laws.KalkerLaw"
+FINE = "Kim et al.'s paper, Kalker's coefficients (core.contact.kalker), variants/existing_kim.yaml"
+SCALE = "fitted as drive_longitudinal_creep.scale"
+''')
+    found = prose_naming({"m": src}, set(), law_patterns(laws))
+    assert sorted(x.split(":")[1] for x in found) == ["3", "4", "5"], found
+    for module, text in PENDING:
+        assert any(text in t for _, t in _strings(MODULES[module])), f"PENDING entry gone: drop it ({module})"
 
 
 def test_every_effect_entry_is_complete():

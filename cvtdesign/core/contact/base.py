@@ -125,6 +125,12 @@ def contact_law(name: str) -> ContactLaw:
     return LAWS[name]
 
 
+def names_where(**flags) -> list[str]:
+    """The names of the laws whose class attributes equal `flags` (names_where(fitted=True)), for messages that
+    say which laws a field applies to."""
+    return [n for n, law in LAWS.items() if all(getattr(law, k) == v for k, v in flags.items())]
+
+
 def the_law(flag: str) -> str:
     """The name of the one law whose class attribute `flag` ('ideal' or 'default') is true."""
     names = [n for n, law in LAWS.items() if getattr(law, flag)]

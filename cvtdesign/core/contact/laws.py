@@ -14,13 +14,14 @@ from __future__ import annotations
 import casadi as ca
 
 from cvtdesign.core.contact import surface
-from cvtdesign.core.contact.base import LAWS, ContactLaw, ContactRows, contact_law, patch_constants, side, the_law
+from cvtdesign.core.contact.base import (LAWS, ContactLaw, ContactRows, contact_law, names_where, patch_constants, side,
+                                         the_law)
 from cvtdesign.core.effects import EFFECTS, ContactState, check_names
 from cvtdesign.core.layout import Layout, Roller
 from cvtdesign.errors import InputError
 
 __all__ = ["LAWS", "ContactLaw", "ContactRows", "KimLaw", "KalkerLaw", "IDEAL", "DEFAULT", "contact_law", "patch_constants",
-           "check_effects", "candidates", "EPS_RIGID"]
+           "check_effects", "candidates", "names_where", "EPS_RIGID"]
 
 EPS_RIGID = 1e-9      # [1/N] creep-compliance floor of the directions that are rigid under Kim's law
 ROLL_FLOOR = 1e-9     # rolling speed below which creepages are taken at this fraction of the reference speed
@@ -35,7 +36,7 @@ class KimLaw(ContactLaw):
     variant's fitted constant (contact.creep_drive / creep_steering at creep_reference_force), else linear
     Kalker theory's 1/(G a b C11) for drive and 1/(G a b C22) for steering rollers at the preload."""
     name = "kim"
-    title = "Kim et al.'s fitted linear creep constants, no spin"
+    title = "Kim et al.'s fitted linear creep constants"
     fitted = True
     rigid_unless_effects = True
     reference_variant = "existing_kim"
