@@ -165,7 +165,8 @@ def _add_rig(p):
     p.add_argument("variant", help="variant YAML file")
     p.add_argument("--effects", help="effects on, comma-separated (default: the variant's; 'none' for the ideal CVT)")
     p.add_argument("--set", action="append", metavar="EFFECT.PARAM=VALUE",
-                   help="an effect parameter, e.g. steering_lateral_creep.scale=1.2 or 'rolling_resistance.offset=0.2 mm'")
+                   help="an effect parameter, e.g. a creep scale EFFECT.scale=1.2 or a length with its unit "
+                        "'EFFECT.offset=0.2 mm' (the effects and their parameters: docs/effects.md)")
     p.add_argument("--noise", help="measurement noise σ, e.g. 'speed=0.01 rad/s,torque=0.005 N*m,axis=0.05 deg' "
                                    "(these are the defaults; plain numbers are SI)")
     p.add_argument("--protocol", help="protocol YAML (gamma, load, load_kind, motor_speed, replicates, random, seed), "

@@ -261,8 +261,8 @@ def transferred(variant_file: str, spec: VariantSpec, roller_material: str) -> d
 
 def fitted_calibrations(layout: Layout, scales: dict, machine: str, data: str, fit: str) -> list[dict]:
     """Library calibrations (one per roller material on the sphere's) from a diagnosis's fitted compliance
-    scales {role: (scale, σ)} ('drive', 'steering'; the scales of drive_longitudinal_creep and
-    steering_lateral_creep): each roller's fitted compliance is scale × the compliance its law used
+    scales {role: (scale, σ)} ('drive', 'steering'; the scales of the creep effects,
+    core.effects.CALIBRATION): each roller's fitted compliance is scale × the compliance its law used
     (core.contact.patch.calibrated_compliance), and its creep modulus the one that gives it. A material
     whose rollers give different moduli (several roles, or fitted constants that ignored their geometry) gets
     their mean, the spread added to its σ."""

@@ -284,13 +284,13 @@ slip.
 Setting a parameter: in a variant file,
 
 ```yaml
-effects: [drive_longitudinal_creep, steering_lateral_creep, rolling_resistance]
+effects: [{effects}]
 effect_parameters:
-  rolling_resistance: {offset: 0.2 mm}
+  {effect}: {{{param}: {value}}}
 ```
 
-or on the command line, `cvtdesign rig variants/existing_kim.yaml --effects rolling_resistance --set
-'rolling_resistance.offset=0.2 mm' --out /tmp/rig.csv`. Values are written as in variant files (a plain
+or on the command line, `cvtdesign rig variants/existing_kim.yaml --effects {effect} --set
+'{effect}.{param}={value}' --out /tmp/rig.csv`. Values are written as in variant files (a plain
 number is SI; `0.2 mm`, `0.5 deg` carry units) and must lie within the bounds below, which are also the
 bounds the diagnosis fits within. A parameter that is not given takes its default.
 
@@ -304,10 +304,19 @@ in the order of the vocabulary (c: one contact while the model is assembled; p: 
 """
 
 
+def example_setting() -> dict:
+    """The intro's example, from the vocabulary: the first effect outside Kim et al.'s model with a length
+    parameter, set to its self-check's last value, on top of that model's effects."""
+    effect, param = next((n, k) for n, e in fx.EFFECTS.items() if n not in fx.KIM_MODEL
+                         for k, p in e.params.items() if p.kind == "length")
+    value = typed(fx.EFFECTS[effect].selfcheck.values[-1], "length")
+    return {"effects": ", ".join([*fx.KIM_MODEL, effect]), "effect": effect, "param": param, "value": value}
+
+
 def effects_markdown() -> str:
     """The text of docs/effects.md: every effect of core.effects.EFFECTS, its parameters and hooks."""
     hooks = _hooks()
-    out = ["# The effect vocabulary", "", GENERATED, "", EFFECTS_INTRO.rstrip("\n")]
+    out = ["# The effect vocabulary", "", GENERATED, "", EFFECTS_INTRO.format(**example_setting()).rstrip("\n")]
     out += [f"| `{h}` | {what} |" for h, what in hooks.items()]
     out += ["", "## The effects", ""]
     for name, e in fx.EFFECTS.items():

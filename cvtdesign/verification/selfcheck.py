@@ -13,8 +13,8 @@ default, or the box CVT), Kim's protocol (187 rows):
 formulation and its own functional forms for every effect) makes the data; its cases withhold each
 vocabulary effect (right: its name), effects outside the vocabulary (right: `unexplained`, and never a
 name) and nothing (right: `none`).
-The base of the diagnosis is Kim's model (drive_longitudinal_creep + steering_lateral_creep) minus the
-withheld effect.
+The base of the diagnosis is Kim's model (core.effects.KIM_MODEL: the two creep effects) minus the withheld
+effect.
 """
 from __future__ import annotations
 
@@ -86,8 +86,8 @@ def pairs() -> list[tuple]:
 
 
 def _values(variant: str) -> dict:
-    """effect → (parameter, its two values), the values an entry leaves to the variant (traction_saturation's
-    μ scales, at SATURATION_UTILISATION) filled in."""
+    """effect → (parameter, its two values), the values an entry leaves to the variant (the saturation
+    effect's μ scales, at SATURATION_UTILISATION) filled in."""
     out, u = {}, None
     for e, fx in EFFECTS.items():
         if fx.selfcheck.values is None and u is None:
