@@ -37,6 +37,7 @@ import numpy as np
 
 from cvtdesign.core.contact.laws import IDEAL, contact_law
 from cvtdesign.core.model import CompiledModel, compile_model, status_counts
+from cvtdesign.core.status import Status
 from cvtdesign.core.steering import standstill_torques
 
 
@@ -188,7 +189,7 @@ def metrics(model: CompiledModel, res: dict) -> dict:
     eff_range = (np.abs(res["gamma_cmd"]) >= np.radians(5) - 1e-12) & \
         (np.abs(res["load"]) >= 0.25 * np.max(np.abs(L.load_grid)))
     delivers = delivers_power(res)
-    failed = np.flatnonzero(np.ravel(res["status"]) == 1)
+    failed = np.flatnonzero(np.ravel(res["status"]) == Status.NOT_CONVERGED)
     missing = not_modelled(L, model.effects)
     return {
         "name": L.name, "file": L.file, "ideal_law": model.frame.law_text(),

@@ -423,6 +423,43 @@ def test_a_toy_contact_law_is_one_file(tmp_path, monkeypatch, law_register, caps
     assert prose_naming(other, homes, law_patterns(law_register))
 
 
+# comparisons of a status with a bare integer that another session's refactor of design/ replaces: (module, line
+# text); each must still be found
+PENDING_STATUS = {("cvtdesign.design.problem", 'ok = np.ravel(res["status"]) == 0'),
+                  ("cvtdesign.design.tolerance", "if status == 0 and force <= RIGID_FORCE * preload:"),
+                  ("cvtdesign.design.tolerance", 'held = "" if status == 0 else')}
+STATUS_OWN = {"cvtdesign.verification.independent_sim", "cvtdesign.verification.independent_rig"}  # their own codes
+
+
+def status_integers(modules: dict, sources: dict) -> list[str]:
+    """'module:line: text' of every comparison of a status with an integer constant (`status == 2`): a point's
+    status is named by core.status.Status, never by its number."""
+    bad = []
+    for m, tree in modules.items():
+        for n in ast.walk(tree):
+            sides = [n.left, *n.comparators] if isinstance(n, ast.Compare) else []
+            if any(isinstance(x, ast.Constant) and type(x.value) is int for x in sides) and any(
+                    "status" in ast.unparse(x).lower() and not (isinstance(x, ast.Call) and ast.unparse(x.func) == "len")
+                    for x in sides):
+                line = sources[m][n.lineno - 1].strip()
+                if not any(m == pm and t in line for pm, t in PENDING_STATUS):
+                    bad.append(f"{m}:{n.lineno}: {line}")
+    return bad
+
+
+def test_statuses_are_named_not_numbered():
+    """No module compares a point's status with a bare integer: core.status.Status names each code (the
+    independent simulator, which keeps its own codes by design, aside). The scan finds `status == 2`."""
+    sources = {m: (PKG.parent / (m.replace(".", "/") + ".py")).read_text().splitlines() for m in MODULES
+               if (PKG.parent / (m.replace(".", "/") + ".py")).exists()}
+    mods = {m: t for m, t in MODULES.items() if m in sources and m not in STATUS_OWN}
+    assert not status_integers(mods, sources)
+    probe = "lost = res['status'] == 2\nok = res['status'] == Status.OK\nn = len(res['status']) == 3\n"
+    assert [b.split(":")[1] for b in status_integers({"m": ast.parse(probe)}, {"m": probe.splitlines()})] == ["1"]
+    for module, text in PENDING_STATUS:
+        assert any(text in line for line in sources[module]), f"PENDING_STATUS entry gone: drop it ({module})"
+
+
 def test_core_receives_no_schema_objects():
     """core is handed SI values in its own dataclasses (core.layout), never the parsed variant file: no core
     module imports io or pydantic, names a schema class (`...Spec`) or reads a `.spec`, and no class of core
