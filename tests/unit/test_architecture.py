@@ -137,6 +137,14 @@ def test_imports_at_the_top_except_heavy_optional_ones():
     assert all(len(ms) == 1 for ms in boundary.values()), f"heavy imports at more than one boundary: {dict(boundary)}"
 
 
+def test_figures_are_drawn_in_io_plots():
+    """Every module that draws a figure (gets matplotlib's parts from figure_parts) is in io/plots/, one module
+    per command's figures (docs/architecture.md); the layout drawings and the optimum's figures once sat in io/."""
+    drawing = {m for m, tree in MODULES.items() for n in ast.walk(tree)
+               if isinstance(n, ast.Call) and ast.unparse(n.func).endswith("figure_parts")}
+    assert drawing and all(m.startswith("cvtdesign.io.plots.") for m in drawing), sorted(drawing)
+
+
 def test_no_private_names_imported_across_modules():
     bad = [f"{m} line {n.lineno}: {n.module}.{a.name}" for m, tree in MODULES.items() for n in ast.walk(tree)
            if isinstance(n, ast.ImportFrom) and (n.module or "").startswith("cvtdesign")
