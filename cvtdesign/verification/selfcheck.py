@@ -18,6 +18,8 @@ effect.
 """
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 from dask.distributed import as_completed
 
@@ -55,6 +57,16 @@ def make_cases(quick: bool = False, seeds: int = 3, matrices=MATRICES, variant: 
     cases = (_rig_cases(quick, seeds, _values(variant)) if "rig" in matrices else []) + \
         (_independent_cases(quick) if "independent" in matrices else [])
     return cases
+
+
+def case_counts(quick: bool = False, matrices=MATRICES) -> dict:
+    """{(matrix, kind): number of datasets} of the matrices (kind: single, null, weak, pair, out_of_vocabulary),
+    as make_cases makes them for any variant, without its model (the counts do not depend on the values a
+    variant gives the saturation effect): the counts the docs quote, tested against this."""
+    values = {e: (fx.selfcheck.param, fx.selfcheck.values or SATURATION_UTILISATION) for e, fx in EFFECTS.items()}
+    cases = (_rig_cases(quick, 3, values) if "rig" in matrices else []) + \
+        (_independent_cases(quick) if "independent" in matrices else [])
+    return dict(Counter((c["matrix"], c["kind"]) for c in cases))
 
 
 def _independent_cases(quick: bool) -> list[dict]:
