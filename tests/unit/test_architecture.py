@@ -17,6 +17,7 @@ from __future__ import annotations
 import ast
 import math
 import re
+import sys
 from collections import defaultdict
 from pathlib import Path
 
@@ -315,6 +316,60 @@ def test_a_toy_effect_is_one_entry(tmp_path, monkeypatch):
     assert {c["id"] for c in cases if c["withheld"] == ["toy_gain"]} == {
         f"single-toy_gain-gain={v:.4g}-noise{k:g}" for v in (0.01, -0.02) for k in selfcheck.NOISE_SCALES}
     assert "### `toy_gain`" in reference.effects_markdown()
+
+
+NEW_HOOK_ROW = "| `normal_force` | (N, p) → N | a contact's normal force after the sphere's force balance [N] |"
+NEW_HOOK_CALL = '    N = [hooks.transform("normal_force", n) for n in N]      # the new hook\n'
+EQUATIONS_ANCHOR = "    N = normal_forces(layout, poses, Fvec)\n"
+
+
+def test_a_toy_effect_with_a_new_hook(tmp_path, monkeypatch):
+    """An effect that needs a hook the model does not call yet (docs/adding-an-effect.md, section 1): one entry
+    of core.effects.EFFECTS, the hook's row in that module's hook table and its name in HOOKS, and the hook's
+    single place in core/equations.py, where the model calls it (here one line added to a copy of that
+    module's source, which the model then compiles with). Nothing else: the variant file reads the effect, the
+    compiled model changes as the hook says, the diagnosis offers it and the generated reference documents
+    the hook."""
+    import importlib.util
+
+    from cvtdesign.core import effects as fx
+    from cvtdesign.core import equations, model
+    from cvtdesign.core.contact import laws
+    from cvtdesign.core.model import compile_model
+    from cvtdesign.io import reference
+    from cvtdesign.io.variant import load_variant
+    source = Path(equations.__file__).read_text()
+    assert source.count(EQUATIONS_ANCHOR) == 1, "the hook's place in core/equations.py moved: update the anchor"
+    spec = importlib.util.spec_from_loader("toy_equations", loader=None)
+    patched = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "toy_equations", patched)     # its dataclasses look their module up
+    exec(compile(source.replace(EQUATIONS_ANCHOR, EQUATIONS_ANCHOR + NEW_HOOK_CALL), "toy_equations", "exec"),
+         patched.__dict__)
+    monkeypatch.setattr(model, "equations", patched.equations)
+    monkeypatch.setattr(fx, "HOOKS", (*fx.HOOKS, "normal_force"))
+    monkeypatch.setattr(fx, "__doc__", fx.__doc__.replace("\n\n`c` is a `ContactState`", f"\n{NEW_HOOK_ROW}\n\n`c` is a "
+                                                          "`ContactState`", 1))
+    toy = fx.Effect("toy_preload_loss", "Every contact's normal force is (1 − loss)·N (a relaxed mount).",
+                    {"loss": fx.Param(0.05, "dimensionless", "relative loss of normal force", 0.0, 0.5)},
+                    {"normal_force": lambda N, p: N * (1 - p["loss"])},
+                    fx.SelfCheck("loss", (0.05, 0.1)), at_zero_load=True, independent="loss")
+    monkeypatch.setitem(fx.EFFECTS, "toy_preload_loss", toy)
+    monkeypatch.setenv("CVTDESIGN_COMPILE", "never")
+    effects = ["drive_longitudinal_creep", "steering_lateral_creep"]
+    plain = load_variant(_toy_variant(tmp_path, effects=effects))
+    lossy = load_variant(_toy_variant(tmp_path, effects=effects + ["toy_preload_loss"],
+                                      effect_parameters={"toy_preload_loss": {"loss": 0.1}}))
+    g = np.radians([-30.0, 20.0])
+    a, b = compile_model(plain).evaluate(g, 0.5), compile_model(lossy).evaluate(g, 0.5)
+    assert a["ok"].all() and b["ok"].all()
+    # the creep of Kim's law follows the preload, not N: the forces stay, and N is 0.9 × the balance's
+    np.testing.assert_allclose(b["N"], 0.9 * a["N"], rtol=1e-6)
+    np.testing.assert_allclose(b["alpha"], a["alpha"], rtol=1e-6)
+    assert "toy_preload_loss" in laws.candidates(laws.IDEAL)
+    assert set(toy.hooks) <= set(fx.HOOKS)
+    text = reference.effects_markdown()
+    assert NEW_HOOK_ROW.replace("(N, p) → N | ", "") in text
+    assert "Acts through: `normal_force` (a contact's normal force after the sphere's force balance [N])." in text
 
 
 @pytest.fixture
