@@ -3,12 +3,12 @@
 glossary of every figure and column."""
 from __future__ import annotations
 
+from cvtdesign.core.contact.laws import LAWS
 from cvtdesign.io.report import Glossary, Heading, Summary, png_figure
 
 # what each figure of compare's table means (cli.compare.COLUMNS, by key): every row the table shows is here
 MEANINGS = {
-    "contact_law": "the contact law every column is evaluated under (kim: Kim et al.'s linear creep constants; "
-                   "kalker: Hertz + Kalker with FASTSIM's saturation; rigid for the ideal CVT)",
+    "contact_law": None,    # law_meaning(): every law of LAWS, when the glossary is made
     "calibration": "where the contacts' creep compliance comes from: the materials library's calibration, the "
                    "variant's own fitted constants or factors, or THEORY ONLY (uncalibrated: on Kim's CVT the "
                    "theory alone is 3.1–3.6× stiffer than measured)",
@@ -127,10 +127,17 @@ def summary(rows: list[dict], ranked: list[dict] | None = None) -> Summary:
     return Summary(answer, sure)
 
 
+def law_meaning() -> str:
+    """What the contact_law row means, with every law of core.contact.laws.LAWS and its title."""
+    laws = "; ".join(f"{name}: {law.title}" for name, law in LAWS.items())
+    return f"the contact law every column is evaluated under ({laws}; rigid for the ideal CVT)"
+
+
 def glossary(table_labels: dict) -> Glossary:
     """The figure, the table's rows (table_labels: {key: label} of cli.compare.COLUMNS) and the terms."""
-    return Glossary([FIGURE] + [(label, MEANINGS.get(key, "see docs/comparing.md")) for key, label in table_labels.items()]
-                    + TERMS)
+    meanings = {**MEANINGS, "contact_law": law_meaning()}
+    return Glossary([FIGURE] + [(label, meanings.get(key, "see docs/comparing.md"))
+                                for key, label in table_labels.items()] + TERMS)
 
 
 def report_blocks(rows: list[dict], blocks: list, figure, table_labels: dict, ranked: list[dict] | None = None) -> list:

@@ -2,7 +2,7 @@
 
 For each roller: the Hertz ellipse (a along the rolling direction, b across), its peak pressure, Kalker's
 coefficients C11, C22, C23, C33, μ, linear theory's creep constants, and the creep–force curves of the
-`kalker` law (core.contact.surface: Kalker's simplified theory FASTSIM with the Hertz traction bound) for
+creep-force surface (core.contact.surface: Kalker's simplified theory FASTSIM with the Hertz traction bound) for
 longitudinal, lateral and spin creepage, with the pure-spin moment curve. The patch, the coefficients and the
 ε columns are the contact physics the layout's radii, crowns, materials and preloads give by the theory alone;
 next to them, the compliance the variant's law actually uses (its calibration: the materials library's, a
@@ -31,9 +31,9 @@ def used_patch(layout, roller) -> dict:
     """The roller's patch (numeric) as the variant's law runs it: Hertz at the nominal moduli, the creep at the
     calibration's creep modulus (core.contact.patch.patch), and G (with the creep and spin coefficients) divided
     by k = ε used / ε of that patch in the roller's own direction, so that its linear slope is the calibrated
-    compliance the model runs (calibrated_compliance). Under the kalker law k is the variant's calibration
-    factor, which divides G at every creepage (core.contact.laws.KalkerLaw); under Kim's law, whose creep is
-    linear, the curves give FASTSIM's shape at the fitted slope. With the theory alone k = 1."""
+    compliance the model runs (calibrated_compliance). Under a law on the theory's compliances k is the variant's
+    calibration factor, which divides G at every creepage; under a law with fitted linear creep constants the
+    curves give FASTSIM's shape at the fitted slope. With the theory alone k = 1."""
     p = {k: float(v) for k, v in patch(layout, roller).items()}
     used = calibrated_compliance(layout, roller)
     k = used / (p["eps_long"] if roller.role != "steering" else p["eps_lat"])

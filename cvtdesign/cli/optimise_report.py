@@ -11,8 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from cvtdesign.design.objectives import objective
-from cvtdesign.io.layout_drawing import beside_figure
-from cvtdesign.io.optimum_figures import convergence_figure, slack_figure
+from cvtdesign.io.plots import beside_figure, convergence_figure, slack_figure
 from cvtdesign.io.report import Glossary, Heading, Summary, png_figure
 from cvtdesign.io.units import degrees, engineering
 from cvtdesign.io.variant import load_variant

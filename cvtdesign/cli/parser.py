@@ -151,8 +151,8 @@ def _add_optimise(p):
     p.add_argument("--report", help="also write an HTML report (the design and constraint tables) to this file")
     p.add_argument("--step", action="store_true", help="also export the optimum as a STEP assembly (+ SVG, PNG)")
     p.add_argument("--calibration", metavar="FITTED.json", help="a diagnosis report (cvtdesign diagnose --json): "
-                   "the base variant carries its fitted effect parameters (under contact law kalker, the "
-                   "calibration of the Kalker compliances)")
+                   "the base variant carries its fitted effect parameters (under a contact law without fitted "
+                   "creep constants, the calibration of its theory's compliances)")
 
 
 def _add_study(p):
@@ -168,7 +168,8 @@ def _add_rig(p):
     p.add_argument("variant", help="variant YAML file")
     p.add_argument("--effects", help="effects on, comma-separated (default: the variant's; 'none' for the ideal CVT)")
     p.add_argument("--set", action="append", metavar="EFFECT.PARAM=VALUE",
-                   help="an effect parameter, e.g. steering_lateral_creep.scale=1.2 or 'rolling_resistance.offset=0.2 mm'")
+                   help="an effect parameter, e.g. a creep scale EFFECT.scale=1.2 or a length with its unit "
+                        "'EFFECT.offset=0.2 mm' (the effects and their parameters: docs/effects.md)")
     p.add_argument("--noise", help="measurement noise σ, e.g. 'speed=0.01 rad/s,torque=0.005 N*m,axis=0.05 deg' "
                                    "(these are the defaults; plain numbers are SI)")
     p.add_argument("--protocol", help="protocol YAML (gamma, load, load_kind, motor_speed, replicates, random, seed), "

@@ -10,8 +10,8 @@ from rich.table import Table
 
 from cvtdesign.core.geometry import FRAME, pose, steering_angle
 from cvtdesign.core.kinematics import shaft_frame
-from cvtdesign.io.layout_drawing import layout_figure
 from cvtdesign.io.output import make_folder
+from cvtdesign.io.plots import layout_figure
 from cvtdesign.io.variant import load_variant
 
 DEFAULT_GAMMA = 45.0      # [deg] as export's: a machine that transmits (at γ = 0 the brake shaft stands still)

@@ -38,7 +38,8 @@ import numpy as np
 from cvtdesign.core.contact import hertz
 from cvtdesign.core.kinematics import wrap_axis_angle
 from cvtdesign.core.metrics import allowable_pressures
-from cvtdesign.core.model import STATUS, CompiledModel
+from cvtdesign.core.model import CompiledModel
+from cvtdesign.core.status import STATUS, Status
 
 LIMITS = ("gross_slip", "lost_contact", "pressure", "usable_ratio", "runaway")   # the limits a capacity can end at
 SCAN_STEPS = 128      # steps of the load scan up to the search bound
@@ -48,7 +49,7 @@ PRESSURE = len(STATUS)    # code of a point that holds with some contact over it
 USABLE = len(STATUS) + 1  # code of a point that holds with |α| over the usable-ratio bound
 RUNAWAY = len(STATUS) + 2  # code of a search that ended with the speed ratio at its pole (module docstring)
 NO_LIMIT = -1             # code where no limit was met up to the search bound
-MODEL_STOPS = tuple(STATUS.index(s) for s in ("not_converged", "reversed", "multiple_roots"))
+MODEL_STOPS = (Status.NOT_CONVERGED, Status.REVERSED, Status.MULTIPLE_ROOTS)
 # The default usable-ratio bound |α| ≤ 2°. Brokowski et al. ("Toward improved CVTs: theoretical and experimental
 # results", sec. 5.2.1, eq. 23) judge a resteered CVT by its speed-ratio error over the ratios 0.4–2.5 and accept
 # an average under 10 %. On Kim's law ω2/ω1 = tan γ an error α in the axis gives a relative ratio error
@@ -74,15 +75,15 @@ def limit_codes(model: CompiledModel, res: dict, allow: np.ndarray, safety: floa
     with np.errstate(invalid="ignore"):
         over = res["p_max"] / allow.reshape(shape)
     over = np.where(np.isfinite(over), over, -np.inf)
-    slipping = (code == 0) & (used.max(axis=0) >= 1 / safety)
-    code[slipping] = STATUS.index("gross_slip")
+    slipping = (code == Status.OK) & (used.max(axis=0) >= 1 / safety)
+    code[slipping] = Status.GROSS_SLIP
     contact[slipping] = np.argmax(used[:, slipping], axis=0)
-    pressed = (code == 0) & (over.max(axis=0) > 1)
+    pressed = (code == Status.OK) & (over.max(axis=0) > 1)
     code[pressed] = PRESSURE
     contact[pressed] = np.argmax(over[:, pressed], axis=0)
     if max_slip is not None:
         with np.errstate(invalid="ignore"):
-            code[(code == 0) & (np.abs(res["alpha"]) > max_slip)] = USABLE
+            code[(code == Status.OK) & (np.abs(res["alpha"]) > max_slip)] = USABLE
     return code, contact
 
 
@@ -131,7 +132,7 @@ def capacity(model: CompiledModel, gammas, bound: float, safety: float = 1.0, ma
     lo, hi, code, contact = _bisect(judge, lo, hi, code, contact, progress, steps)
     res = model.evaluate(G, sign * lo, **per_point(1))      # the last load that held (0 where none)
     code = np.where(_ran_away(res, code, lo), RUNAWAY, code)
-    limited = np.isin(code, [STATUS.index("gross_slip"), STATUS.index("lost_contact"), PRESSURE, USABLE, RUNAWAY])
+    limited = np.isin(code, [Status.GROSS_SLIP, Status.LOST_CONTACT, PRESSURE, USABLE, RUNAWAY])
     known = limited & (hi > 0)          # failing without load: the limit is named, there is no capacity
     shared = _sharing(res, code, allow, model.layout) & known
     names = {**dict(enumerate(STATUS)), PRESSURE: "pressure", USABLE: "usable_ratio", RUNAWAY: "runaway",
@@ -175,10 +176,10 @@ def pivoting(model: CompiledModel, gammas) -> dict:
     capacity at γ = 0 ends on a limit like elsewhere), so it is reported, not counted as a capacity.
 
     Returns {'modelled': False} where the law gives no spin moment at any contact although the drive contacts
-    spin (Kim's law: the pivoting is not modelled, which is not 'none'); else {'modelled': True, 'share':
-    (contacts × γ) |Mz|/(μNℓ) of the drive and follower rollers (NaN for steering rollers and where the point
-    fails), 'pivots' (contacts × γ) share ≥ PIVOT_SHARE, 'loss' (contacts × γ) [W] each contact's power loss,
-    'power_loss' (γ) [W] the whole loss}."""
+    spin (a law without spin moment: the pivoting is not modelled, which is not 'none'); else {'modelled':
+    True, 'share': (contacts × γ) |Mz|/(μNℓ) of the drive and follower rollers (NaN for steering rollers and
+    where the point fails), 'pivots' (contacts × γ) share ≥ PIVOT_SHARE, 'loss' (contacts × γ) [W] each
+    contact's power loss, 'power_loss' (γ) [W] the whole loss}."""
     g = np.atleast_1d(np.asarray(gammas, float))
     res = model.evaluate(g, np.zeros_like(g))
     drive = np.array([r.role != "steering" for r in model.layout.rollers])
@@ -203,7 +204,7 @@ def _sharing(res: dict, code, allow, layout) -> np.ndarray:
     tractive force equally (the box's A and A') reaches gross slip at the same load."""
     preload = np.array([r.preload for r in layout.rollers], float)[:, None]
     with np.errstate(invalid="ignore"):
-        measures = {STATUS.index("gross_slip"): res["utilisation"], STATUS.index("lost_contact"): -res["N"] / preload,
+        measures = {Status.GROSS_SLIP: res["utilisation"], Status.LOST_CONTACT: -res["N"] / preload,
                     PRESSURE: res["p_max"] / allow[:, None]}
     out = np.zeros(res["utilisation"].shape, bool)
     for c, m in measures.items():

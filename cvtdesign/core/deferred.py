@@ -1,7 +1,7 @@
 """Calls of compiled functions that the model's SX graph defers (core.model, core.contact.laws).
 
 The model is assembled as CasADi SX expressions, the fastest form for its many scalar operations. A function
-that is a table lookup in C (the `kalker` law's creep-force surface) cannot be written out in SX, and SX
+that is a table lookup in C (the creep-force surface, core.contact.surface) cannot be written out in SX, and SX
 differentiates a call to it direction by direction: the box's 24 × 24 Jacobian then evaluated the surface's
 full Jacobian 192 times for 8 contacts. So such a call is deferred: the law gets an SX symbol v standing for
 the call's value, and `close` builds a function of the model as three parts, an SX function of the calls'

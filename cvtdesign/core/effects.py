@@ -14,7 +14,7 @@ on, in the order of the vocabulary:
 | `compliance` | (c, p) → (c_t, c_a) | creep compliance added along the rolling direction t and the axle a [s/kg] |
 | `saturation` | (c, p) → (g, u) | a factor g on the compliances and the traction utilisation u it used |
 | `resistance` | (c, p) → M | resisting moment on the roller about its axle [N m] (the sphere gets −M·a) |
-| `calibration` | (c, p) → k | a factor on the calibration of the contact's creep coefficients (contact laws that take Kalker's coefficients, core.contact.laws.KalkerLaw) [-] |
+| `calibration` | (c, p) → k | a factor on the calibration of the contact's creep coefficients (laws on Kalker's coefficients, with calibration factors) [-] |
 
 `c` is a `ContactState`: the CasADi expressions of one contact while the model is assembled; `p` maps the
 effect's parameter names to their (symbolic) values. Adding an effect means adding one `Effect` below: its

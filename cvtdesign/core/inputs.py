@@ -3,7 +3,7 @@ comes from, and the model in which they are inputs (core.uncertainty carries the
 
 What is uncertain (a relative deviation x of each, the figure's derivative taken at x = 0):
  * the calibration of each role's creep compliance (drive and follower contacts; steering contacts): the scales
-   of `drive_longitudinal_creep` and `steering_lateral_creep` (θ, not a design input here), σ from the
+   of the two creep effects (core.effects.CALIBRATION; θ, not a design input here), σ from the
    calibration (a library fit, the variant's own constants, or a transferred calibration's wider σ);
  * the preload P(1 + x) of every roller together: σ `preload_std`, 20 % where the variant states none; and
    the preload the calibration's machine ran at (Kim et al. state none; 100 N is this project's assumption),

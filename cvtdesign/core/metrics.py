@@ -11,8 +11,8 @@ Figures (all over the variant's envelope, Kim's protocol by default: γ −80°.
    CVT, at zero load none enters); `efficiency_points` counts them and `no_output_points` the points of that
    range that deliver none (power enters both shafts: the losses exceed what the load returns);
  * max_loss_no_output_W: the largest power lost [W] at an ok point that delivers no power (zero load, γ = 0,
-   or power entering both shafts), where an efficiency means nothing: under Kalker's law spin costs power
-   even without load;
+   or power entering both shafts), where an efficiency means nothing: under a law with a spin moment spin costs
+   power even without load;
  * max_traction_utilisation: max |F|/(μN) over all contacts; max_hertz_pressure_MPa: max Hertz peak pressure;
  * max_steering_torque_Nm: the steering motor's largest |torque| [N·m] while the contacts roll, through the
    linkage; max_standstill_steering_torque_Nm: the largest it needs to resteer with the sphere at rest, at
@@ -37,6 +37,7 @@ import numpy as np
 
 from cvtdesign.core.contact.laws import IDEAL, contact_law
 from cvtdesign.core.model import CompiledModel, compile_model, status_counts
+from cvtdesign.core.status import Status
 from cvtdesign.core.steering import standstill_torques
 
 
@@ -44,9 +45,9 @@ ZERO_TORQUE = 1e-9     # [N m] a steering torque below this is round-off: no for
 
 
 def ideal_model(layout) -> CompiledModel:
-    """The ideal CVT of a layout: the same rollers and linkage with rigid rolling contacts (Kim's law with no
-    effects: no creep, no losses), whatever the layout's contact law. Kalker's law creeps with no effect
-    on, so `effects=()` alone does not make it ideal."""
+    """The ideal CVT of a layout: the same rollers and linkage with rigid rolling contacts (the ideal law,
+    core.contact.laws.IDEAL, with no effects: no creep, no losses), whatever the layout's contact law. A law on
+    a theory creeps with no effect on, so `effects=()` alone does not make it ideal."""
     return compile_model(dataclasses.replace(layout, contact_law=IDEAL), effects=())
 
 
@@ -172,7 +173,7 @@ SPIN_FIGURES = ("max_steering_torque_Nm",)   # figures made of the contacts' spi
 
 
 def not_modelled(layout, effects) -> list[str]:
-    """The figures the layout's contact law cannot produce: under a law without spin moment (Kim's) the
+    """The figures the layout's contact law cannot produce: under a law without spin moment the
     rolling steering torque, whose main part is the spin moment about each fork's axis, is not a 0 but
     not modelled (the ideal CVT, with no effect on, has none to model)."""
     return list(SPIN_FIGURES) if contact_law(layout.contact_law).spin_error is None and effects else []
@@ -188,7 +189,7 @@ def metrics(model: CompiledModel, res: dict) -> dict:
     eff_range = (np.abs(res["gamma_cmd"]) >= np.radians(5) - 1e-12) & \
         (np.abs(res["load"]) >= 0.25 * np.max(np.abs(L.load_grid)))
     delivers = delivers_power(res)
-    failed = np.flatnonzero(np.ravel(res["status"]) == 1)
+    failed = np.flatnonzero(np.ravel(res["status"]) == Status.NOT_CONVERGED)
     missing = not_modelled(L, model.effects)
     return {
         "name": L.name, "file": L.file, "ideal_law": model.frame.law_text(),

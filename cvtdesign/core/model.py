@@ -10,10 +10,10 @@ Equations (derived from the vectors; the effects' terms come from effects.py, by
    (no slip: r_i ω_i = −R Ω·a_i, so shaft s turns at ω_s = g_s·Ω, kinematics.py);
  * creep law, dissipative (F·s ≤ 0), by the variant's contact law (core.contact.laws): two rows per contact
    relating s_i, the spin Ω·n_i and F_i, and the spin moment Mz_i the patch puts on the sphere:
-   - kim: s_t + c_t·F_t = 0, s_a + c_a·F_a = 0, with the compliances c the effects contribute, rigid where no
-     effect adds compliance; no spin moment;
-   - kalker: the Hertz patch at N_i, creep and spin combined by FASTSIM's creep-force surface
-     (core.contact.surface), scaled by the calibration;
+   - a linear law (fitted creep constants): s_t + c_t·F_t = 0, s_a + c_a·F_a = 0, with the compliances c
+     the effects contribute, rigid where no effect adds compliance; no spin moment;
+   - a law on Kalker's theory: the Hertz patch at N_i, creep and spin combined by FASTSIM's creep-force
+     surface (core.contact.surface), scaled by the calibration;
  * sphere moment balance: Σ R n_i × F_i + Σ Mz_i n_i − Σ M_i a_i = 0 (M_i: `resistance` moments on the
    rollers);
  * sphere force balance on preloaded compliant mounts: N_i = P_i + k_i n_i·δ, Σ (F_i − N_i n_i) = 0, solved
@@ -51,13 +51,13 @@ from cvtdesign.core.geometry import ideal_gamma, roller_pose, steering_angle_gue
 from cvtdesign.core.kinematics import ShaftFrame, shaft_frame, shaft_gain, wrap_axis_angle
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.native import Tiered, compiled, from_source
+from cvtdesign.core.status import STATUS, Status  # noqa: F401 (STATUS: its readers import it from here)
 from cvtdesign.core.newton import newton_solver
 
 RES_TOL = 1e-8        # scaled residual above which a point is reported as not converged
 LOAD_STEPS = 4        # steps of the continuation in the load from rest (_solve_from_rest)
 SAT_LIMIT = 0.999     # traction utilisation |F|/(μN) of a saturation law beyond which a point is gross slip
 
-STATUS = ("ok", "not_converged", "lost_contact", "gross_slip", "reversed", "multiple_roots")   # `status` codes, in order
 ROOT_TOL = 1e-6       # scaled unknowns' largest difference beyond which two converged solutions are two roots
 UTIL_CHECK = 0.5      # traction utilisation above which a law with several roots also solves from rest
 CONTACT_OUTPUTS = ("N", "F_t", "F_a", "utilisation", "p_max", "xi", "eta", "spin", "mu", "M_spin", "loss", "a", "b",
@@ -140,9 +140,9 @@ class CompiledModel:
         self._tiered.record(fn, n, time.perf_counter() - t)
         res = dict(zip(self.point.name_out(), out))
         status = status_codes(res)
-        ok = status == 0
+        ok = status == Status.OK
         result = {"status": status.reshape(shape), "ok": ok.reshape(shape),
-                  "converged": (status != 1).reshape(shape),
+                  "converged": (status != Status.NOT_CONVERGED).reshape(shape),
                   "failed_contact": failed_contact(res, status).reshape(shape),
                   "gamma_cmd": gammas, "load": loads, "omega_1": w.reshape(shape)}
         for k, v in res.items():
@@ -176,14 +176,14 @@ def _call(mapped: ca.Function, args: list) -> list[np.ndarray]:
 def status_codes(res: dict) -> np.ndarray:
     """Per point, the STATUS code of raw point outputs (`status` row), not_converged where the solve gave no
     number at all."""
-    return np.where(np.isfinite(res["status"][0]), res["status"][0], 1).astype(int)
+    return np.where(np.isfinite(res["status"][0]), res["status"][0], Status.NOT_CONVERGED).astype(int)
 
 
 def failed_contact(res: dict, status: np.ndarray) -> np.ndarray:
     """Per point, the index of the contact behind a lost_contact (smallest N) or gross_slip (largest
     |F| − μN) status; −1 for the other points."""
     out = np.full(status.shape, -1)
-    lost, slip = status == 2, status == 3
+    lost, slip = status == Status.LOST_CONTACT, status == Status.GROSS_SLIP
     if lost.any():
         out[lost] = np.argmin(res["N"][:, lost], axis=0)
     if slip.any():
@@ -196,8 +196,8 @@ def status_counts(res: dict, roller_names) -> dict:
     """{status: count} over an evaluate() result (every STATUS key), with the contacts behind lost_contact and
     gross_slip: {'lost_contact_at': {roller: count}, 'gross_slip_at': {...}}."""
     st, fc = res["status"].ravel(), res["failed_contact"].ravel()
-    counts = {name: int(np.sum(st == k)) for k, name in enumerate(STATUS)}
-    for k, name in ((2, "lost_contact"), (3, "gross_slip")):
+    counts = {s.label: int(np.sum(st == s)) for s in Status}
+    for k, name in ((s, s.label) for s in (Status.LOST_CONTACT, Status.GROSS_SLIP)):
         idx = fc[st == k]
         counts[f"{name}_at"] = {roller_names[i]: int(np.sum(idx == i)) for i in np.unique(idx) if i >= 0}
     return counts
@@ -242,8 +242,9 @@ def _status(resid, per, sat, forward):
                           zip(per["F_t"], per["F_a"], per["mu"], per["N"])])
     saturated = ca.mmax(ca.vertcat(0, *sat)) > SAT_LIMIT
     converged = _converged(resid)
-    physical = ca.if_else(ca.mmin(N) <= 0, 2, ca.if_else(ca.logic_or(ca.mmax(excess) > 0, saturated), 3, 0))
-    return ca.if_else(converged, ca.if_else(forward, physical, 4), 1)
+    slipping = ca.if_else(ca.logic_or(ca.mmax(excess) > 0, saturated), int(Status.GROSS_SLIP), int(Status.OK))
+    physical = ca.if_else(ca.mmin(N) <= 0, int(Status.LOST_CONTACT), slipping)
+    return ca.if_else(converged, ca.if_else(forward, physical, int(Status.REVERSED)), int(Status.NOT_CONVERGED))
 
 
 def _converged(resid):
@@ -385,7 +386,7 @@ def _point_builder(close, residual, jacobian, x0_fn, steer_res, misfit, theta, d
             x_m, several = _solve_from_rest(solver, residual, x0_fn, p_m, utilisation)
             res = dict(zip(model_names, sel.call([x_m, p_m])))
             if "status" in res:
-                res["status"] = ca.if_else(several, STATUS.index("multiple_roots"), res["status"])
+                res["status"] = ca.if_else(several, int(Status.MULTIPLE_ROOTS), res["status"])
         # how far the linkage is from rolling about the commanded axis (0 where it reaches γ)
         res["steer_misfit"] = misfit(phi_m, ca.vertcat(g_m, d_m))
         return ca.Function(name, ins, [res[k] for k in selected], in_names, list(selected))
@@ -396,26 +397,26 @@ def _solve_from_rest(solver, residual: ca.Function, x0_fn: ca.Function, p: ca.MX
     """(x, several): the operating point's solution, and whether the equations hold another one there.
 
     Past the envelope the equations can have more than one root, and the Newton solve from the ideal
-    kinematics (no forces) can land on either, depending on round-off: an asymmetric box under Kalker's law
-    reaches α = 2.612° written one way and 2.610° rotated, both converged, where loading from rest reaches
-    2.679°. The state then depends on how the load came, which no steady-state model can tell, so such a
+    kinematics (no forces) can land on either, depending on round-off: an asymmetric box under Hertz + Kalker
+    + FASTSIM reaches α = 2.612° written one way and 2.610° rotated, both converged, where loading from rest
+    reaches 2.679°. The state then depends on how the load came, which no steady-state model can tell, so such a
     point carries no number (`multiple_roots`).
 
     Where the contact law can have several roots (laws.*.several_roots), the direct root stands unless it
     failed or some contact uses more than UTIL_CHECK of its friction: a second root needs the law to bend,
     which it does near saturation (existing.yaml at γ = −16°, τ⊥ = 2.5 N·m, contacts at 0.68 μN: the
     direct solve reaches α = 18.49°, loading from rest 18.35°; inside the shipped envelopes no contact passes
-    0.38 μN, and the shipped kalker variants and an asymmetric box have no second root below 0.5 μN over
-    γ ±88°, τ⊥ ±4 N·m). There the point is also solved as a rig reaches it, the load applied from rest in
+    0.38 μN, and the shipped variants of such a law and an asymmetric box have no second root below 0.5 μN
+    over γ ±88°, τ⊥ ±4 N·m). There the point is also solved as a rig reaches it, the load applied from rest in
     LOAD_STEPS equal steps, each solve starting from the last converged one. Where both hold and differ (by
     more than ROOT_TOL in the scaled unknowns), the point is `multiple_roots`; where only one holds, that one
     is the solution. The stepped solution alone is no answer: near a fold its steps land on whichever root
     they reach, and its α can jump by 0.6° between loads one ulp apart.
 
-    Under Kim's law the roots inside the envelopes are unique, and the stepped solve only replaces a direct
-    one that fails or turns backwards (existing_kim.yaml at (−80°, 2.1 N·m) is `reversed` from the ideal
-    kinematics and ω2 = −20.2 rad/s from rest). Derivatives are those of the solve whose root is returned,
-    by the implicit function theorem."""
+    Under a linear law (fitted creep constants) the roots inside the envelopes are unique, and the stepped
+    solve only replaces a direct one that fails or turns backwards (existing_kim.yaml at (−80°, 2.1 N·m) is
+    `reversed` from the ideal kinematics and ω2 = −20.2 rad/s from rest). Derivatives are those of the solve
+    whose root is returned, by the implicit function theorem."""
     def good(x, q):      # converged, on a forward root (as _status judges them)
         return ca.logic_and(_converged(residual(x, q)), ca.dot(x[0:3], x0_fn(q)[0:3]) > 0)
 

@@ -18,7 +18,7 @@ The loop's own operations are not differentiated. Where derivatives are wanted, 
 from its result x*, x = x* − J(x*)⁻¹F(x*, p), with J held constant: at a root F = 0, so the value is x* (to
 the solver's tolerance), and the derivative is −J⁻¹ ∂F/∂p, the implicit function theorem's, as the `newton`
 rootfinder gives it. (CasADi's `fast_newton` rootfinder with no iterations did this before; it cannot be
-code-generated once the residual calls an external function, as the `kalker` law's surface is.)
+code-generated once the residual calls an external function, as the creep-force surface is.)
 """
 from __future__ import annotations
 

@@ -61,9 +61,9 @@ def draw(dims, rng: np.random.Generator, n: int) -> np.ndarray:
 
 def as_built(layout: Layout, dims, x) -> Layout:
     """The layout with deviation x[j] (floats or CasADi symbols) of each dimension dims[j] applied (module
-    docstring). Under Kim's law a fitted creep constant holds at the drawing's preloads, so a preload off its
-    drawing creeps as ε ∝ N^(−2/3) says: the layout's creep reference force is pinned to the drawn preload
-    (which must then be one value; otherwise contact.creep_reference_force must say where ε holds)."""
+    docstring). Under a law with fitted creep constants a fitted constant holds at the drawing's preloads, so
+    a preload off its drawing creeps as ε ∝ N^(−2/3) says: the layout's creep reference force is pinned to the
+    drawn preload (which must then be one value; otherwise contact.creep_reference_force must say where ε holds)."""
     rollers = {r.name: r for r in layout.rollers}
     for j, d in enumerate(dims):
         for name in d.rollers:
@@ -73,9 +73,9 @@ def as_built(layout: Layout, dims, x) -> Layout:
     if fitted and layout.creep_reference_force is None and any(d.kind == "preload" for d in dims):
         drawn = {float(r.preload) for r in layout.rollers}
         if len(drawn) > 1:
-            raise InputError(f"{layout.file}: contact.creep_reference_force: a preload tolerance under law kim needs "
-                             "the force at which the fitted creep constants hold (the rollers' preloads differ); "
-                             "expected it given")
+            raise InputError(f"{layout.file}: contact.creep_reference_force: a preload tolerance under law "
+                             f"{layout.contact_law} needs the force at which its fitted creep constants hold (the "
+                             "rollers' preloads differ); expected it given")
         built = replace(built, creep_reference_force=drawn.pop())
     return built
 

@@ -143,7 +143,7 @@ def parse_noise(text: str | None, where="--noise") -> Noise:
 
 
 def parse_settings(items, effects, where="--set") -> dict:
-    """['steering_lateral_creep.scale=1.3', 'rolling_resistance.offset=0.2 mm'] → {effect: {param: SI}}: each
+    """['EFFECT.scale=1.3', 'EFFECT.offset=0.2 mm'] → {effect: {param: SI}}: each
     finite and within the parameter's physical range (variant.effect_value, as in a variant file)."""
     out: dict = {}
     for item in items or []:

@@ -1,7 +1,7 @@
 """Fitted effect parameters from a diagnosis (`cvtdesign diagnose --json`), for a design study to carry.
 
-Under contact law kalker the scales of drive_longitudinal_creep and steering_lateral_creep are the
-calibration of the Kalker compliances, so a diagnosis of the rig's data calibrates the studies that follow
+Under a contact law without fitted creep constants the scales of the creep effects (core.effects.CALIBRATION)
+are the calibration of its theory's compliances, so a diagnosis of the rig's data calibrates the studies that follow
 (`optimise --calibration FILE.json` or a study's `calibration: FILE.json`). The file's `final_fit` maps
 'effect.parameter' to {value, std, identifiable}; every value must be a finite SI number within the
 parameter's physical range (io.variant.effect_value), one InputError line otherwise.

@@ -191,8 +191,9 @@ def check_fitted_pair(variant_file: str, spec: VariantSpec, roller: str, role: s
 
 def contact_calibration(variant_file: str, spec: VariantSpec, role: str, roller_material: str,
                         sphere_material: str) -> CreepSource:
-    """Where a contact's creep compliance comes from, in this order: the variant's own constants (kim's
-    creep_drive or creep_steering, kalker's calibration factors, with contact.uncertainty), a library
+    """Where a contact's creep compliance comes from, in this order: the variant's own constants (a
+    fitted law's creep_drive or creep_steering, or the calibration factors on a theory, with
+    contact.uncertainty), a library
     calibration of its two materials, else the theory alone (uncalibrated)."""
     c, side = spec.contact, "drive" if role != "steering" else "steering"
     source = functools.partial(CreepSource, materials=(roller_material, sphere_material))
@@ -260,8 +261,8 @@ def transferred(variant_file: str, spec: VariantSpec, roller_material: str) -> d
 
 def fitted_calibrations(layout: Layout, scales: dict, machine: str, data: str, fit: str) -> list[dict]:
     """Library calibrations (one per roller material on the sphere's) from a diagnosis's fitted compliance
-    scales {role: (scale, σ)} ('drive', 'steering'; the scales of drive_longitudinal_creep and
-    steering_lateral_creep): each roller's fitted compliance is scale × the compliance its law used
+    scales {role: (scale, σ)} ('drive', 'steering'; the scales of the creep effects,
+    core.effects.CALIBRATION): each roller's fitted compliance is scale × the compliance its law used
     (core.contact.patch.calibrated_compliance), and its creep modulus the one that gives it. A material
     whose rollers give different moduli (several roles, or fitted constants that ignored their geometry) gets
     their mean, the spread added to its σ."""

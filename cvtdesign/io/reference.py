@@ -194,6 +194,21 @@ WRITING = """\
 """
 
 
+def laws_markdown() -> list[str]:
+    """The contact laws (core.contact.laws.LAWS), each with its title, the constants it takes and the first
+    paragraph of its class's description: a law added there is listed here with no other edit."""
+    out = ["The contact laws:", ""]
+    for name, law in LAWS.items():
+        takes = ("fitted creep constants: creep_drive, creep_steering, creep_reference_force" if law.fitted
+                 else "calibration factors on its theory (or the materials library's calibration)")
+        flags = [w for w, on in (("the default", law.default), ("the ideal CVT's, with no effect on", law.ideal),
+                                 ("no spin moment: the figures made of it are not modelled", law.spin_error is None))
+                 if on]
+        about = " ".join((type(law).__doc__ or "").strip().split("\n\n")[0].split())
+        out.append(f"* `{name}`{' (' + '; '.join(flags) + ')' if flags else ''}: {law.title}; takes {takes}. {about}")
+    return out
+
+
 def reference_markdown() -> str:
     """The text of docs/variant-reference.md: every field of a variant file, from io.schema."""
     out = ["# Variant file reference", "", GENERATED, "",
@@ -209,6 +224,8 @@ def reference_markdown() -> str:
         out += ["| field | type | unit (SI; example) | default | plausible range | meaning |",
                 "| --- | --- | --- | --- | --- | --- |"]
         out += [field_row(prefix, n, info, inherited) for n, info in model.model_fields.items()]
+        if prefix == "contact.":
+            out += ["", *laws_markdown()]
         if prefix == "envelope.load.":
             out += ["", (f"The load is also refused beyond what the variant's contacts can carry: {LOAD_MARGIN:g} × "
                          "Σ μ·P·max(R, r) over the contacts (μ the friction coefficient of the roller's material on "
@@ -267,13 +284,13 @@ slip.
 Setting a parameter: in a variant file,
 
 ```yaml
-effects: [drive_longitudinal_creep, steering_lateral_creep, rolling_resistance]
+effects: [{effects}]
 effect_parameters:
-  rolling_resistance: {offset: 0.2 mm}
+  {effect}: {{{param}: {value}}}
 ```
 
-or on the command line, `cvtdesign rig variants/existing_kim.yaml --effects rolling_resistance --set
-'rolling_resistance.offset=0.2 mm' --out /tmp/rig.csv`. Values are written as in variant files (a plain
+or on the command line, `cvtdesign rig variants/existing_kim.yaml --effects {effect} --set
+'{effect}.{param}={value}' --out /tmp/rig.csv`. Values are written as in variant files (a plain
 number is SI; `0.2 mm`, `0.5 deg` carry units) and must lie within the bounds below, which are also the
 bounds the diagnosis fits within. A parameter that is not given takes its default.
 
@@ -287,10 +304,19 @@ in the order of the vocabulary (c: one contact while the model is assembled; p: 
 """
 
 
+def example_setting() -> dict:
+    """The intro's example, from the vocabulary: the first effect outside Kim et al.'s model with a length
+    parameter, set to its self-check's last value, on top of that model's effects."""
+    effect, param = next((n, k) for n, e in fx.EFFECTS.items() if n not in fx.KIM_MODEL
+                         for k, p in e.params.items() if p.kind == "length")
+    value = typed(fx.EFFECTS[effect].selfcheck.values[-1], "length")
+    return {"effects": ", ".join([*fx.KIM_MODEL, effect]), "effect": effect, "param": param, "value": value}
+
+
 def effects_markdown() -> str:
     """The text of docs/effects.md: every effect of core.effects.EFFECTS, its parameters and hooks."""
     hooks = _hooks()
-    out = ["# The effect vocabulary", "", GENERATED, "", EFFECTS_INTRO.rstrip("\n")]
+    out = ["# The effect vocabulary", "", GENERATED, "", EFFECTS_INTRO.format(**example_setting()).rstrip("\n")]
     out += [f"| `{h}` | {what} |" for h, what in hooks.items()]
     out += ["", "## The effects", ""]
     for name, e in fx.EFFECTS.items():

@@ -11,7 +11,7 @@ from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fie
 from pydantic_core import PydanticCustomError, PydanticUndefined
 
 from cvtdesign.core.contact.laws import DEFAULT, LAWS
-from cvtdesign.core.effects import KIM_MODEL
+from cvtdesign.core.effects import CALIBRATION, KIM_MODEL
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.units import KINDS
 
@@ -236,13 +236,14 @@ class SteeringSpec(Strict):
 
 
 class CalibrationSpec(Strict):
-    """Factors on the Kalker compliances of contact.law: kalker (1: the theory as it stands). A factor given
-    here replaces the materials library's calibration of those contacts; an omitted one leaves it."""
+    """Factors on the theory's compliances, for a contact law without fitted creep constants (1: the theory as
+    it stands). A factor given here replaces the materials library's calibration of those contacts; an omitted
+    one leaves it."""
     drive: Num | None = spec_field("factor on the compliances of the drive and follower contacts (fitted by "
-                                   "diagnose as drive_longitudinal_creep.scale; omitted: the library's calibration, "
+                                   f"diagnose as {CALIBRATION['drive']}.scale; omitted: the library's calibration, "
                                    "else the theory)", None, kind="dimensionless", plausible="calibration")
     steering: Num | None = spec_field("factor on the compliances of the steering contacts (fitted by diagnose as "
-                                      "steering_lateral_creep.scale; omitted: as for drive)", None,
+                                      f"{CALIBRATION['steering']}.scale; omitted: as for drive)", None,
                                       kind="dimensionless", plausible="calibration")
 
 
@@ -260,16 +261,12 @@ class FittedOnSpec(Strict):
 
 
 class ContactSpec(Strict):
-    """The contact law. `kalker` (the default, the most complete physics): at every contact the Hertz patch at
-    its force-balanced normal force, its creepages normalised by Kalker's coefficients (C11, C22, C23), and the
-    force and spin moment of Kalker's simplified theory (FASTSIM) for creep and spin together
-    (core.contact.surface), calibrated by the materials library or scaled by `calibration`. `kim`: Kim et al.'s
-    fitted creep constants ε_D and ε_S ('Causes of microslip in a continuously variable transmission'), with
-    the effects of the vocabulary on top and no spin moment, to reproduce that paper's figures."""
-    law: LawName = spec_field("the contact law: kalker (Hertz + Kalker + FASTSIM at every contact, the default) "
-                              "or kim (Kim et al.'s fitted creep constants, no spin)", DEFAULT)
-    calibration: CalibrationSpec = spec_field("factors on the Kalker compliances (law kalker only): drive, steering",
-                                              CalibrationSpec())
+    """The contact law and its constants. A law with fitted creep constants takes creep_drive, creep_steering
+    and creep_reference_force; a law on a theory takes `calibration` factors on the theory's compliances, or
+    the materials library's calibration. The laws are listed below this table (core.contact.laws)."""
+    law: LawName = spec_field("the contact law (the laws: below this table)", DEFAULT)
+    calibration: CalibrationSpec = spec_field("factors on the theory's compliances (laws without fitted creep "
+                                              "constants): drive, steering", CalibrationSpec())
     creep_drive: Num | None = spec_field("creep constant ε_D of drive and follower rollers: slip ratio per "
                                          "newton of tangential force (omitted: Hertz + Kalker C11)", None,
                                          kind="compliance", plausible="creep")
@@ -369,8 +366,9 @@ class VariantSpec(Strict):
         "the rollers by name; each: role, contact, axle, shaft, ratio, radius, material, crown_radius, width, "
         "preload, mount_stiffness; shafts 1 and 2 each need a drive roller")
     steering: SteeringSpec = spec_field("the steering linkage: its forks")
-    contact: ContactSpec = spec_field("the contact law and its constants: law, calibration (kalker), creep_drive, "
-                                      "creep_steering, creep_reference_force (kim)", ContactSpec())
+    contact: ContactSpec = spec_field("the contact law and its constants: law, calibration (laws on a theory), "
+                                      "creep_drive, creep_steering, creep_reference_force (laws with fitted "
+                                      "constants)", ContactSpec())
     effects: list[str] = spec_field("the effects the model includes, names from the effect vocabulary "
                                     "(docs/effects.md); [] is the ideal CVT",
                                     list(KIM_MODEL))

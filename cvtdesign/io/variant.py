@@ -232,17 +232,18 @@ def resolve(spec: VariantSpec, where: str, overrides: dict | None = None) -> Lay
 def _contact_law(spec: VariantSpec, where: str, names: dict) -> tuple[str, dict]:
     """contact.law and its calibration factors: a law that takes fitted creep constants refuses calibration
     factors, one that takes factors refuses fitted constants (one InputError line each)."""
-    c, law = spec.contact, laws.contact_law(spec.contact.law)
-    w = f"{where}: contact"
+    c, law, w = spec.contact, laws.contact_law(spec.contact.law), f"{where}: contact"
     if law.fitted:
         if c.calibration != type(c.calibration)():
-            raise InputError(f"{w}.calibration: applies to law kalker only; expected contact.law: kalker with it, "
-                             f"or no calibration (law {law.name} uses creep_drive and creep_steering)")
+            raise InputError(f"{w}.calibration: applies to a law on a theory's compliances, not to law {law.name} "
+                             f"({law.title}); expected contact.law: {' or '.join(laws.names_where(fitted=False))} "
+                             "with it, or no calibration (creep_drive and creep_steering instead)")
         return law.name, {"drive": 1.0, "steering": 1.0}
     for f in ("creep_drive", "creep_steering", "creep_reference_force"):
         if getattr(c, f) is not None:
-            raise InputError(f"{w}.{f}: a fitted creep constant belongs to law kim; under law {law.name} the "
-                             "contacts follow Hertz and Kalker, scaled by contact.calibration: {drive, steering}")
+            raise InputError(f"{w}.{f}: a fitted creep constant belongs to a law with fitted constants "
+                             f"({' or '.join(laws.names_where(fitted=True))}); under law {law.name} the contacts "
+                             f"follow {law.title}, scaled by contact.calibration: {{drive, steering}}")
     factors = {k: getattr(c.calibration, k) for k in ("drive", "steering")}
     return law.name, {k: 1.0 if v is None else quantity(v, "calibration", f"{w}.calibration.{k}", names,
                                                         "a positive factor") for k, v in factors.items()}

@@ -11,7 +11,7 @@ answer (`truth`):
 * a withheld in-vocabulary effect: its name (for the two base creeps: the one missing from `base`);
 * a withheld out-of-vocabulary effect: `unexplained` (never a name: no effect of the vocabulary has its
   form; each leaves a residual above the noise after the base scales are refitted, see the table at CASES);
-* the two nulls (the data are exactly the base): `none`.
+* the nulls (the data are exactly the base): `none`.
 
 Units: SI inside (m, N, N·m, rad, rad/s); the data columns use degrees for angles.
 """

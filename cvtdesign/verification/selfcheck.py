@@ -13,10 +13,12 @@ default, or the box CVT), Kim's protocol (187 rows):
 formulation and its own functional forms for every effect) makes the data; its cases withhold each
 vocabulary effect (right: its name), effects outside the vocabulary (right: `unexplained`, and never a
 name) and nothing (right: `none`).
-The base of the diagnosis is Kim's model (drive_longitudinal_creep + steering_lateral_creep) minus the
-withheld effect.
+The base of the diagnosis is Kim's model (core.effects.KIM_MODEL: the two creep effects) minus the withheld
+effect.
 """
 from __future__ import annotations
+
+from collections import Counter
 
 import numpy as np
 from dask.distributed import as_completed
@@ -57,6 +59,16 @@ def make_cases(quick: bool = False, seeds: int = 3, matrices=MATRICES, variant: 
     return cases
 
 
+def case_counts(quick: bool = False, matrices=MATRICES) -> dict:
+    """{(matrix, kind): number of datasets} of the matrices (kind: single, null, weak, pair, out_of_vocabulary),
+    as make_cases makes them for any variant, without its model (the counts do not depend on the values a
+    variant gives the saturation effect): the counts the docs quote, tested against this."""
+    values = {e: (fx.selfcheck.param, fx.selfcheck.values or SATURATION_UTILISATION) for e, fx in EFFECTS.items()}
+    cases = (_rig_cases(quick, 3, values) if "rig" in matrices else []) + \
+        (_independent_cases(quick) if "independent" in matrices else [])
+    return dict(Counter((c["matrix"], c["kind"]) for c in cases))
+
+
 def _independent_cases(quick: bool) -> list[dict]:
     out, seen = [], set()
     for c in independent_rig.CASES:
@@ -86,8 +98,8 @@ def pairs() -> list[tuple]:
 
 
 def _values(variant: str) -> dict:
-    """effect → (parameter, its two values), the values an entry leaves to the variant (traction_saturation's
-    μ scales, at SATURATION_UTILISATION) filled in."""
+    """effect → (parameter, its two values), the values an entry leaves to the variant (the saturation
+    effect's μ scales, at SATURATION_UTILISATION) filled in."""
     out, u = {}, None
     for e, fx in EFFECTS.items():
         if fx.selfcheck.values is None and u is None:

@@ -3,8 +3,9 @@
 - Layers: a subpackage imports only from the layers below it (LAYERS), so the import graph has no cycle.
 - No function or method is longer than MAX_FUNCTION_LINES, no module longer than MAX_MODULE_LINES.
 - Each kind of change has one place: effects are named only in core/effects.py (and the laws and the
-  independent simulator), contact laws only in core/contact/laws.py; every effect entry is complete; a toy
-  effect and a toy law, each added in its one place, work end to end (these tests import the package).
+  independent simulator), a contact law only in the module that defines its class, in code and in prose
+  (string constants, f-strings, docstrings); every effect entry is complete; a toy effect and a toy law, each
+  added in its one place, work end to end (these tests import the package).
 - Imports sit at the top of each module; only the heavy optional libraries (LAZY) are imported inside a
   function, and each of those in one module only (its boundary).
 - No private name (`_x`) is imported from another module.
@@ -16,6 +17,7 @@ from __future__ import annotations
 import ast
 import math
 import re
+import sys
 from collections import defaultdict
 from pathlib import Path
 
@@ -136,6 +138,14 @@ def test_imports_at_the_top_except_heavy_optional_ones():
     assert all(len(ms) == 1 for ms in boundary.values()), f"heavy imports at more than one boundary: {dict(boundary)}"
 
 
+def test_figures_are_drawn_in_io_plots():
+    """Every module that draws a figure (gets matplotlib's parts from figure_parts) is in io/plots/, one module
+    per command's figures (docs/architecture.md); the layout drawings and the optimum's figures once sat in io/."""
+    drawing = {m for m, tree in MODULES.items() for n in ast.walk(tree)
+               if isinstance(n, ast.Call) and ast.unparse(n.func).endswith("figure_parts")}
+    assert drawing and all(m.startswith("cvtdesign.io.plots.") for m in drawing), sorted(drawing)
+
+
 def test_no_private_names_imported_across_modules():
     bad = [f"{m} line {n.lineno}: {n.module}.{a.name}" for m, tree in MODULES.items() for n in ast.walk(tree)
            if isinstance(n, ast.ImportFrom) and (n.module or "").startswith("cvtdesign")
@@ -154,32 +164,90 @@ def test_nothing_points_outside_the_repository():
 
 # --- each kind of change in one place ----------------------------------------------------------------------
 
-# the modules that may name an effect or a contact law by its string: the vocabulary itself, the laws (which
-# say which effects they contain), and the independent simulator (which writes every effect a second time, in
-# its own forms, by design)
+# the modules that may name an effect by its string: the vocabulary itself, the laws (which say which effects
+# they contain), and the independent simulator (which writes every effect a second time, in its own forms, by
+# design). A law is named only by the module that defines its class (law_homes).
 EFFECT_HOMES = {"cvtdesign.core.effects", "cvtdesign.core.contact.laws", "cvtdesign.verification.independent_sim",
                 "cvtdesign.verification.independent_rig"}
-LAW_HOMES = {"cvtdesign.core.contact.laws"}
+# a name in prose that another session's refactor of design/ removes; each entry must still be found (so it
+# is dropped when that lands): (module, the text around it)
+PENDING = {("cvtdesign.design.tolerance", "expected contact.law: kalker, under which every direction"),
+           ("cvtdesign.design.tolerance", "Under Kim's law the drive"),
+           ("cvtdesign.design.robust", "of `drive_longitudinal_creep` and `steering_lateral_creep` have the")}
 
 
-def _names_used(tree: ast.Module, names: set) -> list[int]:
-    """Lines where a string constant (not a docstring) is one of `names`."""
-    docs = {id(n.body[0].value) for n in ast.walk(tree)
-            if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef)) and ast.get_docstring(n) is not None}
-    return [n.lineno for n in ast.walk(tree)
-            if isinstance(n, ast.Constant) and n.value in names and id(n) not in docs]
+def law_homes(laws: dict) -> set[str]:
+    """The modules that define the laws' classes (a base class they share names none of them)."""
+    return {type(law).__module__ for law in laws.values()}
+
+
+def _strings(tree: ast.Module):
+    """(line, text) of every string in the module: constants, the literal parts of f-strings, docstrings."""
+    for n in ast.walk(tree):
+        if isinstance(n, ast.Constant) and isinstance(n.value, str):
+            yield n.lineno, n.value
+
+
+def law_patterns(laws: dict) -> list[re.Pattern]:
+    """What names a law in prose: its name as written in a variant file (a word in its own case, not part of a
+    module path such as core.contact.kalker, of a file name or of a hyphenated id), its class's name, or '<Name>'s law',
+    '<name> law' and 'law <name>' in any case (so 'Kim et al.' and 'Kalker's coefficients', which cite a paper
+    or a theory, pass)."""
+    out = []
+    for name, law in laws.items():
+        n = re.escape(name)
+        out += [re.compile(rf"(?<![\w.-]){n}(?![\w.(-])"), re.compile(rf"\b{type(law).__name__}\b"),
+                re.compile(rf"(?i)\b{n}(?:'s)?(?: contact)? law\b|\blaw:? `?{n}\b")]
+    return out
+
+
+def prose_naming(modules: dict, homes: set, patterns: list) -> list[str]:
+    """'module:line: text' of every string outside `homes` that one of `patterns` finds."""
+    bad = []
+    for m, tree in modules.items():
+        if m in homes:
+            continue
+        for line, text in _strings(tree):
+            if any(p.search(text) for p in patterns) and not any(m == pm and t in text for pm, t in PENDING):
+                bad.append(f"{m}:{line}: {' '.join(text.split())[:100]}")
+    return bad
+
+
+def effect_patterns(effects) -> list[re.Pattern]:
+    """An effect's name as a word (its parameters' 'effect.param' included)."""
+    return [re.compile(rf"(?<![\w.]){re.escape(e)}\b") for e in effects]
 
 
 def test_effects_and_laws_are_named_in_one_place():
-    """No module outside the homes compares or picks an effect or a law by its name: adding one touches its
-    home only (the toy tests below add one each)."""
+    """No module outside the homes names an effect or a law, in code or in prose (string constants, f-strings
+    and docstrings): adding one touches its home only (the toy tests below add one each), and no message or
+    description goes stale when a law or an effect is added."""
     from cvtdesign.core.contact.laws import LAWS
     from cvtdesign.core.effects import EFFECTS
-    bad = [f"{m}:{line} names an effect" for m, tree in MODULES.items() if m not in EFFECT_HOMES
-           for line in _names_used(tree, set(EFFECTS))]
-    bad += [f"{m}:{line} names a contact law" for m, tree in MODULES.items() if m not in LAW_HOMES
-            for line in _names_used(tree, set(LAWS))]
-    assert not bad, bad
+    bad = [f"{b} (names an effect)" for b in prose_naming(MODULES, EFFECT_HOMES, effect_patterns(EFFECTS))]
+    bad += [f"{b} (names a contact law)" for b in prose_naming(MODULES, law_homes(LAWS), law_patterns(LAWS))]
+    assert not bad, "\n".join(bad)
+
+
+def test_the_scan_finds_names_in_prose():
+    """The scan itself: a law named in an f-string, a docstring or a message is found, and so is an effect;
+    citations of a paper or a theory are not; each PENDING entry still stands where it says."""
+    from cvtdesign.core.contact.laws import LAWS
+    from cvtdesign.core.effects import EFFECTS
+    laws = {"kalker": LAWS["kalker"], "kim": LAWS["kim"]}
+    src = ast.parse('''
+def f(x):
+    """Applies to law kalker only."""
+    return f"{x}: expected contact.law: kim with it"
+MESSAGE = "under Kim's law the creep is fitted; see core.contact.laws.KalkerLaw"
+FINE = "Kim et al.'s paper, Kalker's coefficients (core.contact.kalker), variants/existing_kim.yaml"
+SCALE = "fitted as drive_longitudinal_creep.scale"
+''')
+    found = prose_naming({"m": src}, set(), law_patterns(laws))
+    assert sorted(x.split(":")[1] for x in found) == ["3", "4", "5"], found
+    assert [x.split(":")[1] for x in prose_naming({"m": src}, set(), effect_patterns(EFFECTS))] == ["7"]
+    for module, text in PENDING:
+        assert any(text in t for _, t in _strings(MODULES[module])), f"PENDING entry gone: drop it ({module})"
 
 
 def test_every_effect_entry_is_complete():
@@ -250,8 +318,72 @@ def test_a_toy_effect_is_one_entry(tmp_path, monkeypatch):
     assert "### `toy_gain`" in reference.effects_markdown()
 
 
-def test_a_toy_contact_law_is_one_class(tmp_path, monkeypatch):
-    """A contact law added as one class of core.contact.laws (registered in LAWS, nowhere else) is accepted
+NEW_HOOK_ROW = "| `normal_force` | (N, p) → N | a contact's normal force after the sphere's force balance [N] |"
+NEW_HOOK_CALL = '    N = [hooks.transform("normal_force", n) for n in N]      # the new hook\n'
+EQUATIONS_ANCHOR = "    N = normal_forces(layout, poses, Fvec)\n"
+
+
+def test_a_toy_effect_with_a_new_hook(tmp_path, monkeypatch):
+    """An effect that needs a hook the model does not call yet (docs/adding-an-effect.md, section 1): one entry
+    of core.effects.EFFECTS, the hook's row in that module's hook table and its name in HOOKS, and the hook's
+    single place in core/equations.py, where the model calls it (here one line added to a copy of that
+    module's source, which the model then compiles with). Nothing else: the variant file reads the effect, the
+    compiled model changes as the hook says, the diagnosis offers it and the generated reference documents
+    the hook."""
+    import importlib.util
+
+    from cvtdesign.core import effects as fx
+    from cvtdesign.core import equations, model
+    from cvtdesign.core.contact import laws
+    from cvtdesign.core.model import compile_model
+    from cvtdesign.io import reference
+    from cvtdesign.io.variant import load_variant
+    source = Path(equations.__file__).read_text()
+    assert source.count(EQUATIONS_ANCHOR) == 1, "the hook's place in core/equations.py moved: update the anchor"
+    spec = importlib.util.spec_from_loader("toy_equations", loader=None)
+    patched = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "toy_equations", patched)     # its dataclasses look their module up
+    exec(compile(source.replace(EQUATIONS_ANCHOR, EQUATIONS_ANCHOR + NEW_HOOK_CALL), "toy_equations", "exec"),
+         patched.__dict__)
+    monkeypatch.setattr(model, "equations", patched.equations)
+    monkeypatch.setattr(fx, "HOOKS", (*fx.HOOKS, "normal_force"))
+    monkeypatch.setattr(fx, "__doc__", fx.__doc__.replace("\n\n`c` is a `ContactState`", f"\n{NEW_HOOK_ROW}\n\n`c` is a "
+                                                          "`ContactState`", 1))
+    toy = fx.Effect("toy_preload_loss", "Every contact's normal force is (1 − loss)·N (a relaxed mount).",
+                    {"loss": fx.Param(0.05, "dimensionless", "relative loss of normal force", 0.0, 0.5)},
+                    {"normal_force": lambda N, p: N * (1 - p["loss"])},
+                    fx.SelfCheck("loss", (0.05, 0.1)), at_zero_load=True, independent="loss")
+    monkeypatch.setitem(fx.EFFECTS, "toy_preload_loss", toy)
+    monkeypatch.setenv("CVTDESIGN_COMPILE", "never")
+    effects = ["drive_longitudinal_creep", "steering_lateral_creep"]
+    plain = load_variant(_toy_variant(tmp_path, effects=effects))
+    lossy = load_variant(_toy_variant(tmp_path, effects=effects + ["toy_preload_loss"],
+                                      effect_parameters={"toy_preload_loss": {"loss": 0.1}}))
+    g = np.radians([-30.0, 20.0])
+    a, b = compile_model(plain).evaluate(g, 0.5), compile_model(lossy).evaluate(g, 0.5)
+    assert a["ok"].all() and b["ok"].all()
+    # the creep of Kim's law follows the preload, not N: the forces stay, and N is 0.9 × the balance's
+    np.testing.assert_allclose(b["N"], 0.9 * a["N"], rtol=1e-6)
+    np.testing.assert_allclose(b["alpha"], a["alpha"], rtol=1e-6)
+    assert "toy_preload_loss" in laws.candidates(laws.IDEAL)
+    assert set(toy.hooks) <= set(fx.HOOKS)
+    text = reference.effects_markdown()
+    assert NEW_HOOK_ROW.replace("(N, p) → N | ", "") in text
+    assert "Acts through: `normal_force` (a contact's normal force after the sphere's force balance [N])." in text
+
+
+@pytest.fixture
+def law_register():
+    """The register of contact laws, restored after the test (a law registers itself as its class is defined)."""
+    from cvtdesign.core.contact.laws import LAWS      # the shipped laws registered first
+    before = dict(LAWS)
+    yield LAWS
+    LAWS.clear()
+    LAWS.update(before)
+
+
+def test_a_toy_contact_law_is_one_class(tmp_path, monkeypatch, law_register):
+    """A contact law added as one subclass (registered in LAWS by its definition, nowhere else) is accepted
     by a variant file's contact.law, compiles, and changes the model as its class says."""
     from cvtdesign.core.contact import laws
     from cvtdesign.core.model import compile_model
@@ -260,12 +392,13 @@ def test_a_toy_contact_law_is_one_class(tmp_path, monkeypatch):
     class StiffLaw(laws.KimLaw):
         """Kim's law with the theory's compliances halved."""
         name = "toy_stiff"
+        ideal = False
 
         def constants(self, layout, roller):
             c = super().constants(layout, roller)
             return {**c, "eps0": c["eps0"] / 2}
 
-    monkeypatch.setitem(laws.LAWS, "toy_stiff", StiffLaw())
+    assert "toy_stiff" in law_register
     monkeypatch.setenv("CVTDESIGN_COMPILE", "never")
     kim = load_variant(_toy_variant(tmp_path))
     kim_pairs = {"drive": ["urethane_82A", "bowling_ball"], "steering": ["urethane_84A", "bowling_ball"]}
@@ -279,6 +412,115 @@ def test_a_toy_contact_law_is_one_class(tmp_path, monkeypatch):
     np.testing.assert_allclose(b["alpha"], a["alpha"] / 2, rtol=0.05)
     assert laws.contact_law("toy_stiff").compliance(stiff, stiff.rollers[0]) == pytest.approx(
         laws.contact_law("kim").compliance(kim, kim.rollers[0]) / 2)
+
+
+TOY_LAW = '''
+"""A toy contact law in a module of its own: linear creep at every contact in both directions, with linear
+theory's compliances at the preload (the base class's), scaled by the variant's calibration factors."""
+import casadi as ca
+
+from cvtdesign.core.contact.base import ContactLaw, ContactRows, side
+
+
+class ToyLinearLaw(ContactLaw):
+    """Linear theory at every contact, no spin moment."""
+    name = "toy_linear"
+    title = "linear theory in both directions at every contact (a toy)"
+
+    def rows(self, layout, hooks, c, s_t, s_a, v_ref, calls):
+        p, k = c.constants, layout.calibration[side(c.roller)]
+        ct = k * c.V / (p["G"] * p["a"] * p["b"] * p["C11"])
+        ca_ = k * c.V / (p["G"] * p["a"] * p["b"] * p["C22"])
+        rows = [(s_t + ct * c.Ft) / v_ref, (s_a + ca_ * c.Fa) / v_ref]
+        return ContactRows(rows, [], 0.0, (c.V / ct, c.V / ca_, 0.0), c.V)
+'''
+
+
+def test_a_toy_contact_law_is_one_file(tmp_path, monkeypatch, law_register, capsys):
+    """A law written as one ContactLaw subclass in a module of its own (nothing else edited) is registered by
+    its definition, read from a variant file, compiled and solved; the messages about a law's constants, the
+    schema's refusal of an unknown law, compare's glossary and the generated reference name it; and the
+    architecture scan finds it named in another module's prose."""
+    import importlib.util
+
+    from cvtdesign.cli import main
+    from cvtdesign.cli.compare_report import law_meaning
+    from cvtdesign.core.contact.base import patch_constants
+    from cvtdesign.core.model import compile_model
+    from cvtdesign.io import reference
+    from cvtdesign.io.variant import load_variant
+    (tmp_path / "toy_law.py").write_text(TOY_LAW)
+    spec = importlib.util.spec_from_file_location("toy_law", tmp_path / "toy_law.py")
+    spec.loader.exec_module(importlib.util.module_from_spec(spec))
+    law = law_register["toy_linear"]
+    monkeypatch.setenv("CVTDESIGN_COMPILE", "never")
+    kim = {"law": "kim", "creep_drive": "0.0038 1/N", "creep_steering": "0.0049 1/N", "creep_reference_force": "100 N",
+           "fitted_on": {"drive": ["urethane_82A", "bowling_ball"], "steering": ["urethane_84A", "bowling_ball"]}}
+    soft, plain = (load_variant(_toy_variant(tmp_path, contact={"law": "toy_linear",
+                                                                "calibration": {"drive": k, "steering": k}}))
+                   for k in (2, 1))
+    assert soft.contact_law == "toy_linear"
+    g = np.radians([-30.0, 20.0])
+    a, b = compile_model(plain).evaluate(g, 0.3), compile_model(soft).evaluate(g, 0.3)
+    assert a["ok"].all() and b["ok"].all() and np.all(np.abs(a["alpha"]) > 1e-4)
+    np.testing.assert_allclose(b["alpha"], 2 * a["alpha"], rtol=0.05)        # linear creep, twice as soft
+    r = soft.rollers[0]
+    p = patch_constants(soft, r)
+    assert law.compliance(soft, r) == pytest.approx(2 / (p["G"] * p["a"] * p["b"] * p["C11"]))
+
+    def refusal(contact) -> str:
+        path = _toy_variant(tmp_path, contact=contact)
+        assert main(["compare", str(path), "--out", str(tmp_path / "out")]) == 2
+        return capsys.readouterr().err
+    assert f"under law toy_linear the contacts follow {law.title}" in refusal({**kim, "law": "toy_linear"})
+    assert "expected contact.law: kalker or toy_linear with it" in refusal({**kim, "calibration": {"drive": 2}})
+    assert "'kim' or 'kalker' or 'toy_linear'" in refusal({"law": "toy"})
+    assert f"toy_linear: {law.title}" in law_meaning()
+    text = reference.reference_markdown()
+    assert "| `contact.law` | `kim` or `kalker` or `toy_linear` |" in text
+    assert f"* `toy_linear` (no spin moment: the figures made of it are not modelled): {law.title}; takes " \
+           "calibration factors" in text
+    homes = law_homes(law_register)
+    assert "toy_law" in homes and not prose_naming(MODULES, homes, law_patterns(law_register))
+    other = {"m": ast.parse('"""Under law toy_linear the rows are linear."""')}
+    assert prose_naming(other, homes, law_patterns(law_register))
+
+
+# comparisons of a status with a bare integer that another session's refactor of design/ replaces: (module, line
+# text); each must still be found
+PENDING_STATUS = {("cvtdesign.design.problem", 'ok = np.ravel(res["status"]) == 0'),
+                  ("cvtdesign.design.tolerance", "if status == 0 and force <= RIGID_FORCE * preload:"),
+                  ("cvtdesign.design.tolerance", 'held = "" if status == 0 else')}
+STATUS_OWN = {"cvtdesign.verification.independent_sim", "cvtdesign.verification.independent_rig"}  # their own codes
+
+
+def status_integers(modules: dict, sources: dict) -> list[str]:
+    """'module:line: text' of every comparison of a status with an integer constant (`status == 2`): a point's
+    status is named by core.status.Status, never by its number."""
+    bad = []
+    for m, tree in modules.items():
+        for n in ast.walk(tree):
+            sides = [n.left, *n.comparators] if isinstance(n, ast.Compare) else []
+            if any(isinstance(x, ast.Constant) and type(x.value) is int for x in sides) and any(
+                    "status" in ast.unparse(x).lower() and not (isinstance(x, ast.Call) and ast.unparse(x.func) == "len")
+                    for x in sides):
+                line = sources[m][n.lineno - 1].strip()
+                if not any(m == pm and t in line for pm, t in PENDING_STATUS):
+                    bad.append(f"{m}:{n.lineno}: {line}")
+    return bad
+
+
+def test_statuses_are_named_not_numbered():
+    """No module compares a point's status with a bare integer: core.status.Status names each code (the
+    independent simulator, which keeps its own codes by design, aside). The scan finds `status == 2`."""
+    sources = {m: (PKG.parent / (m.replace(".", "/") + ".py")).read_text().splitlines() for m in MODULES
+               if (PKG.parent / (m.replace(".", "/") + ".py")).exists()}
+    mods = {m: t for m, t in MODULES.items() if m in sources and m not in STATUS_OWN}
+    assert not status_integers(mods, sources)
+    probe = "lost = res['status'] == 2\nok = res['status'] == Status.OK\nn = len(res['status']) == 3\n"
+    assert [b.split(":")[1] for b in status_integers({"m": ast.parse(probe)}, {"m": probe.splitlines()})] == ["1"]
+    for module, text in PENDING_STATUS:
+        assert any(text in line for line in sources[module]), f"PENDING_STATUS entry gone: drop it ({module})"
 
 
 def test_core_receives_no_schema_objects():

@@ -1,4 +1,4 @@
-"""Build the creep-force table of the `kalker` contact law (core.contact.surface) from FASTSIM.
+"""Build the creep-force table (core.contact.surface) from FASTSIM.
 
     python -m cvtdesign.core.contact.build_surface [--out PATH]
 

@@ -1,5 +1,5 @@
 """Each roller's contact patch with the sphere: the Hertz ellipse, Kalker's coefficients, the creep constants of
-linear theory, and the creep–force curves of the `kalker` law's surface (core.contact.surface), at a given
+linear theory, and the creep–force curves of FASTSIM's creep-force surface (core.contact.surface), at a given
 normal force.
 
 The rolling direction x of a contact is the roller's circumferential direction, so the patch's semi-axis a
@@ -14,7 +14,8 @@ import dataclasses
 import numpy as np
 
 from cvtdesign.core.contact import kalker, surface
-from cvtdesign.core.contact.laws import contact_law, patch_constants
+from cvtdesign.core.contact.base import patch_constants
+from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.core.layout import CreepSource, Layout, Roller
 
 CURVE_POINTS = 41        # points of each creep–force curve
@@ -73,7 +74,7 @@ def creep_modulus_for(layout: Layout, roller: Roller, compliance: float) -> floa
 
 def forces(p: dict, xi, eta, phi) -> np.ndarray:
     """(Fx, Fy [N], Mz [N m]) on the sphere, in the patch frame, of a numeric patch `p` at creepages ξ, η [-] and
-    spin φ [1/m] (arrays), by the `kalker` law's surface with no calibration."""
+    spin φ [1/m] (arrays), by the creep-force surface with no calibration."""
     q = {k: float(v) for k, v in p.items()}
     mu_n, gab = q["mu"] * q["N"], q["G"] * q["a"] * q["b"]
     c = np.stack(np.broadcast_arrays(*(np.asarray(v, float) for v in (gab * q["C11"] * xi, gab * q["C22"] * eta,

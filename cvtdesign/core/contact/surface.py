@@ -1,4 +1,4 @@
-"""The creep-force surface of the `kalker` contact law: FASTSIM with the Hertz traction bound
+"""The creep-force surface that a contact law on Kalker's theory evaluates: FASTSIM with the Hertz traction bound
 (core.contact.fastsim), tabulated once for every patch shape and creepage, and evaluated as a smooth cubic
 B-spline with exact derivatives.
 

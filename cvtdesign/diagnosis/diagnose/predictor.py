@@ -16,6 +16,7 @@ import numpy as np
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.metrics import efficiency
 from cvtdesign.core.model import CompiledModel, compile_model
+from cvtdesign.core.status import Status
 from cvtdesign.diagnosis.measured import Measured
 
 CHANNELS = ("alpha", "tau_par", "axis")        # [deg], [N m], [deg]
@@ -51,7 +52,7 @@ class Predictor:
         theta = np.asarray(theta, float)
         outs = (self._fj if jacobian else self._f)(theta)
         y = np.asarray(outs[0]).reshape(6, self.n)
-        ok = np.asarray(outs[1]).ravel() == 0      # the model's status: converged, in contact, no gross slip
+        ok = np.asarray(outs[1]).ravel() == Status.OK      # the model's status: converged, in contact, no gross slip
         pred = {"alpha": np.degrees(y[0]), "tau_par": y[1], "axis": np.degrees(y[2]), "omega_2": y[3],
                 "tau_1": y[4], "tau_2": y[5]}
         if not jacobian:

@@ -109,7 +109,7 @@ def worsens_a_channel(before: Score, after: Score, factor: float = 2.0) -> bool:
     """Whether `after` fits some channel clearly worse held out than `before`: its mean squared z there more
     than `factor` times before and above `factor` (noise is 1), on the points both predict. A gain in one
     channel bought with another is no explanation: a 1° offset of the axis encoder alone (outside the
-    vocabulary) made steering_offset "accepted" on the axis while α got 10× worse."""
+    vocabulary) made the steering-offset effect "accepted" on the axis while α got 10× worse."""
     both = before.ok & after.ok
     if not both.any():
         return False

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cvtdesign.core.status import Status
 from cvtdesign.io.plots.base import figure_parts, save
 
 
@@ -55,7 +56,7 @@ def shown_variants(results) -> tuple[list, str]:
     of them up to PANELS_MAX; beyond, 'existing' and those with the smallest worst |α| over their ok points."""
     if len(results) <= PANELS_MAX:
         return list(results), ""
-    ok = {name: np.abs(res["alpha"][res["status"] == 0]) for name, res in results}
+    ok = {name: np.abs(res["alpha"][res["status"] == Status.OK]) for name, res in results}
     worst = {name: float(np.nanmax(a)) if np.isfinite(a).any() else np.inf for name, a in ok.items()}
     keep = sorted(worst, key=lambda n: (n not in KIM_CVT, worst[n]))[:PANELS_MAX]
     return ([(n, r) for n, r in results if n in keep],
@@ -115,7 +116,7 @@ def _line_row(axes, row, panels, first_row: bool, overlay: bool):
                 band = _curve(res, f"{key}_band", conv, L)[1] if f"{key}_band" in res else np.nan
                 if np.isfinite(band).any():        # the 95 % interval from every uncertain input
                     ax.fill_between(g, y - band, y + band, color=colour, alpha=0.18, lw=0)
-                bad = status != 0
+                bad = status != Status.OK
                 if bad.any():
                     ax.plot(g[bad], np.full(bad.sum(), lo + 0.03 * (hi - lo)), "x", color=colour, ms=6, mew=1.5)
         ax.set_ylim(lo, hi)
@@ -139,7 +140,7 @@ def _efficiency_map(ax, name, res, norm, mpl):
     with the colour mesh)."""
     g, t, eff = np.degrees(res["gamma_cmd"]), res["load"], res["efficiency"]
     ax.set_facecolor("white")
-    idle = (res["status"] == 0) & ~np.isfinite(eff)
+    idle = (res["status"] == Status.OK) & ~np.isfinite(eff)
     dg = np.min(np.diff(g[:, 0])) / 2 if g.shape[0] > 1 else 1.0
     dt = np.min(np.diff(t[0])) / 2 if t.shape[1] > 1 else 0.05
     cells = [mpl.Rectangle((gi - dg, ti - dt), 2 * dg, 2 * dt) for gi, ti in zip(g[idle], t[idle])]

@@ -11,7 +11,7 @@ from layout_transforms import axis_angle_matrix, dump, read, rotate
 from kim_closed_forms import kim_gamma_from_phi  # tests/validation is on sys.path (tests/conftest.py)
 from cvtdesign.core.geometry import KIM_FRAME, steering_angle
 from cvtdesign.cli import main
-from cvtdesign.io.layout_drawing import layout_scene
+from cvtdesign.io.plots.layout import layout_scene
 from cvtdesign.io.variant import load_variant
 
 VARIANTS = sorted((ROOT / "variants").glob("*.yaml"))
@@ -95,7 +95,7 @@ def test_rotated_copy_prints_the_same_law(cli, tmp_path):
 
 from figure_checks import captured, text_problems  # noqa: E402
 
-from cvtdesign.io import layout_drawing  # noqa: E402
+from cvtdesign.io.plots import layout as layout_drawing  # noqa: E402
 
 
 def drawn(monkeypatch, cli, tmp_path, variant, *extra):

@@ -27,11 +27,12 @@ def kalker(tmp_path, name="existing_kim", calibration=None, **extra):
 
 @pytest.mark.parametrize("edit, message", [
     (lambda d: d["contact"].update(creep_drive="0.0038 1/N"),
-     "contact.creep_drive: a fitted creep constant belongs to law kim"),
+     "contact.creep_drive: a fitted creep constant belongs to a law with fitted constants (kim); under law kalker"),
     (lambda d: d.update(effects=["drive_longitudinal_creep", "normal_force_variation"]),
      "effects: normal_force_variation is part of contact.law kalker"),
     (lambda d: d["contact"].update(law="kim", calibration={"drive": 2}),
-     "contact.calibration: applies to law kalker only"),
+     "contact.calibration: applies to a law on a theory's compliances, not to law kim (Kim et al.'s fitted "
+     "linear creep constants); expected contact.law: kalker with it"),
 ])
 def test_what_the_law_refuses(tmp_path, capsys, edit, message):
     data = variant_data("existing_kim")

@@ -5,7 +5,7 @@ import pytest
 from figure_checks import captured, text_problems
 
 from conftest import ROOT
-from cvtdesign.io import layout_drawing
+from cvtdesign.io.plots import layout as layout_drawing
 from cvtdesign.io.variant import load_variant
 
 

@@ -1,6 +1,6 @@
 """The placement report's slack figure (issue 38): a slack of 1900 % was drawn as a plain 100 % bar. A bar
 past 100 % is now hatched, ends in an arrow, and its label says it is cut and gives the share."""
-from cvtdesign.io import optimum_figures
+from cvtdesign.io.plots import optimum as optimum_figures
 from figure_checks import captured, text_problems
 
 

@@ -1,12 +1,12 @@
 """The figures of optimise's report: how the solve converged, and how much room each constraint family
-leaves at the optimum. (The optimum beside its base design is io.layout_drawing.beside_figure.)"""
+leaves at the optimum. (The optimum beside its base design is io.plots.layout.beside_figure.)"""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.io.plots import figure_parts, save
+from cvtdesign.io.plots.base import figure_parts, save
 
 
 def convergence_figure(history: list[dict], start_objectives: list, objective_label: str, path: Path):

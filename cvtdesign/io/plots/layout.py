@@ -22,7 +22,7 @@ import numpy as np
 
 from cvtdesign.core.geometry import FRAME, pose, steering_angle
 from cvtdesign.core.kinematics import shaft_frame
-from cvtdesign.io.plots import figure_parts, place_labels, points_along, save
+from cvtdesign.io.plots.base import figure_parts, place_labels, points_along, save
 
 SHAFT_NAMES = {1: "motor shaft 1", 2: "brake shaft 2"}
 SHAFT_COLOURS = {1: "tab:red", 2: "tab:green"}
