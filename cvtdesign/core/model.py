@@ -94,7 +94,7 @@ class CompiledModel:
     steering_residual: ca.Function = None  # (φ, [γ_cmd, design]) → residual whose root is the steering angle
 
     def point_function(self, outputs) -> ca.Function:
-        """`point` restricted to the named outputs (POINT_OUTPUTS, CONTACT_OUTPUTS, 'steer_misfit'): same
+        """`point` restricted to the named outputs (POINT_OUTPUTS, CONTACT_OUTPUTS, 'steer_misfit', 'root'): same
         inputs and the same expressions, but only what those outputs need is evaluated and differentiated
         (the Newton solve is left out when only 'steer_misfit' is asked for)."""
         return self._point_builder(list(outputs))
@@ -378,12 +378,12 @@ def _point_builder(close, residual, jacobian, x0_fn, steer_res, misfit, theta, d
         g_m, w_m, l_m, b_m, pg_m, th_m, d_m = ins
         phi_m = steer(pg_m, ca.vertcat(g_m, d_m))
         p_m = ca.vertcat(g_m, w_m, l_m, b_m, phi_m, th_m, d_m)
-        model_names = [k for k in selected if k != "steer_misfit"]
+        model_names = [k for k in selected if k not in ("steer_misfit", "root")]
         res = {}
-        if model_names:
-            sel = close("post_sel", model_names)
+        if model_names or "root" in selected:      # root: the solution x and the parameters it solves (core.sensitivity)
             x_m, several = _solve_from_rest(solver, residual, x0_fn, p_m, utilisation)
-            res = dict(zip(model_names, sel.call([x_m, p_m])))
+            res = {"root": ca.vertcat(x_m, p_m)} | (dict(zip(model_names, close("post_sel", model_names).call(
+                [x_m, p_m]))) if model_names else {})
             if "status" in res:
                 res["status"] = ca.if_else(several, STATUS.index("multiple_roots"), res["status"])
         # how far the linkage is from rolling about the commanded axis (0 where it reaches γ)

@@ -1,0 +1,71 @@
+"""Exact derivatives of a model's outputs in its effect parameters θ and design inputs at solved operating
+points, by the implicit function theorem written out once, with no Newton solve inside.
+
+At a root x of the model's residual F(x, q) = 0 (core.model: q = [γ_cmd, ω1, load, load_is_τ2, φ, θ, design]),
+
+    dx/dc = −(∂F/∂x)⁻¹ ∂F/∂q · dq/dc,     d out/dc = ∂out/∂q · dq/dc + ∂out/∂x · dx/dc,
+
+for the columns c asked for (entries of θ and of the design vector). dq/dc is 1 at the column's own entry
+and, for a design column, also dφ/dc = −(∂r/∂φ)⁻¹ ∂r/∂c at φ, r the linkage's steering residual (the
+steering angle moves with a design that moves the linkage). These are the numbers CasADi's rootfinder gives
+when the point function is differentiated (its implicit derivatives), but the points are solved once (the
+point function's `root` output: x and q) and the derivative function of (x, q) is mapped over them: a
+fraction of the cost of differentiating the whole point function, whose interpreted Newton solve is
+repeated in every evaluation of its Jacobian.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from cvtdesign.core.model import CONTACT_OUTPUTS, POINT_OUTPUTS
+
+OUTPUT_NAMES = POINT_OUTPUTS + CONTACT_OUTPUTS    # the outputs of CompiledModel.outputs, in order
+
+FIRST_THETA = 5          # q's entries before θ: γ_cmd, ω1, load, load_is_τ2, φ
+PHI = 4                  # q's entry of the steering angle
+
+
+def derivative_function(model, outputs: list[str], theta_cols: list[int], design_cols: list[int]) -> ca.Function:
+    """(x, q) → d output/d(θ[theta_cols], design[design_cols]) for each named output (rows × columns, in
+    that column order), at a root x of the model at q (module docstring)."""
+    nx, nq = model.residual.size1_in(0), model.residual.size1_in(1)
+    n_th = len(model.param_names)
+    x, q = ca.MX.sym("x", nx), ca.MX.sym("q", nq)
+    cols = [FIRST_THETA + j for j in theta_cols] + [FIRST_THETA + n_th + j for j in design_cols]
+    dq = ca.DM.zeros(nq, len(cols))
+    for k, c in enumerate(cols):
+        dq[c, k] = 1.0
+    dq = ca.MX(dq)
+    if design_cols:                       # the steering angle's own dependence on the design
+        jr = ca.jacobian(model.steering_residual(q[PHI], ca.vertcat(q[0], q[FIRST_THETA + n_th:])), q)
+        dphi = -jr[:, cols[len(theta_cols):]] / jr[:, PHI]
+        dq += ca.vertcat(ca.MX(PHI, len(cols)), ca.horzcat(ca.MX(1, len(theta_cols)), dphi),
+                         ca.MX(nq - PHI - 1, len(cols)))
+    F = model.residual(x, q)
+    dx = -ca.solve(ca.jacobian(F, x), ca.mtimes(ca.jacobian(F, q), dq))
+    every = dict(zip(OUTPUT_NAMES, model.outputs(x, q)))
+    y = ca.vertcat(*(ca.vec(every[k]) for k in outputs))
+    d = ca.mtimes(ca.jacobian(y, q), dq) + ca.mtimes(ca.jacobian(y, x), dx)
+    sizes = np.cumsum([0] + [every[k].numel() for k in outputs])
+    return ca.Function("sensitivity", [x, q], [d[int(a):int(b), :] for a, b in zip(sizes[:-1], sizes[1:])],
+                       ["x", "q"], list(outputs))
+
+
+def derivatives(model, gammas, speeds, loads, phi_guess, outputs: list[str], theta_cols: list[int],
+                design_cols: list[int]) -> list[np.ndarray]:
+    """d output/d(columns) at each point (γ_cmd, ω1, τ⊥ load, φ guess: vectors), at the model's θ and design 0:
+    per output an array (rows × columns × points); the points are solved by the model's `root` output, then
+    derivative_function is mapped over them on two threads."""
+    n = np.size(gammas)
+    key = ("derivatives", tuple(outputs), tuple(theta_cols), tuple(design_cols), n)
+    if key not in model._maps:
+        model._maps[key] = (model.point_function(["root"]).map(n, "thread", 2),
+                            derivative_function(model, outputs, theta_cols, design_cols).map(n, "thread", 2))
+    root, deriv = model._maps[key]
+    xq = np.asarray(root(gammas, speeds, loads, np.zeros(n), phi_guess, model.param_values,
+                         np.zeros((model.design.numel(), 1))))
+    nx = model.residual.size1_in(0)
+    got = deriv(xq[:nx], xq[nx:])
+    k = len(theta_cols) + len(design_cols)
+    return [np.asarray(v).reshape(-1, n, k) for v in (got if isinstance(got, (list, tuple)) else [got])]
