@@ -27,45 +27,64 @@ PHI = 4                  # q's entry of the steering angle
 
 
 def derivative_function(model, outputs: list[str], theta_cols: list[int], design_cols: list[int]) -> ca.Function:
-    """(x, q) → d output/d(θ[theta_cols], design[design_cols]) for each named output (rows × columns, in
-    that column order), at a root x of the model at q (module docstring)."""
+    """(x, q) → the parts of d output/d(θ[theta_cols], design[design_cols]) at a root x of the model at q
+    (module docstring): ∂F/∂x, ∂F/∂q·dq/dc, ∂y/∂x and ∂y/∂q·dq/dc, y the named outputs stacked; `at_points`
+    solves and combines them. The linear solve is left to LAPACK (partial pivoting): CasADi's symbolic one,
+    unpivoted, lost 2 % of a derivative under normal_force_variation."""
     nx, nq = model.residual.size1_in(0), model.residual.size1_in(1)
     n_th = len(model.param_names)
-    x, q = ca.MX.sym("x", nx), ca.MX.sym("q", nq)
+    # in scalar operations (SX) where nothing calls compiled code (Kim's law): several times faster
+    sym = ca.SX if model.residual.is_a("SXFunction") and model.outputs.is_a("SXFunction") else ca.MX
+    x, q = sym.sym("x", nx), sym.sym("q", nq)
     cols = [FIRST_THETA + j for j in theta_cols] + [FIRST_THETA + n_th + j for j in design_cols]
     dq = ca.DM.zeros(nq, len(cols))
     for k, c in enumerate(cols):
         dq[c, k] = 1.0
-    dq = ca.MX(dq)
+    dq = sym(dq)
     if design_cols:                       # the steering angle's own dependence on the design
         jr = ca.jacobian(model.steering_residual(q[PHI], ca.vertcat(q[0], q[FIRST_THETA + n_th:])), q)
         dphi = -jr[:, cols[len(theta_cols):]] / jr[:, PHI]
-        dq += ca.vertcat(ca.MX(PHI, len(cols)), ca.horzcat(ca.MX(1, len(theta_cols)), dphi),
-                         ca.MX(nq - PHI - 1, len(cols)))
+        dq += ca.vertcat(sym(PHI, len(cols)), ca.horzcat(sym(1, len(theta_cols)), dphi), sym(nq - PHI - 1, len(cols)))
     F = model.residual(x, q)
-    dx = -ca.solve(ca.jacobian(F, x), ca.mtimes(ca.jacobian(F, q), dq))
     every = dict(zip(OUTPUT_NAMES, model.outputs(x, q)))
     y = ca.vertcat(*(ca.vec(every[k]) for k in outputs))
-    d = ca.mtimes(ca.jacobian(y, q), dq) + ca.mtimes(ca.jacobian(y, x), dx)
-    sizes = np.cumsum([0] + [every[k].numel() for k in outputs])
-    return ca.Function("sensitivity", [x, q], [d[int(a):int(b), :] for a, b in zip(sizes[:-1], sizes[1:])],
-                       ["x", "q"], list(outputs))
+    return ca.Function("sensitivity", [x, q], [ca.densify(v) for v in (
+        ca.jacobian(F, x), ca.mtimes(ca.jacobian(F, q), dq), ca.jacobian(y, x), ca.mtimes(ca.jacobian(y, q), dq))],
+        ["x", "q"], ["F_x", "F_c", "y_x", "y_c"])
+
+
+def at_points(mapped: ca.Function, X: np.ndarray, Q: np.ndarray, sizes: list[int]) -> list[np.ndarray]:
+    """d output/d(columns) at the points whose roots are the columns of X and Q: derivative_function `mapped`
+    over them, dx = −(∂F/∂x)⁻¹ ∂F/∂c point by point, then ∂y/∂c + ∂y/∂x dx; per output (its `sizes`: rows) an
+    array (rows, points, columns)."""
+    n = X.shape[1]
+
+    def stack(v):        # a mapped output (rows × points·cols) → (points, rows, cols)
+        v = np.asarray(v)
+        return v.reshape(v.shape[0], n, -1).transpose(1, 0, 2)
+    F_x, F_c, y_x, y_c = (stack(v) for v in mapped(X, Q))
+    d = y_c - y_x @ np.linalg.solve(F_x, F_c)
+    edges = np.cumsum([0] + list(sizes))
+    return [d[:, a:b, :].transpose(1, 0, 2) for a, b in zip(edges[:-1], edges[1:])]
 
 
 def derivatives(model, gammas, speeds, loads, phi_guess, outputs: list[str], theta_cols: list[int],
                 design_cols: list[int]) -> list[np.ndarray]:
     """d output/d(columns) at each point (γ_cmd, ω1, τ⊥ load, φ guess: vectors), at the model's θ and design 0:
-    per output an array (rows × columns × points); the points are solved by the model's `root` output, then
-    derivative_function is mapped over them on two threads."""
+    per output an array (rows, points, columns); the points are solved by the model's `root` output, then
+    derivative_function is mapped over them on two threads (at_points)."""
     n = np.size(gammas)
     key = ("derivatives", tuple(outputs), tuple(theta_cols), tuple(design_cols), n)
     if key not in model._maps:
         model._maps[key] = (model.point_function(["root"]).map(n, "thread", 2),
                             derivative_function(model, outputs, theta_cols, design_cols).map(n, "thread", 2))
-    root, deriv = model._maps[key]
+    root, parts = model._maps[key]
     xq = np.asarray(root(gammas, speeds, loads, np.zeros(n), phi_guess, model.param_values,
                          np.zeros((model.design.numel(), 1))))
     nx = model.residual.size1_in(0)
-    got = deriv(xq[:nx], xq[nx:])
-    k = len(theta_cols) + len(design_cols)
-    return [np.asarray(v).reshape(-1, n, k) for v in (got if isinstance(got, (list, tuple)) else [got])]
+    return at_points(parts, xq[:nx], xq[nx:], output_sizes(model, outputs))
+
+
+def output_sizes(model, outputs: list[str]) -> list[int]:
+    """The number of rows of each named output of the model (1, or one per contact)."""
+    return [len(model.roller_names) if k in CONTACT_OUTPUTS else 1 for k in outputs]
