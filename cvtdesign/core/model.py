@@ -136,7 +136,7 @@ class CompiledModel:
         if (id(fn), n) not in self._maps:
             self._maps[id(fn), n] = fn.map(n, "thread", 2)
         t = time.perf_counter()
-        out = _call(self._maps[id(fn), n], [g, w, l, np.full(n, float(load_kind == "tau_2")), phi0, th, p])
+        out = call_mapped(self._maps[id(fn), n], [g, w, l, np.full(n, float(load_kind == "tau_2")), phi0, th, p])
         self._tiered.record(fn, n, time.perf_counter() - t)
         res = dict(zip(self.point.name_out(), out))
         status = status_codes(res)
@@ -153,7 +153,7 @@ class CompiledModel:
         return result
 
 
-def _call(mapped: ca.Function, args: list) -> list[np.ndarray]:
+def call_mapped(mapped: ca.Function, args: list) -> list[np.ndarray]:
     """Outputs (rows × points arrays) of a function mapped over points, given per-point inputs (length-n
     vectors) and shared ones (vectors repeated for every point). Evaluated on numpy buffers (CasADi's
     FunctionBuffer), with no conversion from CasADi matrices, which for ~100 rows of 30k points costs half

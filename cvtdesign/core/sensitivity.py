@@ -18,7 +18,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from cvtdesign.core.model import CONTACT_OUTPUTS, POINT_OUTPUTS
+from cvtdesign.core.model import CONTACT_OUTPUTS, POINT_OUTPUTS, call_mapped
 
 OUTPUT_NAMES = POINT_OUTPUTS + CONTACT_OUTPUTS    # the outputs of CompiledModel.outputs, in order
 
@@ -48,7 +48,7 @@ def derivative_function(model, outputs: list[str], theta_cols: list[int], design
     F = model.residual(x, q)
     every = dict(zip(OUTPUT_NAMES, model.outputs(x, q)))
     y = ca.vertcat(*(ca.vec(every[k]) for k in outputs))
-    return ca.Function("sensitivity", [x, q], [ca.densify(v) for v in (
+    return ca.Function("sensitivity", [x, q], [ca.vec(ca.densify(v)) for v in (      # column by column
         ca.jacobian(F, x), ca.mtimes(ca.jacobian(F, q), dq), ca.jacobian(y, x), ca.mtimes(ca.jacobian(y, q), dq))],
         ["x", "q"], ["F_x", "F_c", "y_x", "y_c"])
 
@@ -57,12 +57,9 @@ def at_points(mapped: ca.Function, X: np.ndarray, Q: np.ndarray, sizes: list[int
     """d output/d(columns) at the points whose roots are the columns of X and Q: derivative_function `mapped`
     over them, dx = −(∂F/∂x)⁻¹ ∂F/∂c point by point, then ∂y/∂c + ∂y/∂x dx; per output (its `sizes`: rows) an
     array (rows, points, columns)."""
-    n = X.shape[1]
-
-    def stack(v):        # a mapped output (rows × points·cols) → (points, rows, cols)
-        v = np.asarray(v)
-        return v.reshape(v.shape[0], n, -1).transpose(1, 0, 2)
-    F_x, F_c, y_x, y_c = (stack(v) for v in mapped(X, Q))
+    n, nx = X.shape[1], X.shape[0]
+    F_x, F_c, y_x, y_c = (v.T.reshape(n, -1, rows).transpose(0, 2, 1) for v, rows in       # (points, rows, cols)
+                          zip(call_mapped(mapped, [X.T, Q.T]), (nx, nx, sum(sizes), sum(sizes))))
     d = y_c - y_x @ np.linalg.solve(F_x, F_c)
     edges = np.cumsum([0] + list(sizes))
     return [d[:, a:b, :].transpose(1, 0, 2) for a, b in zip(edges[:-1], edges[1:])]
@@ -79,8 +76,8 @@ def derivatives(model, gammas, speeds, loads, phi_guess, outputs: list[str], the
         model._maps[key] = (model.point_function(["root"]).map(n, "thread", 2),
                             derivative_function(model, outputs, theta_cols, design_cols).map(n, "thread", 2))
     root, parts = model._maps[key]
-    xq = np.asarray(root(gammas, speeds, loads, np.zeros(n), phi_guess, model.param_values,
-                         np.zeros((model.design.numel(), 1))))
+    xq = call_mapped(root, [gammas, speeds, loads, np.zeros(n), phi_guess, model.param_values,
+                            np.zeros(model.design.numel())])[0]
     nx = model.residual.size1_in(0)
     return at_points(parts, xq[:nx], xq[nx:], output_sizes(model, outputs))
 
