@@ -94,7 +94,7 @@ class CompiledModel:
     steering_residual: ca.Function = None  # (φ, [γ_cmd, design]) → residual whose root is the steering angle
 
     def point_function(self, outputs) -> ca.Function:
-        """`point` restricted to the named outputs (POINT_OUTPUTS, CONTACT_OUTPUTS, 'steer_misfit'): same
+        """`point` restricted to the named outputs (POINT_OUTPUTS, CONTACT_OUTPUTS, 'steer_misfit', 'root'): same
         inputs and the same expressions, but only what those outputs need is evaluated and differentiated
         (the Newton solve is left out when only 'steer_misfit' is asked for)."""
         return self._point_builder(list(outputs))
@@ -136,7 +136,7 @@ class CompiledModel:
         if (id(fn), n) not in self._maps:
             self._maps[id(fn), n] = fn.map(n, "thread", 2)
         t = time.perf_counter()
-        out = _call(self._maps[id(fn), n], [g, w, l, np.full(n, float(load_kind == "tau_2")), phi0, th, p])
+        out = call_mapped(self._maps[id(fn), n], [g, w, l, np.full(n, float(load_kind == "tau_2")), phi0, th, p])
         self._tiered.record(fn, n, time.perf_counter() - t)
         res = dict(zip(self.point.name_out(), out))
         status = status_codes(res)
@@ -153,7 +153,7 @@ class CompiledModel:
         return result
 
 
-def _call(mapped: ca.Function, args: list) -> list[np.ndarray]:
+def call_mapped(mapped: ca.Function, args: list) -> list[np.ndarray]:
     """Outputs (rows × points arrays) of a function mapped over points, given per-point inputs (length-n
     vectors) and shared ones (vectors repeated for every point). Evaluated on numpy buffers (CasADi's
     FunctionBuffer), with no conversion from CasADi matrices, which for ~100 rows of 30k points costs half
@@ -379,12 +379,12 @@ def _point_builder(close, residual, jacobian, x0_fn, steer_res, misfit, theta, d
         g_m, w_m, l_m, b_m, pg_m, th_m, d_m = ins
         phi_m = steer(pg_m, ca.vertcat(g_m, d_m))
         p_m = ca.vertcat(g_m, w_m, l_m, b_m, phi_m, th_m, d_m)
-        model_names = [k for k in selected if k != "steer_misfit"]
+        model_names = [k for k in selected if k not in ("steer_misfit", "root")]
         res = {}
-        if model_names:
-            sel = close("post_sel", model_names)
+        if model_names or "root" in selected:      # root: the solution x and the parameters it solves (core.sensitivity)
             x_m, several = _solve_from_rest(solver, residual, x0_fn, p_m, utilisation)
-            res = dict(zip(model_names, sel.call([x_m, p_m])))
+            res = {"root": ca.vertcat(x_m, p_m)} | (dict(zip(model_names, close("post_sel", model_names).call(
+                [x_m, p_m]))) if model_names else {})
             if "status" in res:
                 res["status"] = ca.if_else(several, int(Status.MULTIPLE_ROOTS), res["status"])
         # how far the linkage is from rolling about the commanded axis (0 where it reaches γ)

@@ -21,10 +21,11 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+NODES = 32            # sliding_lever's Gauss–Legendre nodes in u by default (4 × as many in t)
 CHUNK_NODES = 2 ** 16      # quadrature nodes sliding_lever evaluates at once (a block of patches: 0.5 MB an array)
 
 
-def sliding_lever(a, b, pivot, slide, nodes: int = 32):
+def sliding_lever(a, b, pivot, slide, nodes: int = NODES):
     """(1/N) ∫ p |v| dA [m] for a Hertz patch sliding rigidly with the velocity field v(x, y) = (−ω y, s + ω x),
     ω = `pivot` [-] about the normal and s = `slide` [m] across it, per unit rate: the power a fully sliding
     patch dissipates over μN, so μN·sliding_lever is the torque that drives the motion. Pure pivoting gives
@@ -95,14 +96,20 @@ def standstill_slope(at: dict, along: dict, fork_ratios, h: float) -> np.ndarray
     return (standstill_torques(up, fork_ratios)[1] - standstill_torques(down, fork_ratios)[1]) / (2 * h)
 
 
-def standstill_torques(res: dict, fork_ratios) -> tuple[np.ndarray, np.ndarray]:
+def standstill_torques(res: dict, fork_ratios, nodes: int = NODES) -> tuple[np.ndarray, np.ndarray]:
     """The torque [N m] to turn each fork at standstill (contacts × points, 0 for a roller on no fork) and the
     steering motor's, Σ |k_i| T_i (points), from an envelope result (core.metrics.envelope): the normal
-    forces N, patches a, b, friction μ and the forks' `fork_pivot` and `fork_slide` of each point."""
+    forces N, patches a, b, friction μ and the forks' `fork_pivot` and `fork_slide` of each point (sliding_lever
+    on `nodes`)."""
     k = np.abs(np.asarray(fork_ratios, float)).reshape(-1, *([1] * (np.ndim(res["N"]) - 1)))
     forked = np.broadcast_to(k > 0, np.shape(res["N"]))
     lever = np.zeros(np.shape(res["N"]))
     lever[forked] = sliding_lever(res["a"][forked], res["b"][forked], res["fork_pivot"][forked],
-                                  res["fork_slide"][forked])
+                                  res["fork_slide"][forked], nodes)
     per_fork = res["mu"] * np.maximum(res["N"], 0.0) * lever
     return per_fork, np.sum(k * per_fork, axis=0)
+
+
+SAMPLE_NODES = 12     # sliding_lever's nodes for samples' envelopes (core.metrics.envelopes): within 3e-4 of the
+                      # default 32 where a slide's centre lies inside the patch, 1e-6 outside it, 1e-15 for pure
+                      # pivoting (sliding_lever_expr); on the shipped variants' samples 3e-15 (7 × less work)

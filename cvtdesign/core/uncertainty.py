@@ -21,13 +21,13 @@ import math
 import zlib
 from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
 
 from cvtdesign.core import steering
 from cvtdesign.core.inputs import Input, model_inputs
 from cvtdesign.core.metrics import envelopes, extremes, metrics
 from cvtdesign.core.model import CompiledModel
+from cvtdesign.core.sensitivity import derivatives
 from cvtdesign.core import basis
 
 Z95 = 1.959963984540054
@@ -66,30 +66,16 @@ def sensitivities(model: CompiledModel, res: dict, points: np.ndarray, theta_idx
 
 def _jacobian(model: CompiledModel, res: dict, points: np.ndarray, columns: dict, outputs) -> dict:
     """d(output)/d(θ[columns['theta']], design[columns['design']]) at the given flat point indices, in that
-    column order, then d(output)/d(load) where columns['load'] (a capacity's interval: core.capacity_interval):
-    one Function (built once per model, outputs and columns) mapped over the points."""
-    load = bool(columns.get("load"))
-    key = ("jacobian", tuple(outputs), tuple(columns["theta"]), tuple(columns["design"]), load)
-    if key not in model._maps:
-        pf = model.point_function(list(outputs))
-        ins = [ca.MX.sym(n, pf.sparsity_in(i)) for i, n in enumerate(pf.name_in())]
-        outs = pf.call(ins)
-        th, de, lo = (ins[pf.name_in().index(w)] for w in ("theta", "design", "load"))
-        model._maps[key] = ca.Function("sens", ins, [ca.horzcat(ca.jacobian(o, th)[:, columns["theta"]],
-                                                                ca.jacobian(o, de)[:, columns["design"]],
-                                                                *([ca.jacobian(o, lo)] if load else []))
-                                                     for o in outs])
-    jac = model._maps[key]
+    column order, then d(output)/d(load) where columns['load'] (a capacity's interval: core.capacity_interval);
+    by the implicit function theorem at each point's solution (core.sensitivity)."""
     g, t = np.ravel(res["gamma_cmd"])[points], np.ravel(res["load"])[points]
     phi0, _ = model.steering_guess(g)
     w = np.ravel(res["omega_1"])[points]
-    mapped = jac.map(points.size, "thread", 2)
-    got = mapped.call([g, w, t, np.zeros(points.size), phi0, model.param_values,
-                       np.zeros((model.design.numel(), 1))])
-    k = len(columns["theta"]) + len(columns["design"]) + load
+    got = derivatives(model, g, w, t, phi0, list(outputs), columns["theta"], columns["design"],
+                      bool(columns.get("load")))
     out = {}
     for n, v in zip(outputs, got):
-        v = np.asarray(v).reshape(-1, points.size, k).transpose(1, 0, 2)      # (points, rows, k)
+        v = v.transpose(1, 0, 2)                                              # (points, rows, k)
         out[n] = v[:, 0, :] if v.shape[1] == 1 else v
     return out
 

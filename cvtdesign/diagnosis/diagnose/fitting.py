@@ -1,6 +1,7 @@
 """The fit: the effect parameters (core.effects bounds) by bounded Gauss-Newton (scipy least_squares) on the
-noise-weighted residuals, with the model's exact Jacobian (CasADi, through the Newton solves). Uncertainty
-from (JᵀJ)⁻¹; a parameter whose standard deviation exceeds its own scale is flagged as not identifiable."""
+noise-weighted residuals, with the model's exact Jacobian (the implicit function theorem at the rows' solutions,
+core.sensitivity). Uncertainty from (JᵀJ)⁻¹; a parameter whose standard deviation exceeds its own scale is
+flagged as not identifiable."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field

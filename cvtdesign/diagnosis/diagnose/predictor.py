@@ -10,22 +10,27 @@ from __future__ import annotations
 
 import functools
 
-import casadi as ca
 import numpy as np
 
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.metrics import efficiency
-from cvtdesign.core.model import CompiledModel, compile_model
+from cvtdesign.core.model import CompiledModel, call_mapped, compile_model
+from cvtdesign.core.sensitivity import at_points, derivative_function
 from cvtdesign.core.status import Status
 from cvtdesign.diagnosis.measured import Measured
 
 CHANNELS = ("alpha", "tau_par", "axis")        # [deg], [N m], [deg]
 UNITS = {"alpha": "deg", "tau_par": "N*m", "axis": "deg"}
 OUTPUTS = ["alpha", "tau_1", "tau_2", "gamma_axis", "omega_2", "status"]   # the model's outputs they are made of
+DERIVED = ["alpha", "tau_1", "tau_2", "gamma_axis", "omega_2"]             # those differentiated in θ
 
 
 class Predictor:
-    """The model with `effects` evaluated at a dataset's rows: θ → predictions and their Jacobian."""
+    """The model with `effects` evaluated at a dataset's rows: θ → predictions and their Jacobian.
+
+    A prediction solves the rows (the model's point function, mapped over them) and keeps their solutions; its
+    Jacobian at the same θ is then the implicit function theorem's at those solutions (core.sensitivity), with
+    no second solve."""
 
     def __init__(self, layout: Layout, effects, data: Measured, model: CompiledModel | None = None):
         self.effects = tuple(effects)
@@ -36,29 +41,34 @@ class Predictor:
         g = np.radians(r["gamma_cmd_deg"].to_numpy())
         n = len(r)
         phi0, _ = self.model.steering_guess(g)
-        th = ca.MX.sym("theta", len(self.names))
-        point = self.model.point_function(OUTPUTS)       # only what the channels need, solved and differentiated
-        out = dict(zip(OUTPUTS, point.map(n, "thread", 2)(g, r["omega_1"].to_numpy(), r["tau_perp"].to_numpy(), 0.0,
-                                                          phi0, th, np.zeros(0))))
-        _, tau_par = self.model.frame.load_split(g, out["tau_1"].T, out["tau_2"].T)
-        y = ca.vertcat(out["alpha"].T, tau_par, out["gamma_axis"].T, out["omega_2"].T, out["tau_1"].T, out["tau_2"].T)
-        self.n = n
-        self._f = ca.Function("predict", [th], [y, out["status"].T])
-        self._fj = ca.Function("predict_jac", [th], [y, out["status"].T, ca.jacobian(y, th)])
+        # only what the channels need, and the rows' solutions, mapped over the rows
+        self._point = self.model.point_function(OUTPUTS + ["root"]).map(n, "thread", 2)
+        self._rows = [g, r["omega_1"].to_numpy(), r["tau_perp"].to_numpy(), np.zeros(n), phi0]
+        self.n, self.gamma = n, g
+        self._derivatives = derivative_function(self.model, DERIVED, list(range(len(self.names))), []).map(
+            n, "thread", 2)
+        self._last = None        # (θ, its outputs)
 
     def __call__(self, theta, jacobian=False):
         """Predictions {alpha [deg], tau_par [N m], axis [deg], omega_2 [rad/s], tau_1, tau_2 [N m]}, converged
         mask: the points where the model's physics holds (and dY/dθ, shape (6, n, p), with `jacobian`)."""
         theta = np.asarray(theta, float)
-        outs = (self._fj if jacobian else self._f)(theta)
-        y = np.asarray(outs[0]).reshape(6, self.n)
-        ok = np.asarray(outs[1]).ravel() == Status.OK      # the model's status: converged, in contact, no gross slip
-        pred = {"alpha": np.degrees(y[0]), "tau_par": y[1], "axis": np.degrees(y[2]), "omega_2": y[3],
-                "tau_1": y[4], "tau_2": y[5]}
+        if self._last is None or not np.array_equal(self._last[0], theta):
+            self._last = (theta.copy(), dict(zip(OUTPUTS + ["root"], call_mapped(self._point, [*self._rows, theta,
+                                                                                             np.zeros(0)]))))
+        out = self._last[1]
+        ok = out["status"][0] == Status.OK      # the model's status: converged, in contact, no gross slip
+        _, tau_par = self.model.frame.load_split(self.gamma, out["tau_1"][0], out["tau_2"][0])
+        pred = {"alpha": np.degrees(out["alpha"][0]), "tau_par": tau_par, "axis": np.degrees(out["gamma_axis"][0]),
+                "omega_2": out["omega_2"][0], "tau_1": out["tau_1"][0], "tau_2": out["tau_2"][0]}
         if not jacobian:
             return pred, ok
-        J = np.asarray(outs[2]).reshape(6, self.n, -1)
-        J[[0, 2]] = np.degrees(J[[0, 2]])
+        nx = self.model.residual.size1_in(0)
+        root = out["root"]
+        d = dict(zip(DERIVED, (v[0] for v in at_points(self._derivatives, root[:nx], root[nx:], [1] * len(DERIVED)))))
+        _, d_par = self.model.frame.load_split(self.gamma[:, None], d["tau_1"], d["tau_2"])    # linear in τ1, τ2
+        J = np.array([np.degrees(d["alpha"]), d_par, np.degrees(d["gamma_axis"]), d["omega_2"], d["tau_1"],
+                      d["tau_2"]])
         return pred, ok, J
 
 

@@ -10,9 +10,9 @@ import pytest
 from scipy.special import ellipe
 
 from conftest import shipped_model, variant_data, variant_path, write_yaml
-from cvtdesign.core.metrics import envelope
+from cvtdesign.core.metrics import envelope, envelopes, metrics
 from cvtdesign.core.model import compile_model
-from cvtdesign.core.steering import sliding_lever
+from cvtdesign.core.steering import SAMPLE_NODES, sliding_lever, standstill_torques
 
 
 @pytest.mark.parametrize("a, b", [(1e-3, 1e-3), (1.6e-3, 1e-3), (1e-3, 2.5e-3)])
@@ -32,6 +32,21 @@ def test_sliding_lever_converges_where_the_slide_centre_is_inside_the_patch():
     coarse, fine = sliding_lever(a, b, w, s), sliding_lever(a, b, w, s, nodes=256)
     assert coarse == pytest.approx(fine, rel=2e-5)
     assert max(s, sliding_lever(a, b, w, 0.0)) < fine < s + sliding_lever(a, b, w, 0.0)
+
+
+def test_samples_quadrature_is_within_its_stated_error():
+    """Samples' envelopes take the standstill quadrature on SAMPLE_NODES (core.metrics.envelopes): within 3e-4 of
+    the default's where the slide's centre lies inside the patch, 1e-6 outside it, and to round-off for pure
+    pivoting; and the sampled figure of box_kim is `envelope`'s quadrature's to 1e-12."""
+    a, b = 1.6e-3, 1e-3
+    for w, s, rel in ((1.0, 0.5e-3, 3e-4), (1.0, 2.5e-3, 1e-6), (1.0, 0.0, 1e-13)):
+        assert sliding_lever(a, b, w, s, SAMPLE_NODES) == pytest.approx(sliding_lever(a, b, w, s), rel=rel)
+    model = shipped_model("box_kim")
+    thetas = np.array(model.param_values) * np.array([[1.0], [1.02], [0.97]])
+    for res in envelopes(model, np.zeros((3, 0)), thetas):
+        full = standstill_torques(res, [r.fork_ratio for r in model.layout.rollers])[1]
+        assert metrics(model, res)["max_standstill_steering_torque_Nm"] == pytest.approx(
+            np.nanmax(np.where(res["ok"], full, np.nan)), rel=1e-12)
 
 
 def test_standstill_at_a_pivoting_fork_is_mu_n_l():
