@@ -35,7 +35,8 @@ LAYERS = {
     "cad": {"errors", "core", "io"},
     "diagnosis": {"errors", "core", "io", "design"},
     "verification": {"errors", "core", "io", "design", "diagnosis"},
-    "cli": {"errors", "core", "io", "design", "cad", "diagnosis", "verification"},
+    "api": {"errors", "core", "io", "design", "cad", "diagnosis", "verification"},
+    "cli": {"errors", "core", "io", "design", "cad", "diagnosis", "verification", "api"},
     "__main__": {"cli"},
 }
 LAZY = {"cadquery", "OCP", "matplotlib",   # heavy optional imports (OCP is CadQuery's kernel): inside functions,

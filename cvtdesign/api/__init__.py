@@ -1,0 +1,20 @@
+"""cvtdesign as a library: what the commands do, as functions that return Python objects (docs/python-api.md).
+
+    >>> from cvtdesign import api
+    >>> box = api.load_variant("variants/box.yaml")
+    >>> states = api.evaluate(box, gamma_deg=[-40, 0, 40], load_Nm=0.5)      # a pandas.DataFrame
+    >>> result = api.compare("variants/existing.yaml", "variants/box.yaml")
+    >>> result.table                                                         # a pandas.DataFrame
+    >>> result.to_json() == open("out/compare.json").read()                  # `cvtdesign compare --json`'s text
+
+Every value is in the unit its name gives (``_deg`` [°], ``_Nm`` [N·m], ``_MPa`` [MPa], ``_W`` [W]), inputs
+and layouts in SI otherwise. Bad input raises cvtdesign.errors.InputError, one line naming the file, field or
+argument. The names below are the interface; the modules behind them may change.
+"""
+from cvtdesign.api.comparison import Comparison, compare
+from cvtdesign.api.load_capacity import Capacity, capacity
+from cvtdesign.api.result import Result
+from cvtdesign.api.variant import evaluate, load_variant
+from cvtdesign.errors import InputError
+
+__all__ = ["Capacity", "Comparison", "InputError", "Result", "capacity", "compare", "evaluate", "load_variant"]
