@@ -180,7 +180,7 @@ def compare(*variants, samples: int | None = None, envelope_of=None, as_written:
         Samples of every uncertain input that check each first-order interval: 0 (first order only) or 20 to
         10,000; default 128 on an envelope of at most 2000 points, else 0 (``--samples``).
     envelope_of : str or Path, optional
-        A variant file whose envelope (γ × τ⊥ grid) every variant is evaluated on (``--envelope``); default
+        A variant file whose envelope (its grid of γ [°] × τ⊥ [N·m]) every variant is evaluated on (``--envelope``); default
         the first variant's.
     as_written : bool
         Evaluate each variant on its own envelope and contact law (``--as-written``).
@@ -188,7 +188,8 @@ def compare(*variants, samples: int | None = None, envelope_of=None, as_written:
     Returns
     -------
     Comparison
-        `.rows` and `.orderings` (the ``--json`` content), `.table` (pandas.DataFrame), `.to_json()`,
+        `.rows` and `.orderings` (the ``--json`` content: figures such as ``max_abs_alpha_deg`` [°] and
+        ``max_hertz_pressure_MPa`` [MPa] with their intervals), `.table` (pandas.DataFrame), `.to_json()`,
         `.plot(path)`.
 
     Raises

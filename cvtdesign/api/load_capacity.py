@@ -184,7 +184,7 @@ class Capacity(Result):
 
 
 def capacity(*variants, safety: float = 1.0, max_slip=None, samples: int = 0) -> Capacity:
-    """The load capacity τ⊥ of each variant at each γ of its envelope, as ``cvtdesign capacity`` gives it.
+    """The load capacity τ⊥ [N·m] of each variant at each γ [°] of its envelope, as ``cvtdesign capacity`` gives it.
 
     Parameters
     ----------
@@ -194,7 +194,7 @@ def capacity(*variants, safety: float = 1.0, max_slip=None, samples: int = 0) ->
         Safety factor S ≥ 1 on friction: a contact counts as slipping grossly once F/(μN) reaches 1/S
         (``--safety``).
     max_slip : str or float, optional
-        The usable-ratio bound on |α|: an angle with its unit (``'2deg'``) or a number of degrees; 90° leaves
+        The usable-ratio bound on |α| [°]: an angle with its unit (``'2deg'``) or a number of degrees; 90° leaves
         it out; default 2° (``--max-slip``).
     samples : int
         Samples of every uncertain input that check each capacity's first-order interval: 0 (first order) or 20
