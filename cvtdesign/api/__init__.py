@@ -6,15 +6,18 @@
     >>> result = api.compare("variants/existing.yaml", "variants/box.yaml")
     >>> result.table                                                         # a pandas.DataFrame
     >>> result.to_json() == open("out/compare.json").read()                  # `cvtdesign compare --json`'s text
+    >>> api.diagnose("variants/existing_kim.yaml", pandas.read_csv("rig.csv")).report.verdict
 
 Every value is in the unit its name gives (``_deg`` [°], ``_Nm`` [N·m], ``_MPa`` [MPa], ``_W`` [W]), inputs
 and layouts in SI otherwise. Bad input raises cvtdesign.errors.InputError, one line naming the file, field or
 argument. The names below are the interface; the modules behind them may change.
 """
 from cvtdesign.api.comparison import Comparison, compare
+from cvtdesign.api.diagnosis import Diagnosis, diagnose
 from cvtdesign.api.load_capacity import Capacity, capacity
 from cvtdesign.api.result import Result
 from cvtdesign.api.variant import evaluate, load_variant
 from cvtdesign.errors import InputError
 
-__all__ = ["Capacity", "Comparison", "InputError", "Result", "capacity", "compare", "evaluate", "load_variant"]
+__all__ = ["Capacity", "Comparison", "Diagnosis", "InputError", "Result", "capacity", "compare", "diagnose", "evaluate",
+           "load_variant"]
