@@ -14,10 +14,11 @@ argument. The names below are the interface; the modules behind them may change.
 """
 from cvtdesign.api.comparison import Comparison, compare
 from cvtdesign.api.diagnosis import Diagnosis, diagnose
+from cvtdesign.api.life import Life, life
 from cvtdesign.api.load_capacity import Capacity, capacity
 from cvtdesign.api.result import Result
 from cvtdesign.api.variant import evaluate, load_variant
 from cvtdesign.errors import InputError
 
-__all__ = ["Capacity", "Comparison", "Diagnosis", "InputError", "Result", "capacity", "compare", "diagnose", "evaluate",
-           "load_variant"]
+__all__ = ["Capacity", "Comparison", "Diagnosis", "InputError", "Life", "Result", "capacity", "compare", "diagnose",
+           "evaluate", "life", "load_variant"]
