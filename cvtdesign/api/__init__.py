@@ -12,12 +12,12 @@ Every value is in the unit its name gives (``_deg`` [°], ``_Nm`` [N·m], ``_MPa
 and layouts in SI otherwise. Bad input raises cvtdesign.errors.InputError, one line naming the file, field or
 argument. The names below are the interface; the modules behind them may change.
 """
-from cvtdesign.api.comparison import Comparison, compare
-from cvtdesign.api.diagnosis import Diagnosis, diagnose
-from cvtdesign.api.life import Life, life
-from cvtdesign.api.load_capacity import Capacity, capacity
-from cvtdesign.api.result import Result
-from cvtdesign.api.variant import evaluate, load_variant
+from cvtdesign.uses.comparison import Comparison, compare
+from cvtdesign.uses.diagnosis import Diagnosis, diagnose
+from cvtdesign.uses.life import Life, life
+from cvtdesign.uses.load_capacity import Capacity, capacity
+from cvtdesign.uses.result import Result
+from cvtdesign.uses.variant import evaluate, load_variant
 from cvtdesign.errors import InputError
 
 __all__ = ["Capacity", "Comparison", "Diagnosis", "InputError", "Life", "Result", "capacity", "compare", "diagnose",

@@ -24,7 +24,7 @@ MEMBERS = ("rows", "table", "to_json", "plot", "content")     # a result's inter
 
 def public_names() -> list[str]:
     """The API's public names (cvtdesign.api.__all__) that it defines itself: functions first, then classes."""
-    names = [n for n in api.__all__ if getattr(api, n).__module__.startswith("cvtdesign.api")]
+    names = [n for n in api.__all__ if getattr(api, n).__module__.startswith(("cvtdesign.api", "cvtdesign.uses"))]
     return sorted(names, key=lambda n: (inspect.isclass(getattr(api, n)), n.lower()))
 
 

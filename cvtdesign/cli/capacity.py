@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 from rich.console import Console
 
-from cvtdesign.api.load_capacity import capacity_records
+from cvtdesign.uses.load_capacity import capacity_records
 from cvtdesign.cli.printing import json_text, progress_bar, show
 from cvtdesign.core.capacity_interval import figure
 from cvtdesign.io import plots

@@ -6,9 +6,9 @@ from pathlib import Path
 
 from rich.console import Console
 
-from cvtdesign.api.comparison import comparison_layouts, comparison_rows, figure_inputs
+from cvtdesign.uses.comparison import comparison_layouts, comparison_rows, figure_inputs
 from cvtdesign.cli import compare_report
-from cvtdesign.api.life import life_fields
+from cvtdesign.uses.life import life_fields
 from cvtdesign.cli.life import life_cell
 from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
 from cvtdesign.core.inputs import uncertain_model
@@ -34,7 +34,7 @@ COLUMNS = [
 ]
 
 
-LIFE_LABEL = "life on the duty cycle [h]"      # with --duty (api.life.life_fields)
+LIFE_LABEL = "life on the duty cycle [h]"      # with --duty (uses.life.life_fields)
 _BASIS_LABELS = [("contact_law", "contact law"), ("calibration", "calibration")]   # the table's first rows
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from rich.console import Console
 
-from cvtdesign.api.diagnosis import check_candidates, plot_report
+from cvtdesign.uses.diagnosis import check_candidates, plot_report
 from cvtdesign.cli.arguments import effects_arg
 from cvtdesign.cli.diagnosis_text import report_blocks
 from cvtdesign.cli.printing import json_text, progress_bar, report_text, show

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from rich.console import Console
 
-from cvtdesign.api.life import C0, life_figures, life_run
+from cvtdesign.uses.life import C0, life_figures, life_run
 from cvtdesign.cli.printing import json_text, progress_bar, report_text, show
 from cvtdesign.io.duty_file import load_duty
 from cvtdesign.io.output import make_folder, write_files

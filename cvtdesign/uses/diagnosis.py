@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.api.comparison import as_layout
-from cvtdesign.api.result import Result
+from cvtdesign.uses.comparison import as_layout
+from cvtdesign.uses.result import Result
 from cvtdesign.core.effects import check_names
 from cvtdesign.diagnosis import diagnose as diagnosis
 from cvtdesign.diagnosis import measured

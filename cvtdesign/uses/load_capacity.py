@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.api.comparison import as_layout
-from cvtdesign.api.result import Result, table_row
+from cvtdesign.uses.comparison import as_layout
+from cvtdesign.uses.result import Result, table_row
 from cvtdesign.core import basis
 from cvtdesign.core.capacity import LIMITS, MAX_SLIP, PIVOT_SHARE, smallest_capacity
 from cvtdesign.core.capacity import capacity as search_capacity

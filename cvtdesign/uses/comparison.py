@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.api.result import Result
+from cvtdesign.uses.result import Result
 from cvtdesign.core import basis
 from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.core.inputs import uncertain_model

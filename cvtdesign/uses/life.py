@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.api.comparison import as_layout
-from cvtdesign.api.result import Result
+from cvtdesign.uses.comparison import as_layout
+from cvtdesign.uses.result import Result
 from cvtdesign.core import basis
 from cvtdesign.core.inputs import uncertain_model
 from cvtdesign.core.life.run import DutyOutsideModel, life_interval, machine_life, worn_ratio_error
