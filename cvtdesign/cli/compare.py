@@ -1,32 +1,23 @@
 """`cvtdesign compare`: variants side by side over their envelope, with the ideal CVT and Kim's existing CVT."""
 from __future__ import annotations
 
-import dataclasses
 import sys
 from pathlib import Path
 
-import numpy as np
 from rich.console import Console
 
+from cvtdesign.uses.comparison import comparison_layouts, comparison_rows, figure_inputs
 from cvtdesign.cli import compare_report
-from cvtdesign.cli.arguments import check_samples
-from cvtdesign.cli.life import life_cell, life_fields
+from cvtdesign.uses.life import life_fields
+from cvtdesign.cli.life import life_cell
 from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
-from cvtdesign.core import basis
-from cvtdesign.core.contact.laws import contact_law
-from cvtdesign.core.metrics import ZERO_TORQUE, at_key, delivers_power, envelope, ideal_model, metrics
 from cvtdesign.core.inputs import uncertain_model
-from cvtdesign.core.uncertainty import checked_by_sampling, intervals, orderings, point_bands, sampled_figures, spread
+from cvtdesign.core.metrics import ZERO_TORQUE, at_key, envelope
 from cvtdesign.io import plots
 from cvtdesign.io.duty_file import load_duty
-from cvtdesign.io.limits import check_envelope_limits
 from cvtdesign.io.output import make_folder, named_after, write_file
 from cvtdesign.io.points import check_points_path, contact_points, write_points
 from cvtdesign.io.report import Note, Table
-from cvtdesign.errors import InputError
-from cvtdesign.io.variant import load_variant
-from cvtdesign.io.shipped import shipped_variant
-
 
 COLUMNS = [
     ("max_abs_alpha_deg", "max |α| [°]", "{:.3f}"),
@@ -43,7 +34,7 @@ COLUMNS = [
 ]
 
 
-LIFE_LABEL = "life on the duty cycle [h]"      # with --duty (cli.life.life_fields)
+LIFE_LABEL = "life on the duty cycle [h]"      # with --duty (uses.life.life_fields)
 _BASIS_LABELS = [("contact_law", "contact law"), ("calibration", "calibration")]   # the table's first rows
 
 
@@ -56,37 +47,15 @@ def run(args):
         check_points_path(args.points)
     life_duty = load_duty(args.duty) if args.duty else None
     files = [Path(f) for f in args.variants]
-    layouts = [load_variant(f) for f in files]
-    if len(files) == 1:                            # Kim's CVT under the same law, wherever the command runs from
-        existing = shipped_variant(contact_law(layouts[0].contact_law).reference_variant)
-        if existing.resolve() != files[0].resolve():
-            layouts.insert(0, load_variant(existing))
-    layouts = one_basis(layouts, layouts[-1] if len(files) == 1 else layouts[0], args)
-    names = basis.distinct_names(layouts)
-    layouts = [dataclasses.replace(L, name=n) for L, n in zip(layouts, names)]
+    layouts = comparison_layouts(files, args.envelope, args.as_written)
     models = [uncertain_model(L) for L in layouts]
     results = [envelope(m) for m in models]
     figure = make_folder(args.out, kind="--out") / named_after(files, figure_suffix(args))   # another set, another file
     replaced = figure.exists()
     # the figure is drawn while the ideal CVT is evaluated and the table printed
-    painter.draw(plots.compare_figure, [(L.name, figure_data(res) | point_bands(m, res)
-                                     | {"theory_only": basis.calibration(L)["uncalibrated"]})
-                                    for L, m, res in zip(layouts, models, results)], figure)
-    n = sample_count(args.samples, results[0]["ok"].size)
-    spreads = [spread(m, res) for m, res in zip(models, results)]
-    samples = [sampled_figures(m, n) if n and s is not None else None for m, s in zip(models, spreads)]
-    rows = [with_intervals(s, metrics(m, res) | basis.fields(m.layout), drawn)
-            for m, res, s, drawn in zip(models, results, spreads, samples)]
-    ranked = orderings(rows, spreads, samples if n else None)
-    if args.duty:
-        rows = [r | life_fields(m, life_duty) for r, m in zip(rows, models)]
-    if len(files) == 1:
-        ideal = ideal_model(layouts[-1])
-        row = metrics(ideal, envelope(ideal)) | basis.fields(ideal.layout)
-        row |= {"name": f"ideal ({layouts[-1].name})", "contact_law": "rigid (ideal)",
-                "calibration": {"source": "none needed: rigid rolling", "uncalibrated": False, "std": {},
-                                "text": "none needed: rigid rolling", "cell": "none needed"}}
-        rows.insert(0, row)
+    painter.draw(plots.compare_figure, figure_inputs(layouts, models, results), figure)
+    rows, ranked = comparison_rows(models, results, args.samples, layouts[-1] if len(files) == 1 else None,
+                                   (lambda m: life_fields(m, life_duty)) if args.duty else None)
 
     if args.points:
         write_points(args.points, [contact_points(L.name, L, res) for L, res in zip(layouts, results)])
@@ -115,14 +84,6 @@ def run(args):
     return 0
 
 
-def figure_data(res: dict) -> dict:
-    """What the figure draws of an envelope: its COMPARE_KEYS, with the efficiency undefined (NaN, hatched) where
-    the point delivers no power, so that a point with no output is never drawn as an efficiency of 0."""
-    data = {k: res[k] for k in plots.COMPARE_KEYS}
-    data["efficiency"] = np.where(delivers_power(res), res["efficiency"], np.nan)
-    return data
-
-
 def figure_suffix(args) -> str:
     """The figure's name after its basis, so that a run on another basis keeps its own: '.png' on the first
     file's envelope, '_on_<stem>.png' on --envelope's, '_as_written.png' with each file's own."""
@@ -140,44 +101,6 @@ def finish(args, painter, rows: list[dict], blocks: list, figure: Path, ranked: 
         report = compare_report.report_blocks(rows, blocks, figure, labels, ranked)
         write_file(args.report, report_text(args, "cvtdesign compare", report), kind="--report")
     return error
-
-
-DEFAULT_SAMPLES, SAMPLED_POINTS = 128, 2000   # samples by default, on envelopes of at most this many points
-
-
-def sample_count(given: int | None, points: int) -> int:
-    """The samples that check the intervals: --samples as given (0, or 20 to MAX_SAMPLES), else DEFAULT_SAMPLES
-    on an envelope of at most SAMPLED_POINTS points and none on a larger one (the notes then say unchecked)."""
-    if given is None:
-        return DEFAULT_SAMPLES if points <= SAMPLED_POINTS else 0
-    return check_samples(given)
-
-
-def with_intervals(spread, row: dict, samples: list[dict] | None) -> dict:
-    """The row with a 95 % interval and a budget on each figure from every uncertain input (core.uncertainty),
-    each interval checked by the samples of the inputs (replaced where they do not confirm it)."""
-    row = row | intervals(spread, row)
-    return row | checked_by_sampling(row, samples) if samples else row
-
-
-def one_basis(layouts: list, first, args) -> list:
-    """The layouts on one basis: one contact law (different laws are refused unless --as-written) and one
-    envelope, the first file's or --envelope's (with --as-written each keeps its own)."""
-    if args.as_written:
-        return layouts
-    laws = {L.contact_law for L in layouts}
-    if len(laws) > 1:
-        which = ", ".join(f"{L.file}: {L.contact_law}" for L in layouts)
-        raise InputError(f"compare: the variants use different contact laws ({which}); compare them under one "
-                         "law (contact.law), or add --as-written to compare each as written")
-    reference = load_variant(args.envelope) if args.envelope else first
-    out = []
-    for L in layouts:
-        if not basis.same_envelope(L, reference):
-            L = basis.on_envelope(L, reference)
-            check_envelope_limits(L, f"{L.file}: on the envelope of {reference.file}")
-        out.append(L)
-    return out
 
 
 def comparison_blocks(rows: list[dict], ranked: list[dict] | None = None) -> list:

@@ -5,18 +5,18 @@ import tempfile
 from datetime import date
 from pathlib import Path
 
-import numpy as np
 from rich.console import Console
 
+from cvtdesign.uses.diagnosis import check_candidates, plot_report
 from cvtdesign.cli.arguments import effects_arg
 from cvtdesign.cli.diagnosis_text import report_blocks
 from cvtdesign.cli.printing import json_text, progress_bar, report_text, show
 from cvtdesign.core.effects import CALIBRATION
 from cvtdesign.diagnosis import diagnose
 from cvtdesign.diagnosis import measured
-from cvtdesign.diagnosis.diagnose import Report, model_efficiency, residuals
+from cvtdesign.diagnosis.diagnose import Report
 from cvtdesign.errors import InputError
-from cvtdesign.io import materials, plots
+from cvtdesign.io import materials
 from cvtdesign.io.output import make_folder, write_files
 from cvtdesign.io.report import png_figure
 from cvtdesign.io.variant import load_spec, load_variant
@@ -30,12 +30,10 @@ def run(args):
     layout = load_variant(args.variant)
     base = effects_arg(args.base, layout.effects, "--base")
     candidates = effects_arg(args.candidates, [], "--candidates")
-    if set(candidates) & set(base):
-        raise InputError(f"--candidates: {', '.join(e for e in candidates if e in base)} is already in the base model "
-                         f"({', '.join(base)}); expected effects to add to it")
     if args.save_calibration and not set(CALIBRATION.values()) & set(base):
         raise InputError(f"--save-calibration: the base model ({', '.join(base) or 'no effects'}) fits no creep "
                          f"compliance; expected {' or '.join(CALIBRATION.values())} in --base")
+    check_candidates(base, candidates)
     data = measured.load_measured(args.data, layout, args.drop_bad)
     console = Console(width=140)
     with progress_bar(console, "diagnosis", str, transient=True) as progress:
@@ -100,46 +98,3 @@ def report_figures(rep: Report, written: list) -> list:
         return [png_figure(f, c) for f, c in zip(written, CAPTIONS)]
     with tempfile.TemporaryDirectory(prefix="cvtdesign-report-") as tmp:
         return [png_figure(f, c) for f, c in zip(plot_report(rep, Path(tmp)), CAPTIONS)]
-
-
-def plot_report(rep: Report, out_dir) -> list:
-    """Residual maps (base and diagnosed model) and the fit curves; returns the files written."""
-    out_dir = Path(out_dir)
-    data, base, final = rep.evidence.data, rep.evidence.base, rep.evidence.final
-    r = data.rows
-    g, t = r["gamma_cmd_deg"].to_numpy(), r["tau_perp"].to_numpy()
-    rb, rf = residuals(data, base.fit.pred), residuals(data, final.fit.pred)     # blank where a model fails
-    maps = [(f"α residual, base ({' + '.join(base.effects) or 'ideal'})", g, t, np.where(base.fit.ok, rb["alpha"], np.nan))]
-    if final is not base:
-        maps.append((f"α residual, with {' + '.join(rep.accepted)}", g, t, np.where(final.fit.ok, rf["alpha"], np.nan)))
-    f1 = out_dir / "residual_map.png"
-    plots.residual_map_figure(maps, rep.gap["regions"][:6], f1)
-    eb, ef = model_efficiency(data, base.pred), model_efficiency(data, final.pred)
-    panels = [("slip angle α", "α [deg]", []), ("efficiency", "efficiency [-]", [])]
-    for load, idx in _load_slices(t, r["load_bin"].to_numpy() if "load_bin" in r.columns else None):
-        idx = idx[np.argsort(g[idx])]
-        panels[0][2].append((load, g[idx], r["alpha_deg"].to_numpy()[idx], base.pred["alpha"][idx], final.pred["alpha"][idx]))
-        panels[1][2].append((load, g[idx], r["efficiency"].to_numpy()[idx], eb[idx], ef[idx]))
-    f2 = out_dir / "fit.png"
-    plots.diagnosis_fit_figure({"panels": panels}, f2)
-    return [f1, f2]
-
-
-def _load_slices(load: np.ndarray, level: np.ndarray | None = None) -> list:
-    """(load, points) at four loads across the data's range (its extremes and halves). On a grid (load levels
-    each measured at several γ: `level`, measured._group's load_bin) the points of the level nearest each,
-    one level a line (a window of a tenth of the range took two levels 0.2 N·m apart into one saw-tooth);
-    otherwise the points within a tenth of the range of each."""
-    lo, hi = float(load.min()), float(load.max())
-    targets = sorted({lo, 0.5 * lo, 0.5 * hi, hi})
-    if level is not None and len(np.unique(level)) <= len(load) / 3:
-        means = {b: float(np.mean(load[level == b])) for b in np.unique(level)}
-        chosen = dict.fromkeys(min(means, key=lambda b: abs(means[b] - x)) for x in targets)
-        return [(means[b], np.flatnonzero(level == b)) for b in chosen]
-    width = 0.1 * (hi - lo) if hi > lo else 1.0
-    out = []
-    for x in targets:
-        idx = np.flatnonzero(np.abs(load - x) <= width / 2 + 1e-12)
-        if idx.size:
-            out.append((float(np.mean(load[idx])), idx))
-    return out

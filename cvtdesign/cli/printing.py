@@ -3,17 +3,16 @@ reported in HTML), strict JSON, counts of left-out points, progress bars."""
 from __future__ import annotations
 
 import contextlib
-import json
 import shlex
 from importlib.metadata import version
 
-import numpy as np
 from rich import table as rich_tables
 from rich.cells import cell_len
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
 from cvtdesign.io.report import Note, Table, html_report
+from cvtdesign.io.strict_json import finite, json_text  # noqa: F401  (the commands' JSON, made in io for the API too)
 from cvtdesign.io.units import KINDS, dimension_of, dimensions
 
 def kind_of(*raws) -> str:
@@ -75,24 +74,6 @@ def report_text(args, title: str, blocks: list) -> str:
     """The HTML report (io.report.html_report) of a command's blocks, headed by its command line and the
     installed version of cvtdesign."""
     return html_report(title, command_line(args), version("cvtdesign"), blocks)
-
-
-def finite(obj):
-    """obj with numpy scalars and arrays as Python numbers and lists, and NaN or ±inf as None."""
-    if isinstance(obj, dict):
-        return {str(k): finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple, np.ndarray)):
-        return [finite(v) for v in obj]
-    if isinstance(obj, (np.integer, np.bool_)):
-        return obj.item()
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if np.isfinite(obj) else None
-    return obj
-
-
-def json_text(obj) -> str:
-    """Strict JSON (RFC 8259: no NaN or Infinity; a number that does not exist is null), indented."""
-    return json.dumps(finite(obj), indent=2, allow_nan=False, default=str) + "\n"
 
 
 def left_out_text(counts: dict) -> str:

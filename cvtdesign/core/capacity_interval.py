@@ -78,7 +78,7 @@ def _first_order(model: CompiledModel, cap: dict, side: str, inputs: list[Input]
 
 
 def with_intervals(model: CompiledModel, cap: dict, rows: list[dict], samples: int = 0, seed: int = 0) -> list[dict]:
-    """The capacity JSON rows (cli.capacity.variant_record's) with '<figure>_interval', '<figure>_budget' and
+    """The capacity JSON rows (uses.load_capacity.variant_record's) with '<figure>_interval', '<figure>_budget' and
     '<figure>_interval_method' for each side: first order, and, with `samples` > 0, each interval checked
     against that many draws (module docstring)."""
     spreads = capacity_spreads(model, cap)

@@ -59,6 +59,12 @@ def envelope(model: CompiledModel, theta=None, design=None) -> dict:
     return _derived(model.evaluate(G, T, theta=theta, design=design), L)
 
 
+def at_points(model: CompiledModel, gammas, loads, speeds=None) -> dict:
+    """Evaluate the model at operating points of the caller's own (broadcastable arrays: commanded γ [rad],
+    τ⊥ [N·m], motor speed ω1 [rad/s], default the variant's), with the figures `envelope` derives."""
+    return _derived(model.evaluate(gammas, loads, speeds), model.layout)
+
+
 def envelopes(model: CompiledModel, designs, thetas=None) -> list[dict]:
     """`envelope` at each row of `designs` (samples × design values) and of `thetas` (samples × effect
     parameters; default the model's own), all in one call of the model mapped over samples × points: the same

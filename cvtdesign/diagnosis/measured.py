@@ -16,7 +16,7 @@ import pandas as pd
 from cvtdesign.core.kinematics import ShaftFrame, shaft_frame
 from cvtdesign.core.metrics import efficiency
 from cvtdesign.errors import InputError
-from cvtdesign.io.measured_csv import read_measured
+from cvtdesign.io.measured_csv import read_measured, read_measured_frame
 
 GAMMA_TOL_DEG = 1e-6     # [deg] commanded angles closer than this are one operating point
 IMPLAUSIBLE_ALPHA_DEG = 20.0   # [deg] a median |α| beyond this is no rolling contact's: the signs are checked
@@ -56,6 +56,14 @@ def load_measured(path, layout, drop_bad: bool = False) -> Measured:
     g = np.degrees(layout.gamma_grid)
     rows, dropped = read_measured(path, (float(g.min()), float(g.max())), drop_bad, shaft_capacity(layout))
     return from_rows(rows, shaft_frame(layout), str(path), dropped)
+
+
+def measured_frame(frame, layout, drop_bad: bool = False, where: str = "data") -> Measured:
+    """load_measured of measured data given as a DataFrame in the CSV's columns (docs/measured-data.md),
+    checked as a file's rows are (io.measured_csv.read_measured_frame)."""
+    g = np.degrees(layout.gamma_grid)
+    rows, dropped = read_measured_frame(frame, where, (float(g.min()), float(g.max())), drop_bad, shaft_capacity(layout))
+    return from_rows(rows, shaft_frame(layout), where, dropped)
 
 
 def shaft_capacity(layout) -> dict:

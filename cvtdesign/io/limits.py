@@ -10,6 +10,7 @@ from cvtdesign.core.layout import Layout
 from cvtdesign.errors import InputError
 from cvtdesign.io import machine
 
+MAX_SAMPLES = 10_000   # samples of the uncertain inputs that check the first-order intervals (compare, capacity)
 MAX_GRID_POINTS = 100_000      # per envelope axis (γ, load): a 1e-9° step would otherwise allocate terabytes
 # operating points of one evaluation (γ × load × speed): about a minute of the compiled model; fewer where half
 # the machine's free memory holds fewer, at BYTES_PER_POINT for each of (4 + the rollers) (2.1 kB measured
@@ -68,3 +69,11 @@ def check_envelope_limits(layout: Layout, where: str) -> None:
     check_points(g.size * tau.size, len(layout.rollers), where,
                  f"operating points ({g.size} γ × {tau.size} loads)")
     check_loads([(f"{where}.load.start", float(tau[0])), (f"{where}.load.stop", float(tau[-1]))], layout)
+
+
+def check_samples(given: int) -> int:
+    """--samples of the uncertain inputs: 0 (first order only) or 20 to MAX_SAMPLES (fewer cannot place a 95 %
+    interval's ends)."""
+    if not 0 <= given <= MAX_SAMPLES or 0 < given < 20:
+        raise InputError(f"--samples: {given}; expected 0 (first order only) or 20 to {MAX_SAMPLES:,} samples")
+    return given

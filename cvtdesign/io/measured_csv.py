@@ -56,6 +56,21 @@ def read_measured(path, gamma_range_deg=None, drop_bad: bool = False, capacity=N
         raw = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False, skipinitialspace=True)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as e:
         raise InputError(f"{where}: not a readable CSV file ({' '.join(str(e).split()) or type(e).__name__})") from None
+    return checked_rows(raw, where, gamma_range_deg, drop_bad, capacity)
+
+
+def read_measured_frame(frame: pd.DataFrame, where: str = "data", gamma_range_deg=None, drop_bad: bool = False,
+                        capacity=None) -> tuple[pd.DataFrame, dict]:
+    """Check measured data given as a DataFrame in the CSV's columns (the Python API's diagnose) exactly as
+    read_measured checks a file's: each cell is taken as the text a CSV would hold (an empty or NaN cell is
+    bad), a row named by the line it would have in a CSV (the header is line 1)."""
+    raw = frame.reset_index(drop=True).astype(object).where(frame.reset_index(drop=True).notna(), "").astype(str)
+    return checked_rows(raw, where, gamma_range_deg, drop_bad, capacity)
+
+
+def checked_rows(raw: pd.DataFrame, where: str, gamma_range_deg=None, drop_bad: bool = False,
+                 capacity=None) -> tuple[pd.DataFrame, dict]:
+    """The rows of a measured-data table of text cells (read_measured's arguments), checked."""
     raw.columns = [str(c).strip() for c in raw.columns]
     twice = [c for c in REQUIRED + OPTIONAL if f"{c}.1" in raw.columns]     # pandas renames a repeated name
     if twice:

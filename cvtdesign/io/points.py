@@ -79,13 +79,25 @@ def contact_points(name: str, layout, res: dict) -> dict[str, np.ndarray]:
     return {column: frame[column] for column in COLUMNS}
 
 
+def data_frame(data, columns=None):
+    """A pandas DataFrame of `data` (columns → arrays, or a list of rows as dicts), with `columns` in that order.
+    pandas is imported here, the one place that needs it (the --points table and the Python API's tables): a
+    compare without --points never loads it (its import costs what the rest of the command's imports do)."""
+    import pandas as pd
+    return pd.DataFrame(data, columns=columns)
+
+
+def points_frame(frames: list[dict]):
+    """The rows of every variant (contact_points' columns, in COLUMNS' order) as one DataFrame."""
+    import pandas as pd
+    return pd.concat([pd.DataFrame(f, columns=COLUMNS) for f in frames], ignore_index=True)
+
+
 def write_points(path, frames: list[dict]) -> Path:
     """Write the rows of every variant (contact_points' columns) to `path`, CSV or Parquet by its extension,
-    through the one writer. pandas is imported here, the one place that needs it: a compare without --points
-    never loads it (its import costs what the rest of the command's imports do)."""
-    import pandas as pd
+    through the one writer (the table: points_frame)."""
     path = check_points_path(path)
-    table = pd.concat([pd.DataFrame(f, columns=COLUMNS) for f in frames], ignore_index=True)
+    table = points_frame(frames)
     if path.suffix.lower() == ".parquet":
         return write_file(path, lambda tmp: table.to_parquet(tmp, index=False), kind="--points")
     return write_file(path, table.to_csv(index=False, float_format="%.9g"), kind="--points")

@@ -37,7 +37,9 @@ LAYERS = {
     "cad": {"errors", "core", "io"},
     "diagnosis": {"errors", "core", "io", "design"},
     "verification": {"errors", "core", "io", "design", "diagnosis"},
-    "cli": {"errors", "core", "io", "design", "cad", "diagnosis", "verification"},
+    "uses": {"errors", "core", "io", "design", "cad", "diagnosis", "verification"},
+    "api": {"errors", "core", "io", "design", "cad", "diagnosis", "verification", "uses"},
+    "cli": {"errors", "core", "io", "design", "cad", "diagnosis", "verification", "uses"},
     "__main__": {"cli"},
 }
 LAZY = {"cadquery", "OCP", "matplotlib",   # heavy optional imports (OCP is CadQuery's kernel): inside functions,

@@ -2,7 +2,7 @@
 points of two levels (0.4 and 0.6 N·m) and joined them into a saw-tooth. Each line is now one load level."""
 import numpy as np
 
-from cvtdesign.cli.diagnose import _load_slices
+from cvtdesign.uses.diagnosis import _load_slices
 
 
 def test_each_line_is_one_load_level():

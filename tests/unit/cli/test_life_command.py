@@ -64,7 +64,7 @@ def test_figures_and_report(life_run):
 def test_record_is_the_interface():
     """The record of one variant (the fast part of the JSON check above): the keys and the first contact."""
     from conftest import shipped_model
-    from cvtdesign.cli.life import ageing_of, variant_record
+    from cvtdesign.uses.life import ageing_of, variant_record
     from cvtdesign.core.life.run import machine_life
     from cvtdesign.io.duty_file import load_duty
     model, duty = shipped_model("existing"), load_duty(DUTY)
