@@ -94,14 +94,15 @@ WORDS = {"max_abs_alpha_deg": ("slips less than", "largest slip angle"),
          "min_efficiency": ("keeps a higher worst-case efficiency than", "worst-case efficiency")}
 
 
-def ordering_sentences(ranked: list[dict]) -> list[str]:
-    """One sentence per ordering of the figures in WORDS: stated only where the difference is resolved at 95 %
-    (core.uncertainty.orderings), otherwise 'cannot tell' with the input that would settle it."""
+def ordering_sentences(ranked: list[dict], words: dict = WORDS) -> list[str]:
+    """One sentence per ordering of the figures in `words` ({figure: (verb, noun)}): stated only where the
+    difference is resolved at 95 % (core.uncertainty.orderings), otherwise 'cannot tell' with the input that
+    would settle it."""
     out = []
     for o in ranked:
-        if o["figure"] not in WORDS:
+        if o["figure"] not in words:
             continue
-        verb, noun = WORDS[o["figure"]]
+        verb, noun = words[o["figure"]]
         if o["resolved"]:
             out.append(f"{o['better']} {verb} {o['worse']} (P = {o['p_better']:.3f})")
         else:

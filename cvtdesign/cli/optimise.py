@@ -7,6 +7,7 @@ from pathlib import Path
 from rich.console import Console
 
 from cvtdesign.cli import optimise_report
+from cvtdesign.cli.compare_report import ordering_sentences
 from cvtdesign.cli.export import export_steps
 from cvtdesign.cli.printing import json_text, kind_of, progress_bar, report_text, show
 from cvtdesign.core.contact.laws import contact_law
@@ -131,6 +132,10 @@ def result_blocks(res: dict, kinds: dict) -> list:
                      Note(f"optimised variant: {res['variant_file']}  (try: cvtdesign compare {res['variant_file']})")]
 
 
+GAIN_WORDS = {"max_abs_alpha_deg": ("slips less than", "largest slip angle"),
+              "rms_alpha_deg": ("slips less on average than", "RMS slip angle"),
+              "min_efficiency": ("keeps a higher worst-case efficiency than", "worst-case efficiency"),
+              "max_loss_no_output_W": ("loses less with no output than", "loss with no output")}
 INTERVAL_ROWS = [("max_abs_alpha_deg", "max |α| [°]", "{:.3f}"), ("rms_alpha_deg", "RMS α [°]", "{:.3f}"),
                  ("min_efficiency", "worst efficiency", "{:.3f}"), ("max_loss_no_output_W", "loss, no output [W]", "{:.3g}")]
 
@@ -152,16 +157,9 @@ def interval_blocks(got: dict) -> list:
     blocks = [t]
     for key, how in (("orderings", "as two builds, each with its own preload"),
                      ("orderings_one_preload", "at one preload")):
-        notes = []
-        for o in got[key]:
-            label = next(lab for k, lab, _ in INTERVAL_ROWS if k == o["figure"]).split(" [")[0]
-            if o["resolved"]:
-                notes.append(f"the {o['better']} is better by {label} (P = {o['p_better']:.3f})")
-            else:
-                settle = f"; {o['settle']} would settle it" if o.get("settle") else ""
-                notes.append(f"cannot tell by {label} (P = {o['p_better']:.2f} that the {o['better']} is "
-                             f"better{settle})")
-        blocks.append(Note(f"{how}: " + "; ".join(notes), "" if all(o["resolved"] for o in got[key]) else "warn"))
+        named = [o | {"better": f"the {o['better']}", "worse": f"the {o['worse']}"} for o in got[key]]
+        blocks.append(Note(f"{how}: " + "; ".join(ordering_sentences(named, GAIN_WORDS)),
+                           "" if all(o["resolved"] for o in got[key]) else "warn"))
     blocks.append(Note("both designs share their materials, pairs, calibration and law, so those cancel in the "
                        "difference (docs/optimisation.md, 'How sure is an optimum')"))
     return blocks
