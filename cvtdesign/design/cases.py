@@ -15,10 +15,10 @@ from pathlib import Path
 from cvtdesign.design.life_rows import life_duty
 from cvtdesign.design.objectives import objective
 from cvtdesign.design.study_file import (
+    Study,
     StudySpec,
     StudyVariant,
     check_counts,
-    load_study,
     next_to,
     problem_inputs,
     study_variant,
@@ -76,10 +76,9 @@ def variant_files(study_file, spec, base) -> list[Path]:
     return files
 
 
-def make_cases(study_file, spec=None, base: Path | None = None) -> list[dict]:
-    """The study's cases, each a small picklable dict with a stable id (spec, base: the loaded study)."""
-    if spec is None:
-        spec, base = load_study(study_file)
+def make_cases(study: Study) -> list[dict]:
+    """The study's cases (study_file.load_study), each a small picklable dict with a stable id."""
+    study_file, spec, base = study.path, study.spec, study.base
     check_counts(str(study_file), spec)
     for k, vals in spec.batch.sweep.items():
         if not vals:
@@ -105,9 +104,10 @@ def make_cases(study_file, spec=None, base: Path | None = None) -> list[dict]:
     return cases
 
 
-def study_content(study_file, spec, base: Path, cases: list[dict]) -> StudyContent:
+def study_content(study: Study, cases: list[dict]) -> StudyContent:
     """What the workers get (StudyContent): every variant file of `cases` read once here
     (study_file.study_variant: one InputError line for a bad one)."""
+    study_file, spec, base = study.path, study.spec, study.base
     variants = {}
     for c in cases:
         if c["variant"] not in variants:
