@@ -565,3 +565,13 @@ def test_the_study_file_is_read_in_one_module():
     assert readers == ["cvtdesign.design.study_file"], readers
     loads = calls_of("load_study")
     assert loads and all(layer(m) == "cli" and len(lines) == 1 for m, lines in loads.items()), loads
+
+
+def test_cad_is_given_a_layout():
+    """The CAD layer exports the Layout it is given and reads no input file: no cad module imports the variant
+    reader (io.variant) or the YAML reader; `cvtdesign export` and `--step` read the variant file
+    (cad/export.export_variant once took 'a layout or a path' and loaded the file itself)."""
+    bad = [f"{m} line {n.lineno}: imports {name}" for m, tree in MODULES.items() if layer(m) == "cad"
+           for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))
+           for name in imported(n) if name.startswith(("cvtdesign.io.variant", "cvtdesign.io.yaml_file"))]
+    assert not bad, f"the CAD layer reads input files: {bad}"
