@@ -84,8 +84,8 @@ def make_cases(study: Study) -> list[dict]:
         if not vals:
             raise InputError(f"{study_file}: batch.sweep.{k}: no values; expected at least one (or leave it out)")
     files = variant_files(study_file, spec, base)
-    front_only = objective(spec.objective.kind).eps_row     # the objective is the front: a chain per case, no starts
-    per_case = (0 if front_only else spec.multistart.starts) + (spec.batch.pareto or front_only)
+    n_starts, chain = objective(spec.objective.kind).solves(spec.multistart.starts, spec.batch.pareto)
+    per_case = n_starts + chain
     total = len(files) * math.prod(len(v) for v in spec.batch.sweep.values()) * per_case
     if total > MAX_CASES:
         raise InputError(f"{study_file}: batch: {len(files)} variant files × the sweep × {spec.multistart.starts} starts "
@@ -97,9 +97,9 @@ def make_cases(study: Study) -> list[dict]:
         for fixed in combos:     # in names a variant file reads back: letters, digits, '_', '.', '+', '-'
             tag = "_".join(f"{k}{v:.6g}" for k, v in fixed.items())
             stem = vf.stem + (f"_{tag}" if tag else "")
-            for k in range(0 if front_only else max(spec.multistart.starts, 1)):
+            for k in range(n_starts):
                 cases.append({"id": f"{stem}_start{k}", "kind": "start", "variant": str(vf), "fixed": fixed, "start": k})
-            if spec.batch.pareto or front_only:
+            if chain:
                 cases.append({"id": f"{stem}_pareto", "kind": "pareto", "variant": str(vf), "fixed": fixed, "start": 0})
     return cases
 

@@ -204,8 +204,7 @@ def build_problem(study: Study, fixed: dict | None = None, kind: str | None = No
     # the design rows on their own (a slice of g_full would still depend on every envelope point)
     g_design = ca.vertcat(*rows.exprs[n_point_blocks:]) if design_index.size else ca.MX(0, 1)
     f = nlp.objective.value(nlp, obj_grid)
-    inputs = [nlp.x, nlp.eps] if nlp.objective.eps_row else [nlp.x]
-    evaluate = ca.Function("evaluate", inputs, [f, g_full])
+    evaluate = ca.Function("evaluate", nlp.objective.inputs(nlp), [f, g_full])
     row_r, row_k, row_scale = row_maps(nlp, blocks, pt_index, reach_index, misfit_row, len(rows.lb))
     big = np.abs(nlp.l_pts) >= np.max(np.abs(nlp.l_pts)) * (1 - 1e-12)
     parts = Parts(x=nlp.x, eps=nlp.eps, f=f, g_full=g_full, g_design=g_design, P0=nlp.P0, point_rows=point_rows,

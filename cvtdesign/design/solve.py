@@ -272,7 +272,7 @@ def run(study: Study, out_dir: Path | None = None, n_starts: int | None = None, 
         spec.calibration = str(Path(calibration).resolve())
     if n_starts is not None:
         spec.multistart.starts = n_starts
-    if objective(spec.objective.kind).eps_row:       # the front (kind pareto); its knee is the optimum
+    if objective(spec.objective.kind).solves(spec.multistart.starts, False)[1]:   # the front; its knee the optimum
         problem, solutions, front = _front_knee(study, progress)
         optima = [(solutions[0], 1)] if solutions[0].success else []
     else:

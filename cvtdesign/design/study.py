@@ -133,7 +133,7 @@ def run_case(content: StudyContent, case: dict, out_dir: str) -> dict:
         ok = sol.success
         rows.append(common | {"point": 0, "status": sol.status, "success": ok, "objective": _held(ok, sol.objective),
                               "worst_alpha_deg": _held(ok, sol.check.max_abs_alpha_deg if sol.check else np.nan),
-                              "power_loss_W": _held(ok, sol.objective if goal.case_column == "power_loss_W" else np.nan),
+                              "power_loss_W": _held(ok, goal.power_loss(sol.objective)),
                               "iterations": sol.iterations, "reason": failure_reason(problem, sol),
                               "variant_file": design_file(problem, sol, f"{spec.name}_{case['id']}")}
                     | {f"design.{k}": v for k, v in sol.design.items()})
