@@ -38,7 +38,7 @@ GOALS = {"cases": 1.8, "whole": 1.5}
 
 def one_run(workers: int, out: Path) -> dict:
     t = time.perf_counter()
-    res = run_study(STUDY, out, workers=workers)
+    res = run_study(load_study(STUDY), out, workers=workers)
     whole = time.perf_counter() - t
     table = res["table"].drop_duplicates("case_id")
     assert len(table) == 32 and table["success"].all(), table["status"].value_counts()
@@ -49,9 +49,9 @@ def one_run(workers: int, out: Path) -> dict:
 def plain_processes(workers: int, out: Path) -> float:
     """The cases' wall time in `workers` plain processes (no Dask): the study's content and cases as
     `run_study` makes them, 8 cases of one problem per task, every process started and warmed first."""
-    spec, base = load_study(STUDY)
-    cases = make_cases(STUDY, spec, base)
-    content = study_content(STUDY, spec, base, cases)
+    study = load_study(STUDY)
+    cases = make_cases(study)
+    content = study_content(study, cases)
     with multiprocessing.get_context("spawn").Pool(workers, initializer=warm_worker) as pool:
         pool.map(time.sleep, [0.3] * (2 * workers), chunksize=1)
         t = time.perf_counter()

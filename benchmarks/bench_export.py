@@ -3,8 +3,8 @@
 1. Cold start: `cvtdesign export variants/box_kim.yaml` (STEP + SVG + PNG, as the README shows it) in a new
    process against `python -c "import cadquery"`, what merely loading cadquery costs on this machine now;
    the two are run in turn, and each figure is the best of the rounds. Goal (issue 12): at most COLD_GOAL ×.
-2. Warm (cadquery loaded): `export_variant` for box_kim.yaml and existing_kim.yaml against the bare assembly of
-   the same layout (the sphere and plain cylinders of the rollers' radius and width at their poses, no
+2. Warm (cadquery loaded): `export_layout` (the file read, then `export_variant`) for box_kim.yaml and
+   existing_kim.yaml against the bare assembly of the same layout (the sphere and plain cylinders of the rollers' radius and width at their poses, no
    crowns, bores, axles, forks, couplings, screen or drawings, written to STEP), and the `--check` time.
 
 Run: python benchmarks/bench_export.py [--rounds N]   (the machine is shared and noisy: best of the rounds)
@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.cad.export import export_variant
 from cvtdesign.cad.kernel import kernel
 from cvtdesign.cad.plan import Plan
 from cvtdesign.cad.step import step_header, write_step
+from cvtdesign.cli.export import export_layout
 from cvtdesign.core.geometry import pose, steering_angle
 from cvtdesign.io.variant import load_variant
 from timing import best_of
@@ -77,8 +77,8 @@ def warm(tmp):
     for name in ("box_kim", "existing_kim"):
         path = ROOT / "variants" / f"{name}.yaml"
         t_bare, _ = best_of(lambda: bare_assembly(path, tmp), 3)
-        t_exp, res = best_of(lambda: export_variant(path, tmp), 3)
-        t_chk, res_c = best_of(lambda: export_variant(path, tmp, check=True), 1)
+        t_exp, res = best_of(lambda: export_layout(path, tmp), 3)
+        t_chk, res_c = best_of(lambda: export_layout(path, tmp, check=True), 1)
         ok = all(r["ok"] for r in res_c["checks"])
         print(f"  {name:9s} export {t_exp:5.2f} s ({len(res['parts'])} parts)   bare sphere + cylinders "
               f"{t_bare:5.2f} s   ratio {t_exp / t_bare:5.1f} ×   check {res_c['check_seconds']:5.2f} s "

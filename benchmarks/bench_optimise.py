@@ -42,6 +42,7 @@ from scipy.optimize import minimize
 from cvtdesign.design.problem import build_problem
 from cvtdesign.design.solve import rows_at, solve_from, starts
 from cvtdesign.design.study import warm_worker
+from cvtdesign.design.study_file import load_study
 
 ROOT = Path(__file__).resolve().parents[1]
 REPEATS = 5
@@ -95,7 +96,7 @@ def floor(pr, sol) -> float:
 def ipopt_vs_slsqp():
     load0 = os.getloadavg()
     t_warm, _ = timed(warm_worker)
-    t_build, pr = timed(lambda: build_problem(ROOT / "studies/box_placement_kim.yaml"))
+    t_build, pr = timed(lambda: build_problem(load_study(ROOT / "studies/box_placement_kim.yaml")))
     z0 = starts(pr)[0]
     x0 = np.append(z0, float(pr.start_t(z0)) * 1.05 + 1e-3)
     # IPOPT's working set takes t0 from the largest |load| only: the same start if the worst |α| is there

@@ -26,6 +26,7 @@ import yaml
 from cvtdesign.core.model import compile_model
 from cvtdesign.design.problem import build_problem
 from cvtdesign.design.solve import solve_from, starts
+from cvtdesign.design.study_file import load_study
 from cvtdesign.io.variant import load_variant
 from timing import best_of
 
@@ -141,7 +142,7 @@ def solve_time(study: Path):
     """(rows, envelope points, points in the final working set, build [s], best solve [s], status, rounds,
     one evaluation of every row [s], the envelope check of the optimum [s]) of one study."""
     t = time.perf_counter()
-    pr = build_problem(study)
+    pr = build_problem(load_study(study))
     t_build = time.perf_counter() - t
     z0 = starts(pr)[0]
     solve_from(pr, z0)                                      # builds the working-set solvers it needs

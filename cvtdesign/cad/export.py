@@ -4,7 +4,6 @@ geometric checks of the written file (`checks.check_step`)."""
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -17,7 +16,6 @@ from cvtdesign.core.layout import Layout
 from cvtdesign.errors import InputError, RunError
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, staged
-from cvtdesign.io.variant import load_variant
 
 
 def _svg_result(svg: plots.Forked) -> str:
@@ -33,11 +31,13 @@ def _svg_result(svg: plots.Forked) -> str:
     raise RunError(f"drawing the SVG failed: {plots.describe(value)}")
 
 
-def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, check: bool = False) -> dict:
-    """Export a variant's assembly at commanded γ [deg] as `<out_dir>/<file stem>.step` (+ .svg, .png; a
-    Layout's: `<name>.step`).
+def export_variant(layout: Layout, out_dir="cad_out", gamma_deg: float = 45.0, check: bool = False,
+                   stem: str | None = None) -> dict:
+    """Export a layout's assembly at commanded γ [deg] as `<out_dir>/<stem>.step` (+ .svg, .png; `stem`
+    defaults to the layout's name; the commands pass the variant file's stem, as files may share a `name:`).
 
-    `layout_or_path`: a numeric `Layout` or a variant file. Impossible geometry raises InputError before
+    `layout`: a numeric `Layout` (the caller reads the variant file: io.variant.load_variant, whose checks
+    this runs, `core.checks.check_layout`, so it need not). Impossible geometry raises InputError before
     anything is written; the three files appear together or not at all (`output.staged`). Three processes
     share the work once the parts are built: a forked copy of this one draws the SVG (cadquery's exact
     hidden lines, the longest step); this one renders the picture and writes the STEP file; a plotting
@@ -48,18 +48,12 @@ def export_variant(layout_or_path, out_dir="cad_out", gamma_deg: float = 45.0, c
     t0 = time.perf_counter()
     painter = plots.Background()
     try:
-        if isinstance(layout_or_path, Layout):
-            layout = layout_or_path
-            check_layout(layout)
-        else:
-            layout = load_variant(layout_or_path)
+        check_layout(layout)
         p = plan(layout, gamma_deg)
         shapes, pieces = build(p)
         screen(p, pieces)
         out = make_folder(out_dir, kind="CAD output folder")
-        # named after the variant file (files may share a `name:`), a Layout after its name
-        stem = layout.name if isinstance(layout_or_path, Layout) else Path(layout_or_path).stem
-        paths = [out / f"{stem}.{ext}" for ext in ("step", "svg", "png")]
+        paths = [out / f"{stem or layout.name}.{ext}" for ext in ("step", "svg", "png")]
         with staged(paths, kind="CAD file") as tmps:     # the three files appear together or not at all
             # a forked copy of this process, with cadquery and the shapes already, draws the SVG on the other
             # core (OpenCascade holds the GIL, so a thread would not run beside this one)

@@ -13,7 +13,7 @@ from cvtdesign.cli.printing import json_text, kind_of, progress_bar, report_text
 from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.design import solve
 from cvtdesign.design.objectives import objective
-from cvtdesign.design.study_file import load_study
+from cvtdesign.design.study_file import Study, load_study
 from cvtdesign.errors import InputError
 from cvtdesign.io.output import make_folder, write_files
 from cvtdesign.io.schema import MAX_COUNT
@@ -35,11 +35,12 @@ def run(args):
     if args.starts is not None and not 1 <= args.starts <= MAX_COUNT:
         raise InputError(f"--starts: expected from 1 to {MAX_COUNT} multistart points, got {args.starts}")
     console = Console(width=120)
+    loaded = load_study(args.study)         # the one read of the study file; passed down from here
     with progress_bar(console, "multistart", lambda sol: f"last: {sol.status}, f = {sol.objective:.5g}",
                       transient=True) as progress:
-        res = solve.run(args.study, args.out, args.starts, progress, write=False, calibration=args.calibration)
-    variables = design_kinds(args.study, res["design"])
-    blocks = result_blocks(res, variables) + law_notes(args.study, res, variables)
+        res = solve.run(loaded, args.out, args.starts, progress, write=False, calibration=args.calibration)
+    variables = design_kinds(loaded, res["design"])
+    blocks = result_blocks(res, variables) + law_notes(loaded, res, variables)
     # the optimum's variant file, the JSON and the HTML report: written together, all or nothing
     files = res.pop("pending_files")
     kinds = {p: "variant file" for p in files}
@@ -64,12 +65,12 @@ def run(args):
     return 0 if res["success"] else 1
 
 
-def design_kinds(study_path, design: dict) -> dict:
+def design_kinds(loaded: Study, design: dict) -> dict:
     """{design variable: (kind, lower [SI], upper [SI])} from the study and its base variant: the variable's
     kind as the variant writes the parameter (or, for an expression or a plain number, as its bounds are
     written: a variable declared '30 mm' is a length)."""
-    spec, base = load_study(study_path)
-    params = load_spec(base).parameters
+    study_path, spec = loaded.path, loaded.spec
+    params = load_spec(loaded.base).parameters
     out = {}
     for n in design:
         v = spec.design[n]
@@ -78,10 +79,10 @@ def design_kinds(study_path, design: dict) -> dict:
     return out
 
 
-def law_notes(study_path, res: dict, variables: dict) -> list:
+def law_notes(loaded: Study, res: dict, variables: dict) -> list:
     """Under a contact law with fitted creep constants (Kim's), the creep does not depend on a roller's radius,
     crown or material: a length that ends on its bound is said to rest on that, not on the physics."""
-    law = contact_law(load_spec(load_study(study_path)[1]).contact.law)
+    law = contact_law(load_spec(loaded.base).contact.law)
     if not (law.fitted and res["success"]):
         return []
     ends = [n for n, (k, lo, hi) in variables.items() if k == "length" and

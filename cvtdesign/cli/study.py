@@ -13,7 +13,7 @@ from cvtdesign.design.objectives import objective
 from cvtdesign.cli.printing import kind_of, progress_bar, show
 from cvtdesign.design import study
 from cvtdesign.design.solve import knee
-from cvtdesign.design.study_file import load_study
+from cvtdesign.design.study_file import Study, load_study
 from cvtdesign.io import plots
 from cvtdesign.io.report import Note, Table
 from cvtdesign.io.units import degrees, engineering
@@ -22,8 +22,9 @@ from cvtdesign.io.variant import load_spec
 
 def run(args):
     console = Console(width=140)
+    loaded = load_study(args.study)         # the one read of the study file; passed down from here
     with progress_bar(console, "cases", lambda row: f"last: {row['case_id']} {row['status']}") as progress:
-        res = study.run_study(args.study, args.out, args.scheduler, args.workers, progress,
+        res = study.run_study(loaded, args.out, args.scheduler, args.workers, progress,
                               lambda text: console.print(text, style="yellow", markup=False, highlight=False,
                                                            soft_wrap=True))
     df = res["table"]
@@ -39,7 +40,7 @@ def run(args):
     if not df["success"].any():         # nothing to report: no optimum, front or knee from failed cases
         show(console, [t, failed])
         return 1
-    spec, kinds = study_kinds(args.study)
+    spec, kinds = study_kinds(loaded)
     starts_ = df[(df["kind"] == "start") & df["success"]]
     best = best_optima(starts_)
     blocks = [t] + ([failed] if failed else [])
@@ -89,11 +90,11 @@ def failure_note(df) -> Note | None:
     return Note(f"{n} of {total} cases failed: {groups}", "bad")
 
 
-def study_kinds(study_path) -> tuple:
+def study_kinds(loaded: Study) -> tuple:
     """(the study spec, {variable: kind}) for its design variables and swept parameters, as the base variant
     writes the parameter (or, for an expression or a plain number, as the study writes its bounds or values)."""
-    spec, base = load_study(study_path)
-    params = load_spec(base).parameters
+    spec = loaded.spec
+    params = load_spec(loaded.base).parameters
     kinds = {n: kind_of(params.get(n), v.lower, v.upper) for n, v in spec.design.items()}
     kinds |= {n: kind_of(params.get(n), *values) for n, values in spec.batch.sweep.items()}
     return spec, kinds

@@ -15,10 +15,10 @@ from pathlib import Path
 from cvtdesign.design.life_rows import life_duty
 from cvtdesign.design.objectives import objective
 from cvtdesign.design.study_file import (
+    Study,
     StudySpec,
     StudyVariant,
     check_counts,
-    load_study,
     next_to,
     problem_inputs,
     study_variant,
@@ -76,17 +76,16 @@ def variant_files(study_file, spec, base) -> list[Path]:
     return files
 
 
-def make_cases(study_file, spec=None, base: Path | None = None) -> list[dict]:
-    """The study's cases, each a small picklable dict with a stable id (spec, base: the loaded study)."""
-    if spec is None:
-        spec, base = load_study(study_file)
+def make_cases(study: Study) -> list[dict]:
+    """The study's cases (study_file.load_study), each a small picklable dict with a stable id."""
+    study_file, spec, base = study.path, study.spec, study.base
     check_counts(str(study_file), spec)
     for k, vals in spec.batch.sweep.items():
         if not vals:
             raise InputError(f"{study_file}: batch.sweep.{k}: no values; expected at least one (or leave it out)")
     files = variant_files(study_file, spec, base)
-    front_only = objective(spec.objective.kind).eps_row     # the objective is the front: a chain per case, no starts
-    per_case = (0 if front_only else spec.multistart.starts) + (spec.batch.pareto or front_only)
+    n_starts, chain = objective(spec.objective.kind).solves(spec.multistart.starts, spec.batch.pareto)
+    per_case = n_starts + chain
     total = len(files) * math.prod(len(v) for v in spec.batch.sweep.values()) * per_case
     if total > MAX_CASES:
         raise InputError(f"{study_file}: batch: {len(files)} variant files × the sweep × {spec.multistart.starts} starts "
@@ -98,16 +97,17 @@ def make_cases(study_file, spec=None, base: Path | None = None) -> list[dict]:
         for fixed in combos:     # in names a variant file reads back: letters, digits, '_', '.', '+', '-'
             tag = "_".join(f"{k}{v:.6g}" for k, v in fixed.items())
             stem = vf.stem + (f"_{tag}" if tag else "")
-            for k in range(0 if front_only else max(spec.multistart.starts, 1)):
+            for k in range(n_starts):
                 cases.append({"id": f"{stem}_start{k}", "kind": "start", "variant": str(vf), "fixed": fixed, "start": k})
-            if spec.batch.pareto or front_only:
+            if chain:
                 cases.append({"id": f"{stem}_pareto", "kind": "pareto", "variant": str(vf), "fixed": fixed, "start": 0})
     return cases
 
 
-def study_content(study_file, spec, base: Path, cases: list[dict]) -> StudyContent:
+def study_content(study: Study, cases: list[dict]) -> StudyContent:
     """What the workers get (StudyContent): every variant file of `cases` read once here
     (study_file.study_variant: one InputError line for a bad one)."""
+    study_file, spec, base = study.path, study.spec, study.base
     variants = {}
     for c in cases:
         if c["variant"] not in variants:

@@ -37,8 +37,8 @@ from cvtdesign.design.rows import (
 )
 from cvtdesign.design.solution import EnvelopeCheck, check_envelope
 from cvtdesign.design.study_file import (
+    Study,
     StudySpec,
-    load_study,
     min_normal_force,
     problem_inputs,
 )
@@ -188,12 +188,11 @@ def nlpsol(x, f, g, p, max_iter: int) -> ca.Function:
     return ca.nlpsol("design", "ipopt", {"x": x, "f": f, "g": g, "p": p}, opts)
 
 
-def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | None = None,
-                  fixed: dict | None = None, kind: str | None = None) -> Problem:
-    """The NLP of a study. `fixed` sets other variant parameters (SI) for a sweep case; `kind` overrides the
-    study's objective kind (design.objectives; 'pareto' builds the ε-constraint problem)."""
-    if spec is None:
-        spec, base_file = load_study(study_path)
+def build_problem(study: Study, fixed: dict | None = None, kind: str | None = None) -> Problem:
+    """The NLP of a study (study_file.load_study; its `base` the variant to design from). `fixed` sets other
+    variant parameters (SI) for a sweep case; `kind` overrides the study's objective kind (design.objectives;
+    'pareto' builds the ε-constraint problem)."""
+    study_path, spec, base_file = study.path, study.spec, study.base
     fixed = fixed or {}
     nlp = _setup(study_path, spec, base_file, fixed, objective(kind or spec.objective.kind))
     rows = Rows()
@@ -205,8 +204,7 @@ def build_problem(study_path, spec: StudySpec | None = None, base_file: Path | N
     # the design rows on their own (a slice of g_full would still depend on every envelope point)
     g_design = ca.vertcat(*rows.exprs[n_point_blocks:]) if design_index.size else ca.MX(0, 1)
     f = nlp.objective.value(nlp, obj_grid)
-    inputs = [nlp.x, nlp.eps] if nlp.objective.eps_row else [nlp.x]
-    evaluate = ca.Function("evaluate", inputs, [f, g_full])
+    evaluate = ca.Function("evaluate", nlp.objective.inputs(nlp), [f, g_full])
     row_r, row_k, row_scale = row_maps(nlp, blocks, pt_index, reach_index, misfit_row, len(rows.lb))
     big = np.abs(nlp.l_pts) >= np.max(np.abs(nlp.l_pts)) * (1 - 1e-12)
     parts = Parts(x=nlp.x, eps=nlp.eps, f=f, g_full=g_full, g_design=g_design, P0=nlp.P0, point_rows=point_rows,

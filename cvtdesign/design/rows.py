@@ -266,8 +266,7 @@ def design_rows(nlp: NLP, rows: Rows) -> None:
         _capacity_rows(nlp, rows, float(parameter_value(cs.min_capacity, f"{where}: constraints.min_capacity", {})))
     if cs.min_life_h is not None:
         life_rows(nlp, rows)
-    if nlp.objective.eps_row:
-        rows.add(nlp.t - nlp.eps, -np.inf, 0, "epsilon", ["worst |α| ≤ ε"])
+    nlp.objective.add_rows(nlp, rows)
 
 
 def _capacity_rows(nlp: NLP, rows: Rows, c: float) -> None:

@@ -25,7 +25,7 @@ from cvtdesign.design.optimum_intervals import optimum_intervals
 from cvtdesign.design.problem import Problem, build_problem, nlpsol
 from cvtdesign.design.report import constraint_report, variant_text, write_variant
 from cvtdesign.design.solution import Solution
-from cvtdesign.design.study_file import StudySpec, load_study
+from cvtdesign.design.study_file import Study
 
 NEAR_BINDING = 0.01  # working set: envelope points with a row within this fraction of its bound's scale
 WORKING_SET_MAX = 2_000_000   # entries of the working set's row-selection matrix beyond which every row is used
@@ -260,22 +260,23 @@ def distinct_optima(solutions: list[Solution], tol=1e-3) -> list[tuple[Solution,
     return [(grp[0], len(grp)) for grp in groups]
 
 
-def run(study_path, out_dir: Path | None = None, n_starts: int | None = None, progress=None,
+def run(study: Study, out_dir: Path | None = None, n_starts: int | None = None, progress=None,
         write: bool = True, calibration=None) -> dict:
-    """Build, multistart-solve and report one study; writes the best design as a variant file (with
-    `write` False it is not written: result['pending_files'] = {path: text}, for the caller to write
-    together with its own files). `calibration`: a diagnosis report whose fitted effect parameters the base
-    variant carries (overrides the study's `calibration`)."""
-    spec, base = load_study(study_path)
+    """Build, multistart-solve and report one study (study_file.load_study); writes the best design as a
+    variant file (with `write` False it is not written: result['pending_files'] = {path: text}, for the
+    caller to write together with its own files). `calibration`: a diagnosis report whose fitted effect
+    parameters the base variant carries (overrides the study's `calibration`)."""
+    spec = study.spec.model_copy(deep=True)          # the caller's study stays as it was read
+    study = Study(study.path, spec, study.base)
     if calibration is not None:
         spec.calibration = str(Path(calibration).resolve())
     if n_starts is not None:
         spec.multistart.starts = n_starts
-    if objective(spec.objective.kind).eps_row:       # the front (kind pareto); its knee is the optimum
-        problem, solutions, front = _front_knee(study_path, spec, base, progress)
+    if objective(spec.objective.kind).solves(spec.multistart.starts, False)[1]:   # the front; its knee the optimum
+        problem, solutions, front = _front_knee(study, progress)
         optima = [(solutions[0], 1)] if solutions[0].success else []
     else:
-        (problem, solutions), front = _multistart(study_path, spec, base, progress), None
+        (problem, solutions), front = _multistart(study, progress), None
         optima = distinct_optima(solutions)
     result = {"study": problem.spec.name, "starts": len(solutions),
               "statuses": [s.status for s in solutions],
@@ -323,9 +324,9 @@ def strip(unmet: list[dict]) -> list[dict]:
     return [{k: v for k, v in u.items() if k != "miss"} for u in unmet]
 
 
-def _multistart(study_path, spec: StudySpec, base: Path, progress) -> tuple[Problem, list[Solution]]:
+def _multistart(study: Study, progress) -> tuple[Problem, list[Solution]]:
     """The study's problem solved from each of its starts."""
-    problem = build_problem(study_path, spec, base)
+    problem = build_problem(study)
     zs = starts(problem)
     solutions = []
     for k, z0 in enumerate(zs):
@@ -335,10 +336,10 @@ def _multistart(study_path, spec: StudySpec, base: Path, progress) -> tuple[Prob
     return problem, solutions
 
 
-def _front_knee(study_path, spec: StudySpec, base: Path, progress) -> tuple[Problem, list[Solution], list]:
+def _front_knee(study: Study, progress) -> tuple[Problem, list[Solution], list]:
     """A `pareto` study: the front (pareto_front), its knee's solution first (the optimum reported), then the
     other points' (the front's ε-constraint problem)."""
-    front = pareto_front(study_path, spec, base)
+    front = pareto_front(study)
     k = knee(front)
     order = [k] + [i for i in range(len(front)) if i != k]
     if progress:
@@ -346,19 +347,18 @@ def _front_knee(study_path, spec: StudySpec, base: Path, progress) -> tuple[Prob
     return front[k]["problem"], [front[i]["solution"] for i in order], front
 
 
-def pareto_front(study_path, spec: StudySpec, base_file: Path, fixed: dict | None = None,
-                 points: int | None = None) -> list[dict]:
+def pareto_front(study: Study, fixed: dict | None = None, points: int | None = None) -> list[dict]:
     """Slip/efficiency trade-off by the ε-constraint method: minimise power loss subject to worst |α| ≤ ε,
     ε from the slip optimum's worst |α| to that of the loss optimum, each point warm-started from the last.
     Returns one dict per point: eps, worst_alpha_deg, power_loss_W, design, status, solution."""
-    slip = build_problem(study_path, spec, base_file, fixed, kind="worst_alpha")
-    loss = build_problem(study_path, spec, base_file, fixed, kind="power_loss")
-    front = build_problem(study_path, spec, base_file, fixed, kind="pareto")
+    slip = build_problem(study, fixed, kind="worst_alpha")
+    loss = build_problem(study, fixed, kind="power_loss")
+    front = build_problem(study, fixed, kind="pareto")
     z0 = starts(slip)[0]
     s_slip, s_loss = solve_from(slip, z0), solve_from(loss, z0)
     lo, hi = s_slip.objective, float(slip.start_t(s_loss.z))
     out, prev = [], s_slip
-    for k, eps in enumerate(np.linspace(lo, hi, points or spec.pareto.points)):
+    for k, eps in enumerate(np.linspace(lo, hi, points or study.spec.pareto.points)):
         sol = solve_from(front, prev.z, k, eps=float(eps))
         worst = float(slip.start_t(sol.z))
         out.append({"index": k, "eps": float(eps), "worst_alpha_deg": worst, "power_loss_W": sol.objective,

@@ -57,7 +57,7 @@ from cvtdesign.design.store import (
     store_lock,
     write_case,
 )
-from cvtdesign.design.study_file import StudyVariant, load_study
+from cvtdesign.design.study_file import Study, StudyVariant
 from cvtdesign.errors import InputError, RunError
 from cvtdesign.io.output import remove_stale_temps
 from cvtdesign.io.units import registry
@@ -101,7 +101,7 @@ def cached_problem(content: StudyContent, variant: StudyVariant, fixed: dict):
     the study's hash, which covers the contents of its files: an edited file is a new problem)."""
     key = (content.digest, variant.path, json.dumps(fixed, sort_keys=True))
     if key not in _PROBLEMS:
-        _PROBLEMS[key] = build_problem(content.path, content.spec, variant, fixed)
+        _PROBLEMS[key] = build_problem(Study(content.path, content.spec, variant), fixed)
         while len(_PROBLEMS) > _KEEP:
             _PROBLEMS.pop(next(iter(_PROBLEMS)))
     else:
@@ -133,12 +133,12 @@ def run_case(content: StudyContent, case: dict, out_dir: str) -> dict:
         ok = sol.success
         rows.append(common | {"point": 0, "status": sol.status, "success": ok, "objective": _held(ok, sol.objective),
                               "worst_alpha_deg": _held(ok, sol.check.max_abs_alpha_deg if sol.check else np.nan),
-                              "power_loss_W": _held(ok, sol.objective if goal.case_column == "power_loss_W" else np.nan),
+                              "power_loss_W": _held(ok, goal.power_loss(sol.objective)),
                               "iterations": sol.iterations, "reason": failure_reason(problem, sol),
                               "variant_file": design_file(problem, sol, f"{spec.name}_{case['id']}")}
                     | {f"design.{k}": v for k, v in sol.design.items()})
     else:
-        for p in pareto_front(content.path, spec, variant, case["fixed"]):
+        for p in pareto_front(Study(content.path, spec, variant), case["fixed"]):
             sol = p["solution"]
             ok = p["success"]
             rows.append(common | {"point": p["index"], "status": p["status"], "success": ok,
@@ -195,16 +195,16 @@ def plan(cases: list[dict], workers: list[str], pareto_points: int = 8) -> list[
     return out
 
 
-def run_study(study_file, out_dir=None, scheduler: str | None = None, workers: int | None = None,
+def run_study(study: Study, out_dir=None, scheduler: str | None = None, workers: int | None = None,
               progress=None, notice=None) -> dict:
     """Run every case not yet in the store on Dask; returns a summary dict. `progress(done, total, row)`
     follows the cases; `notice(text)` gets one-line notices (a corrupt case file run again). Bad input
     (the study, `workers`, a scheduler that does not answer, a store held by another run) is an
     InputError before any case runs; Ctrl-C raises `Interrupted` once the cluster is closed."""
     cluster.check_workers(workers, scheduler)
-    spec, base = load_study(study_file)
-    cases = make_cases(study_file, spec, base)
-    content = study_content(study_file, spec, base, cases)
+    study_file, spec = study.path, study.spec
+    cases = make_cases(study)
+    content = study_content(study, cases)
     check_study(content, cases)
     if scheduler:          # a scheduler that does not answer is refused before the results store is created
         cluster.connect(scheduler).close()

@@ -143,9 +143,21 @@ class StudySpec(Strict):
                                        # parameters the base variants carry (path relative to the study)
 
 
-def load_study(path) -> tuple[StudySpec, Path]:
+@dataclass
+class Study:
+    """A study file parsed once (`load_study`, the one place that reads one; the commands call it and pass
+    this down): `path` the study file as the user names it (messages, relative file names, provenance),
+    `spec` its contents, `base` the variant file its `base` names (in a worker: the StudyVariant the client
+    sent, read from no file)."""
+    path: str | Path
+    spec: StudySpec
+    base: Path | StudyVariant
+
+
+def load_study(path) -> Study:
+    """Read and check the study file at `path` (one InputError line for bad input)."""
     spec = read_spec(path, StudySpec, "name, base, design, objective")
-    return spec, next_to(path, "base", spec.base)
+    return Study(path, spec, next_to(path, "base", spec.base))
 
 
 def next_to(study_path, field: str, name: str, what: str = "variant file") -> Path:

@@ -544,3 +544,34 @@ def test_core_receives_no_schema_objects():
                 bad += [f"{m} line {f.lineno}: {node.name}.spec" for f in node.body
                         if isinstance(f, ast.AnnAssign) and isinstance(f.target, ast.Name) and f.target.id == "spec"]
     assert not bad, f"schema objects in core: {bad}"
+
+
+def calls_of(name: str) -> dict[str, list[int]]:
+    """{module: [line of each call of a function named `name`]} in the package (plain or attribute calls)."""
+    out: dict[str, list[int]] = defaultdict(list)
+    for m, tree in MODULES.items():
+        for n in ast.walk(tree):
+            if isinstance(n, ast.Call) and (getattr(n.func, "id", None) == name or getattr(n.func, "attr", None) == name):
+                out[m].append(n.lineno)
+    return dict(out)
+
+
+def test_the_study_file_is_read_in_one_module():
+    """A study file is parsed in design/study_file.py only (read_spec into a StudySpec, in load_study), and
+    load_study is called by the commands alone, once each: the design code gets a study_file.Study and never
+    a path to read (design/solve, study, problem and cases each read it again before)."""
+    readers = [m for m, tree in MODULES.items() for n in ast.walk(tree) if isinstance(n, ast.Call)
+               and ast.unparse(n.func).endswith("read_spec") and "StudySpec" in map(ast.unparse, n.args)]
+    assert readers == ["cvtdesign.design.study_file"], readers
+    loads = calls_of("load_study")
+    assert loads and all(layer(m) == "cli" and len(lines) == 1 for m, lines in loads.items()), loads
+
+
+def test_cad_is_given_a_layout():
+    """The CAD layer exports the Layout it is given and reads no input file: no cad module imports the variant
+    reader (io.variant) or the YAML reader; `cvtdesign export` and `--step` read the variant file
+    (cad/export.export_variant once took 'a layout or a path' and loaded the file itself)."""
+    bad = [f"{m} line {n.lineno}: imports {name}" for m, tree in MODULES.items() if layer(m) == "cad"
+           for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))
+           for name in imported(n) if name.startswith(("cvtdesign.io.variant", "cvtdesign.io.yaml_file"))]
+    assert not bad, f"the CAD layer reads input files: {bad}"

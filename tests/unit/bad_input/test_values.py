@@ -277,12 +277,12 @@ def test_shipped_variants_load_unchanged(path):
 @pytest.mark.slow
 def test_shipped_studies_build(tmp_path):
     from cvtdesign.design.problem import build_problem
-    from cvtdesign.design.study_file import load_study
+    from cvtdesign.design.study_file import Study, load_study
 
     for f in STUDIES:
-        spec, base = load_study(f)
-        for v in (spec.batch.variants or [spec.base]):
-            problem = build_problem(f, spec, (f.parent / v).resolve())
+        study = load_study(f)
+        for v in (study.spec.batch.variants or [study.spec.base]):
+            problem = build_problem(Study(f, study.spec, (f.parent / v).resolve()))
             assert np.all(problem.lower < problem.upper) and np.all(np.isfinite(problem.upper))
 
 

@@ -19,6 +19,7 @@ from cvtdesign.cad import checks, picture, plan, shapes, step
 from cvtdesign.cad.export import export_variant
 from cvtdesign.cad.kernel import kernel
 from cvtdesign.cli import main
+from cvtdesign.cli.export import export_layout
 from cvtdesign.core.geometry import pose
 from cvtdesign.core.model import compile_model
 from cvtdesign.io.variant import load_variant
@@ -37,7 +38,7 @@ EXISTING_PARTS = ["sphere", "drive_D1", "drive_D2", "steering_S1", "steering_S2"
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory):
     out = tmp_path_factory.mktemp("cad")
-    return out, {name: export_variant(path, out, check=True) for name, path in (("box_kim", BOX), ("existing_kim", EXISTING))}
+    return out, {name: export_layout(path, out, check=True) for name, path in (("box_kim", BOX), ("existing_kim", EXISTING))}
 
 
 @pytest.mark.slow
@@ -280,7 +281,7 @@ def test_failed_drawing_leaves_no_file(tmp_path, monkeypatch, step):
 
     monkeypatch.setattr(f"cvtdesign.cad.export.{step}", broken)
     with pytest.raises(RuntimeError, match="disk full"):
-        export_variant(EXISTING, tmp_path / "cad")
+        export_layout(EXISTING, tmp_path / "cad")
     assert list((tmp_path / "cad").iterdir()) == []
 
 

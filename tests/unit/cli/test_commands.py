@@ -105,8 +105,8 @@ def test_pareto_front_of_the_box_study(tmp_path):
                         "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}
     path = tmp_path / "pareto.yaml"
     path.write_text(yaml.safe_dump(data, allow_unicode=True))
-    spec, base = load_study(path)
-    pts = pareto_front(path, spec, base, points=4)
+    study = load_study(path)
+    pts = pareto_front(study, points=4)
     assert [p["index"] for p in pts] == [0, 1, 2, 3] and all(p["success"] for p in pts)
     eps = np.array([p["eps"] for p in pts])
     worst = np.array([p["worst_alpha_deg"] for p in pts])
@@ -115,7 +115,7 @@ def test_pareto_front_of_the_box_study(tmp_path):
     assert np.all(worst <= eps + 1e-6 * np.maximum(1, eps))
     assert np.all(np.diff(loss) <= 1e-6 * loss[:-1])
     assert loss[0] > loss[-1] * 1.001                        # a real trade-off, not one point four times
-    slip = build_problem(path, spec, base, kind="worst_alpha")
+    slip = build_problem(study, kind="worst_alpha")
     assert worst[0] == pytest.approx(eps[0], rel=1e-5)       # the first point is the slip optimum
     assert slip.names == pts[0]["problem"].names
     assert knee(pts) in (1, 2)

@@ -92,8 +92,9 @@ def test_optimise_says_when_kims_law_lets_a_radius_run_to_its_bound():
     law's fitted constants do not depend on a roller's radius. Now the optimum says so, under that law only."""
     from conftest import ROOT
     from cvtdesign.cli.optimise import law_notes
+    from cvtdesign.design.study_file import load_study
     variables = {"r_steer": ("length", 0.020, 0.045), "d": ("length", 0.030, 0.11)}
     res = {"success": True, "design": {"r_steer": 0.020, "d": 0.0319}}
-    kim = law_notes(ROOT / "studies" / "box_placement_kim.yaml", res, variables)
+    kim = law_notes(load_study(ROOT / "studies" / "box_placement_kim.yaml"), res, variables)
     assert len(kim) == 1 and kim[0].text.startswith("r_steer ended on its bound under contact law kim")
-    assert law_notes(ROOT / "studies" / "box_placement.yaml", res, variables) == []
+    assert law_notes(load_study(ROOT / "studies" / "box_placement.yaml"), res, variables) == []

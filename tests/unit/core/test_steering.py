@@ -119,8 +119,9 @@ def test_optimise_rows_are_compares_steering_torques(tmp_path):
     design over the limit (rolling to 1e-9, standstill to 1e-6), and their derivative in the preload is the
     central difference's."""
     from cvtdesign.design.problem import build_problem
+    from cvtdesign.design.study_file import load_study
     from cvtdesign.io.variant import load_variant
-    pr = build_problem(_study(tmp_path, "4 N*m"))
+    pr = build_problem(load_study(_study(tmp_path, "4 N*m")))
     x = np.array([0.5, 0.5, 0.0])           # d 70 mm, preload 70 N (and the epigraph t)
     g = np.asarray(pr.evaluate(x)[1]).ravel()
     fam = np.array(pr.g_family)
@@ -146,8 +147,10 @@ def test_a_steering_motor_limit_is_met_by_the_preload(tmp_path):
     the preload until the standstill row binds (to IPOPT's 1e-8), and slips more (d stays at the clearance's
     48.8 mm, where each fork needs μN·R sin θ = 0.0195 N·m per newton of preload: 5 N·m is 64 N)."""
     from cvtdesign.design.problem import build_problem
+    from cvtdesign.design.study_file import load_study
     from cvtdesign.design.solve import solve_from, starts
-    free_pr, held_pr = build_problem(_study(tmp_path, None)), build_problem(_study(tmp_path, "5 N*m"))
+    free_pr = build_problem(load_study(_study(tmp_path, None)))
+    held_pr = build_problem(load_study(_study(tmp_path, "5 N*m")))
     free, held = solve_from(free_pr, starts(free_pr)[0]), solve_from(held_pr, starts(held_pr)[0])
     assert free.success and held.success
     assert free.design["preload"] == pytest.approx(100.0, rel=1e-6)

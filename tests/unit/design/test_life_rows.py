@@ -13,6 +13,7 @@ from cvtdesign.core.life import wear
 from cvtdesign.core.life.run import machine_life
 from cvtdesign.design.problem import build_problem
 from cvtdesign.design.solve import solve_from, starts
+from cvtdesign.design.study_file import load_study
 from cvtdesign.errors import InputError
 from cvtdesign.io.ageing import roller_ageing
 from cvtdesign.io.duty_file import load_duty
@@ -25,7 +26,7 @@ def test_life_rows_are_the_wear_life_at_the_base_design():
     """At the base design (box_kim.yaml) the row of roller i is L_min over the wear life `cvtdesign life` gives
     it: L_min · Σ_k s_k k P_f,k/(4π r b_k) / (1 % r), with the model's losses and patch at the duty points at
     the rollers' consistent temperatures (core.life.run: the heat's feedback on the creep), not at the air's."""
-    pr = build_problem(STUDY)
+    pr = build_problem(load_study(STUDY))
     z = (pr.base_values - pr.lower) / (pr.upper - pr.lower)
     g = np.asarray(pr.evaluate(np.append(z, 4.0))[1]).ravel()
     life = np.array([f == "life" for f in pr.g_family])
@@ -46,11 +47,11 @@ def test_life_rows_are_the_wear_life_at_the_base_design():
 def test_life_constraint_binds_and_costs_slip():
     """The placement optimum takes the smallest steering rollers (20 mm), whose wear life on the cobot task is
     about 27 000 h; with min_life_h 60 000 h the optimum keeps larger ones, at a higher worst |α|."""
-    pr = build_problem(STUDY)
+    pr = build_problem(load_study(STUDY))
     sol = solve_from(pr, starts(pr)[0])
     life = np.array([f == "life" for f in pr.g_family])
     assert np.max(sol.g[life]) == pytest.approx(1.0, abs=1e-6)
-    free = build_problem(ROOT / "studies" / "box_placement_kim.yaml")
+    free = build_problem(load_study(ROOT / "studies" / "box_placement_kim.yaml"))
     base = solve_from(free, starts(free)[0])
     assert sol.objective > base.objective and sol.design["r_steer"] > base.design["r_steer"] + 1e-3
     readme = (ROOT / "README.md").read_text()     # the README's figures are these
@@ -65,7 +66,7 @@ def test_min_life_needs_its_duty(tmp_path):
     f = tmp_path / "s.yaml"
     f.write_text(yaml.safe_dump(data))
     with pytest.raises(InputError, match="constraints.life_duty: missing"):
-        build_problem(f)
+        build_problem(load_study(f))
 
 
 def test_min_life_is_a_time(tmp_path):
@@ -76,7 +77,7 @@ def test_min_life_is_a_time(tmp_path):
     f = tmp_path / "s.yaml"
     f.write_text(yaml.safe_dump(data))
     with pytest.raises(InputError, match="constraints.min_life_h: expected a time"):
-        build_problem(f)
+        build_problem(load_study(f))
 
 
 def test_duty_travels_as_content(tmp_path):
@@ -85,7 +86,7 @@ def test_duty_travels_as_content(tmp_path):
     import shutil
 
     from cvtdesign.design.cases import make_cases, study_content
-    from cvtdesign.design.study_file import load_study
+    from cvtdesign.design.study_file import Study, load_study
     from cvtdesign.io.duty_file import duty_from_data, inline
     duty = load_duty(ROOT / "studies" / "cobot_duty.yaml")
     back = duty_from_data(inline(duty), "x")
@@ -97,19 +98,19 @@ def test_duty_travels_as_content(tmp_path):
     shutil.copy(ROOT / "studies" / "cobot_duty.yaml", tmp_path / "cobot_duty.yaml")
     f = tmp_path / "s.yaml"
     f.write_text(yaml.safe_dump(data))
-    spec, base = load_study(f)
-    content = study_content(f, spec, base, make_cases(f, spec, base))
+    study = load_study(f)
+    content = study_content(study, make_cases(study))
     assert isinstance(content.spec.constraints.life_duty, dict)
     rows = lambda pr: np.asarray(pr.evaluate(np.append(np.full(3, 0.5), 4.0))[1]).ravel()[  # noqa: E731
         np.array([fam == "life" for fam in pr.g_family])]
-    from_file = rows(build_problem(f, spec, base))
+    from_file = rows(build_problem(study))
     (tmp_path / "cobot_duty.yaml").unlink()
-    np.testing.assert_allclose(rows(build_problem(f, content.spec, base)), from_file, rtol=1e-12)   # shares: 1 ulp
+    np.testing.assert_allclose(rows(build_problem(Study(f, content.spec, study.base))), from_file, rtol=1e-12)   # shares: 1 ulp
     shutil.copy(ROOT / "studies" / "cobot_duty.yaml", tmp_path / "cobot_duty.yaml")
     edited = yaml.safe_load((tmp_path / "cobot_duty.yaml").read_text())
     edited["ambient"] = "30 degC"
     (tmp_path / "cobot_duty.yaml").write_text(yaml.safe_dump(edited))
-    assert study_content(f, spec, base, make_cases(f, spec, base)).digest != content.digest
+    assert study_content(study, make_cases(study)).digest != content.digest
 
 
 def _max_life_study(tmp_path, **constraints):
@@ -127,10 +128,10 @@ def _max_life_study(tmp_path, **constraints):
 def test_max_life_objective_is_the_worst_inverse_life(tmp_path):
     """Objective max_life: the p-norm (p = 32) of the rollers' inverse wear lives [1/h], between the largest
     and 8^(1/32) times it, the largest being the life rows' over min_life_h."""
-    pr = build_problem(_max_life_study(tmp_path))
+    pr = build_problem(load_study(_max_life_study(tmp_path)))
     z = (pr.base_values - pr.lower) / (pr.upper - pr.lower)
     f = float(pr.evaluate(z)[0])
-    rows = build_problem(STUDY)
+    rows = build_problem(load_study(STUDY))
     g = np.asarray(rows.evaluate(np.append(z, 4.0))[1]).ravel()[np.array([fam == "life" for fam in rows.g_family])]
     worst = np.max(g) / 60000.0                   # [1/h]: rows are min_life_h × the inverse life
     assert worst <= f <= 8 ** (1 / 32) * worst
@@ -139,7 +140,7 @@ def test_max_life_objective_is_the_worst_inverse_life(tmp_path):
 
 def test_max_life_needs_its_duty(tmp_path):
     with pytest.raises(InputError, match="life_duty: missing.*max_life"):
-        build_problem(_max_life_study(tmp_path, life_duty=None))
+        build_problem(load_study(_max_life_study(tmp_path, life_duty=None)))
 
 
 @pytest.mark.slow

@@ -14,6 +14,7 @@ from cvtdesign.design.problem import build_problem
 from cvtdesign.design.report import constraint_report
 from cvtdesign.design.solution import check_envelope
 from cvtdesign.design.solve import solve_from, starts
+from cvtdesign.design.study_file import Study, load_study
 from cvtdesign.errors import InputError
 from cvtdesign.io.variant import load_spec, load_variant, resolve
 
@@ -30,11 +31,11 @@ def study(tmp_path, **fields):
 def test_gradients_match_finite_differences(tmp_path):
     """d(objective, constraints)/d(design) through the Newton solves (implicit function theorem) vs central
     differences of the same functions."""
-    pr = build_problem(study(tmp_path, design={"d": {"lower": "30 mm", "upper": "110 mm"},
+    pr = build_problem(load_study(study(tmp_path, design={"d": {"lower": "30 mm", "upper": "110 mm"},
                                                "r_drive": {"lower": "20 mm", "upper": "60 mm"},
                                                "preload": {"lower": "50 N", "upper": "200 N"}},
                              effects=["drive_longitudinal_creep", "steering_lateral_creep", "normal_force_variation",
-                                      "rolling_resistance"], objective={"kind": "power_loss"}))
+                                      "rolling_resistance"], objective={"kind": "power_loss"})))
     x0 = np.array([0.35, 0.5, 0.3])
     jac = pr.evaluate.factory("J", ["i0"], ["jac:o0:i0", "jac:o1:i0"])
     Jf, Jg = (np.asarray(a) for a in jac(x0))
@@ -55,8 +56,8 @@ def test_steering_pair_moves_to_the_largest_moment_arm(tmp_path):
     """Kim sec. 5.1: the pole rollers' lateral forces have their largest moment about the centre when the pair
     sits at the pole; the tandem pair can only come as close as the clearance lets it: centre distance
     2 (R + r_s) sin θ = 2 r_s + c, i.e. d = 2 R sin θ = R (2 r_s + c)/(R + r_s) = 48.80 mm."""
-    pr = build_problem(study(tmp_path, constraints={"clearance": "2 mm", "traction_margin": None,
-                                                    "hertz_pressure": False}))
+    pr = build_problem(load_study(study(tmp_path, constraints={"clearance": "2 mm", "traction_margin": None,
+                                                    "hertz_pressure": False})))
     sol = solve_from(pr, starts(pr)[0])
     R, rs, c = 0.0635, 0.038, 0.002
     assert sol.success
@@ -130,7 +131,7 @@ def test_working_set_reaches_the_optimum_of_every_row(tmp_path):
     """IPOPT on a working set of envelope rows (violated rows added, solved again) ends where IPOPT on every
     row at once does, with every row of the whole formulation satisfied; here the traction limit binds at
     points the first working set leaves out, so it takes more than one round."""
-    pr = build_problem(study(tmp_path, design={"d": {"lower": "30 mm", "upper": "110 mm"},
+    pr = build_problem(load_study(study(tmp_path, design={"d": {"lower": "30 mm", "upper": "110 mm"},
                                                "preload": {"lower": "50 N", "upper": "200 N"}},
                              effects=["drive_longitudinal_creep", "steering_lateral_creep", "normal_force_variation",
                                       "rolling_resistance"],
@@ -138,7 +139,7 @@ def test_working_set_reaches_the_optimum_of_every_row(tmp_path):
                                  {"gamma": "30 deg", "load": "0.5 N*m", "weight": 2}, {"gamma": "-60 deg", "load": "-1 N*m"}]},
                              constraints={"traction_margin": 0.75, "clearance": "2 mm"},
                              envelope={"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "20 deg"},
-                                       "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "0.5 N*m"}}))
+                                       "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "0.5 N*m"}})))
     z0 = starts(pr)[0]
     ws, full = solve_from(pr, z0), solve_from(pr, z0, method="full")
     assert ws.success and full.success and ws.rounds >= 2 and ws.points < 45
@@ -156,8 +157,8 @@ def test_constraint_labels_name_their_roller_and_point(tmp_path):
     """Each row's label names the roller and operating point whose value it holds (checked against a direct
     evaluation of the model at the same design): Hertz p_max/p_allow, traction (|F| − 0.8 μN)/(μP), i.e.
     (F/(μN) − 0.8)·N/P, and normal force N/P₀ ≥ 5 % of the preload P₀ = P = 100 N (the default floor)."""
-    pr = build_problem(study(tmp_path, envelope={"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "30 deg"},
-                                                 "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}))
+    pr = build_problem(load_study(study(tmp_path, envelope={"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "30 deg"},
+                                                 "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}})))
     z = np.array([0.3])
     g = np.asarray(pr.evaluate(np.append(z, 0.0))[1]).ravel()
     d = pr.lower[0] + (pr.upper[0] - pr.lower[0]) * z[0]
@@ -187,9 +188,9 @@ def test_design_variable_free_in_some_variants_only(tmp_path, capsys):
                  envelope={"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "60 deg"},
                            "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "2 N*m"}})
     from cvtdesign.design.study_file import load_study
-    spec, _ = load_study(path)
-    assert build_problem(path, spec, ROOT / "variants/existing_kim.yaml").names == ["r_steer"]
-    assert sorted(build_problem(path, spec, ROOT / "variants/box_kim.yaml").names) == ["d", "r_steer"]
+    spec = load_study(path).spec
+    assert build_problem(Study(path, spec, ROOT / "variants/existing_kim.yaml")).names == ["r_steer"]
+    assert sorted(build_problem(Study(path, spec, ROOT / "variants/box_kim.yaml")).names) == ["d", "r_steer"]
     data = yaml.safe_load(path.read_text())
     data["design"]["d"]["variants"] = ["bx.yaml"]
     path.write_text(yaml.safe_dump(data, allow_unicode=True))
@@ -207,8 +208,7 @@ def test_written_variant_carries_sweep_parameters_and_study_envelope(tmp_path):
     env = {"gamma": {"start": "-60 deg", "stop": "60 deg", "step": "30 deg"},
            "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "1 N*m"}}
     path = study(tmp_path, constraints={"clearance": "2 mm"}, envelope=env)
-    spec, base = load_study(path)
-    pr = build_problem(path, spec, base, {"r_steer": 0.030})
+    pr = build_problem(load_study(path), {"r_steer": 0.030})
     sol = solve_from(pr, starts(pr)[0])
     assert sol.success
     L = load_variant(write_variant(pr, sol, tmp_path, "swept"))
@@ -241,11 +241,11 @@ def test_normal_force_floor_holds_where_the_optimum_would_unload_a_contact(tmp_p
                   objective={"kind": "power_loss"},
                   envelope={"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "20 deg"},
                             "load": {"start": "-1 N*m", "stop": "1 N*m", "step": "0.5 N*m"}})
-    free = build_problem(study(tmp_path, constraints={"min_normal_force": "1 N"}, **fields))
+    free = build_problem(load_study(study(tmp_path, constraints={"min_normal_force": "1 N"}, **fields)))
     s_free = solve_from(free, starts(free)[0])
     assert s_free.success and s_free.check.ok
     assert s_free.check.min_normal_force < 30                 # the unconstrained optimum unloads a contact
-    pr = build_problem(study(tmp_path, constraints={"min_normal_force": "40 N"}, **fields))
+    pr = build_problem(load_study(study(tmp_path, constraints={"min_normal_force": "40 N"}, **fields)))
     sol = solve_from(pr, starts(pr)[0])
     assert sol.success and sol.check.ok and sol.objective > s_free.objective
     nf = {r["name"]: r for r in constraint_report(pr, sol)}["normal_force"]
@@ -286,10 +286,10 @@ def test_envelope_check_flags_lost_contact_and_traction_row_cannot_pass_it(tmp_p
     assert ok.ok and ok.summary().startswith("0 of 27") and 0 < ok.min_normal_force < 100 and ok.max_utilisation < 1
 
     # the rows of a study over that load, at the base design: wherever N < 0, the traction row is violated
-    pr = build_problem(study(tmp_path, base=str(ROOT / "variants/existing_kim.yaml"),
+    pr = build_problem(load_study(study(tmp_path, base=str(ROOT / "variants/existing_kim.yaml"),
                              design={"r_steer": {"lower": "20 mm", "upper": "60 mm"}},
                              envelope={"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "20 deg"},
-                                       "load": {"start": "-4 N*m", "stop": "4 N*m", "step": "4 N*m"}}))
+                                       "load": {"start": "-4 N*m", "stop": "4 N*m", "step": "4 N*m"}})))
     rows = np.asarray(pr.evaluate(np.array([(0.038 - 0.020) / 0.040, 0.0]))[1]).ravel()
     fam = np.array(pr.g_family)
     n_rows, t_rows = rows[fam == "normal_force"], rows[fam == "traction"]
@@ -304,7 +304,7 @@ def test_optimum_failing_the_envelope_check_is_not_an_optimum(tmp_path):
                  constraints={"traction_margin": None},
                  envelope={"gamma": {"start": "-40 deg", "stop": "40 deg", "step": "20 deg"},
                            "load": {"start": "-2 N*m", "stop": "2 N*m", "step": "2 N*m"}})
-    pr = build_problem(path)
+    pr = build_problem(load_study(path))
     sol = solve_from(pr, starts(pr)[0])
     assert sol.ipopt_status == "Solve_Succeeded" and not sol.success
     assert sol.status.startswith("Failed_Envelope_Check: 4 of 15 envelope points") and sol.check.gross_slip == 4
@@ -328,7 +328,7 @@ def test_optimum_failing_the_envelope_check_is_not_an_optimum(tmp_path):
 def test_bad_min_normal_force(tmp_path, capsys, value, message):
     path = study(tmp_path, constraints={"min_normal_force": value})
     with pytest.raises(InputError, match=message.replace("(", r"\(").replace(")", r"\)")):
-        build_problem(path)
+        build_problem(load_study(path))
     assert main(["optimise", str(path)]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1

@@ -12,6 +12,7 @@ from cvtdesign.core.model import compile_model
 from cvtdesign.design.problem import build_problem
 from cvtdesign.design.solution import check_envelope
 from cvtdesign.design.solve import solve_from, starts
+from cvtdesign.design.study_file import load_study
 from cvtdesign.io.variant import resolve
 
 COARSE = {"gamma": {"start": "-80 deg", "stop": "80 deg", "step": "20 deg"}}
@@ -59,7 +60,7 @@ def assert_same_points(pr, design):
 def test_check_is_the_numeric_model_of_the_design():
     """Box placement (its envelope, 357 points): the base design, the optimum's corner and two far corners
     of the design box; every point ok."""
-    pr = build_problem(ROOT / "studies/box_placement_kim.yaml")
+    pr = build_problem(load_study(ROOT / "studies/box_placement_kim.yaml"))
     for d, r_drive, r_steer in [(0.06, 0.04, 0.038), (0.0319401, 0.04, 0.02), (0.11, 0.06, 0.06), (0.03, 0.02, 0.06)]:
         status = assert_same_points(pr, {"d": d, "r_drive": r_drive, "r_steer": r_steer})
         assert (status == 0).all()
@@ -70,25 +71,25 @@ def test_check_is_the_numeric_model_where_points_fail(tmp_path):
     """Points that slip grossly or do not converge (box, low preloads, τ⊥ to ±2 N·m), points that lose
     contact (Kim's existing CVT at τ⊥ = ±4 N·m) and a reversed root (the same with a saturation law at
     γ = −60°, τ⊥ = 6 N·m): the same statuses as the numeric model."""
-    pr = build_problem(study(tmp_path, "slip", design={"d": {"lower": "30 mm", "upper": "110 mm"},
+    pr = build_problem(load_study(study(tmp_path, "slip", design={"d": {"lower": "30 mm", "upper": "110 mm"},
                                                        "preload": {"lower": "5 N", "upper": "200 N"},
                                                        "r_steer": {"lower": "20 mm", "upper": "60 mm"}},
-                             envelope=COARSE | {"load": {"start": "-2 N*m", "stop": "2 N*m", "step": "0.5 N*m"}}))
+                             envelope=COARSE | {"load": {"start": "-2 N*m", "stop": "2 N*m", "step": "0.5 N*m"}})))
     seen = set()
     for d, preload, r_steer in [(0.06, 100.0, 0.038), (0.06, 10.0, 0.038), (0.03, 5.0, 0.06), (0.11, 30.0, 0.02)]:
         seen |= set(assert_same_points(pr, {"d": d, "preload": preload, "r_steer": r_steer}).tolist())
-    pr = build_problem(study(tmp_path, "lost", base=str(ROOT / "variants/existing_kim.yaml"),
+    pr = build_problem(load_study(study(tmp_path, "lost", base=str(ROOT / "variants/existing_kim.yaml"),
                              design={"r_steer": {"lower": "20 mm", "upper": "60 mm"}},
-                             envelope=COARSE | {"load": {"start": "-4 N*m", "stop": "4 N*m", "step": "2 N*m"}}))
+                             envelope=COARSE | {"load": {"start": "-4 N*m", "stop": "4 N*m", "step": "2 N*m"}})))
     for r_steer in (0.038, 0.02):
         seen |= set(assert_same_points(pr, {"r_steer": r_steer}).tolist())
     # loaded from rest, Kim's law reaches a reversed root only with a saturation law, far past gross slip
-    pr = build_problem(study(tmp_path, "reversed", base=str(ROOT / "variants/existing_kim.yaml"),
+    pr = build_problem(load_study(study(tmp_path, "reversed", base=str(ROOT / "variants/existing_kim.yaml"),
                              design={"r_steer": {"lower": "20 mm", "upper": "60 mm"}},
                              effects=["drive_longitudinal_creep", "steering_lateral_creep", "normal_force_variation",
                                       "traction_saturation"],
                              envelope={"gamma": {"start": "-60 deg", "stop": "-40 deg", "step": "20 deg"},
-                                       "load": {"start": "-6 N*m", "stop": "6 N*m", "step": "6 N*m"}}))
+                                       "load": {"start": "-6 N*m", "stop": "6 N*m", "step": "6 N*m"}})))
     seen |= set(assert_same_points(pr, {"r_steer": 0.038}).tolist())
     assert seen == {0, 1, 2, 3, 4}     # ok, not converged, lost contact, gross slip and reversed all came up
 
@@ -98,7 +99,7 @@ def test_a_solve_checks_with_its_own_row_evaluation_only_where_the_seeds_agree(t
     the check's outputs. They stand for the check only where the design's own steering scan gives the NLP's
     seeds bit for bit, and then they are the check's numbers bit for bit; where the seeds differ, the check
     evaluates the points itself."""
-    pr = build_problem(ROOT / "studies/box_placement_kim.yaml")
+    pr = build_problem(load_study(ROOT / "studies/box_placement_kim.yaml"))
     sol = solve_from(pr, starts(pr)[0])
     x = np.append(sol.z, sol.objective)
     g, points = pr.rows_and_points(x)

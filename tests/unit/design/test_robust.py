@@ -35,7 +35,7 @@ def test_the_corners_are_the_calibrations_95_percent_box(tmp_path):
     """box's drive (82A, σ 1.3 %) and steering (84A, σ 1.0 %) calibrations are independent: 4 corners at
     ±2.236σ (a box of joint probability 0.95), each the whole envelope, and the misfit rows once per γ."""
     path = study(tmp_path)
-    p = build_problem(path, *load_study(path))
+    p = build_problem(load_study(path))
     nlp = p.parts.nlp
     assert nlp.scenarios == ["drive ×0.971, steering ×0.978", "drive ×1.029, steering ×0.978",
                              "drive ×0.971, steering ×1.022", "drive ×1.029, steering ×1.022"]
@@ -61,7 +61,7 @@ def test_the_robust_optimum_holds_over_the_region(tmp_path, cli):
     rob = r["robust"]
     assert rob["worst_alpha_deg"] == r["objective"] > rob["nominal_worst_alpha_deg"]
     assert rob["nominal_worst_alpha_deg"] == pytest.approx(n["objective"], rel=1e-6)
-    p = build_problem(tmp_path / "robust.yaml", *load_study(tmp_path / "robust.yaml"))
+    p = build_problem(load_study(tmp_path / "robust.yaml"))
     z = (np.array([n["design"][k] for k in p.names]) - p.lower) / (p.upper - p.lower)
     assert r["objective"] <= float(p.start_t(z)) + 1e-6
 

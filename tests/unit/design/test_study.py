@@ -34,6 +34,7 @@ from cvtdesign.design.store import read_store
 from cvtdesign.design.cases import make_cases
 from cvtdesign.design.study import run_study
 from cvtdesign.core.model import compile_model
+from cvtdesign.design.study_file import load_study
 from cvtdesign.errors import InputError
 from cvtdesign.io.variant import load_variant
 
@@ -82,7 +83,7 @@ def finished(tmp_path_factory, shared):
     """(study file, a finished store of its 6 cases, the store's table)."""
     folder = tmp_path_factory.mktemp("finished")
     path = small_study(folder)
-    res = run_study(path, folder / "store", scheduler=shared)
+    res = run_study(load_study(path), folder / "store", scheduler=shared)
     assert res["ran"] == 6 and res["table"]["success"].all()
     return path, folder / "store", res["table"]
 
@@ -101,7 +102,7 @@ def copy_store(store, tmp_path) -> Path:
 
 
 def test_cases_are_the_product(tmp_path):
-    cases = make_cases(small_study(tmp_path))
+    cases = make_cases(load_study(small_study(tmp_path)))
     assert len(cases) == 6 and len({c["id"] for c in cases}) == 6
     assert {c["fixed"]["r_steer"] for c in cases} == {0.030, 0.038}
     # ids name the optimum variant files, which the tool must read back (an '=' in them was refused)
@@ -138,7 +139,7 @@ def test_interrupt_then_resume(tmp_path, finished, shared, capfd, monkeypatch):
     # what a killed run leaves: a half-written temporary file (removed under the lock)
     stale = out / "cases" / ".x.parquet.0123abcd.tmp.parquet"
     stale.write_bytes(b"PAR1")
-    res = run_study(path, out, scheduler=shared)
+    res = run_study(load_study(path), out, scheduler=shared)
     assert res["skipped"] == 2 and res["ran"] == 4 and not stale.exists()
     pd.testing.assert_frame_equal(comparable(res["table"]), comparable(ref), rtol=1e-9)
 
@@ -153,7 +154,7 @@ def test_rerun_when_finished_prints_summary_and_recomputes_nothing(tmp_path, fin
     out = capsys.readouterr().out
     assert f"6 cases: all already in {store}; nothing to run" in out and "Solve_Succeeded" in out
     assert {f: f.stat().st_mtime_ns for f in case_files(store)} == before
-    res = run_study(path, store)
+    res = run_study(load_study(path), store)
     assert (res["skipped"], res["ran"]) == (6, 0)
     pd.testing.assert_frame_equal(comparable(res["table"]), comparable(ref), rtol=0, atol=0)
 
@@ -164,7 +165,7 @@ def test_corrupt_case_file_is_run_again(tmp_path, finished, shared):
     bad = case_files(store)[0]
     os.truncate(bad, bad.stat().st_size // 2)
     notices = []
-    res = run_study(path, store, scheduler=shared, notice=notices.append)
+    res = run_study(load_study(path), store, scheduler=shared, notice=notices.append)
     assert notices == [f"case file {bad}: unreadable (truncated or not a Parquet file); running the case again"]
     assert res["skipped"] == 5 and res["ran"] == 1
     pd.testing.assert_frame_equal(comparable(res["table"]), comparable(ref), rtol=1e-9)
@@ -308,7 +309,7 @@ def test_other_study_in_store_is_refused(tmp_path, finished, no_cluster):
     store = copy_store(store, tmp_path)
     other = small_study(tmp_path, design={"d": {"lower": "30 mm", "upper": "100 mm"}})
     with pytest.raises(InputError, match="holds another version of this study"):
-        run_study(other, store)
+        run_study(load_study(other), store)
 
 
 @pytest.mark.slow
@@ -334,10 +335,10 @@ def test_case_that_ended_in_an_error_runs_again(tmp_path, finished, shared):
     not read a file) is not a result: the next run runs it again and reaches the finished store's table."""
     path, store, ref = finished
     store = copy_store(store, tmp_path)
-    cases = make_cases(path)
+    cases = make_cases(load_study(path))
     store_mod.write_case(store, cases[0]["id"], store_mod.failure_rows(cases[0], "error: OSError: gone"))
     store_mod.write_case(store, cases[1]["id"], store_mod.failure_rows(cases[1], "worker_crashed"))
-    res = run_study(path, store, scheduler=shared)
+    res = run_study(load_study(path), store, scheduler=shared)
     assert res["skipped"] == 4 and res["ran"] == 2
     pd.testing.assert_frame_equal(comparable(res["table"]), comparable(ref), rtol=1e-9)
 
@@ -347,7 +348,7 @@ def test_no_successful_case_reports_the_failures_and_nothing_else(tmp_path, caps
     them) the command says how many failed and why, prints no optimum, front or knee, draws no plot, and
     exits 1."""
     path = small_study(tmp_path, batch={"pareto": True})
-    cases = make_cases(path)
+    cases = make_cases(load_study(path))
     why = "error: InputError: studies/x.yaml: cannot read file (No such file or directory)"
     rows = [r for c in cases[-2:] for r in store_mod.failure_rows(c, why)]
     monkeypatch.setattr(study_mod, "run_study", lambda *a, **k: {
@@ -386,7 +387,7 @@ def test_optimum_variant_files_are_the_model_that_was_optimised(tmp_path, shared
     figure."""
     effects = ["drive_longitudinal_creep", "steering_lateral_creep", "rolling_resistance"]
     study = small_study(tmp_path, effects=effects, multistart={"starts": 1}, batch={"sweep": {"r_steer": ["30 mm"]}})
-    res = run_study(study, tmp_path / "s", scheduler=shared)
+    res = run_study(load_study(study), tmp_path / "s", scheduler=shared)
     row = res["table"].iloc[0]
     assert row["success"], row["status"]
     layout = load_variant(row["variant_file"])
@@ -416,5 +417,5 @@ def test_a_lost_scheduler_ends_the_run_with_one_line_and_keeps_what_finished(tmp
     one_line(err, "cvtdesign: the cluster lost 4 of 6 cases", "2 finished and are kept in", "run again to resume")
     assert len(case_files(tmp_path / "s")) == 2
     monkeypatch.setattr(study_mod, "as_completed", real)
-    res = run_study(study, tmp_path / "s", scheduler=shared)
+    res = run_study(load_study(study), tmp_path / "s", scheduler=shared)
     assert res["skipped"] == 2 and res["ran"] == 4 and res["table"]["success"].all()
