@@ -16,9 +16,11 @@ from cvtdesign.uses.comparison import Comparison, compare
 from cvtdesign.uses.diagnosis import Diagnosis, diagnose
 from cvtdesign.uses.life import Life, life
 from cvtdesign.uses.load_capacity import Capacity, capacity
+from cvtdesign.uses.optimum import Optimum, optimise
 from cvtdesign.uses.result import Result
+from cvtdesign.uses.tolerance import Tolerance, tolerance
 from cvtdesign.uses.variant import evaluate, load_variant
 from cvtdesign.errors import InputError
 
-__all__ = ["Capacity", "Comparison", "Diagnosis", "InputError", "Life", "Result", "capacity", "compare", "diagnose",
-           "evaluate", "life", "load_variant"]
+__all__ = ["Capacity", "Comparison", "Diagnosis", "InputError", "Life", "Optimum", "Result", "Tolerance", "capacity",
+           "compare", "diagnose", "evaluate", "life", "load_variant", "optimise", "tolerance"]

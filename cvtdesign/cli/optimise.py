@@ -11,15 +11,13 @@ from cvtdesign.cli.compare_report import ordering_sentences
 from cvtdesign.cli.export import export_steps
 from cvtdesign.cli.printing import json_text, kind_of, progress_bar, report_text, show
 from cvtdesign.core.contact.laws import contact_law
-from cvtdesign.design import solve
 from cvtdesign.design.objectives import objective
-from cvtdesign.design.study_file import Study, load_study
-from cvtdesign.errors import InputError
+from cvtdesign.design.study_file import Study
 from cvtdesign.io.output import make_folder, write_files
-from cvtdesign.io.schema import MAX_COUNT
 from cvtdesign.io.report import Note, Table
 from cvtdesign.io.units import ENGINEERING, degrees, engineering, number
-from cvtdesign.io.variant import load_spec, parameter_value
+from cvtdesign.io.variant import load_spec
+from cvtdesign.uses.optimum import bounds, optimise_run
 
 # the kind of each constraint family's rows (design.report.constraint_report), and the factor from the
 # row's units to SI: the worst-|α| and ε rows are in degrees, Hertz p_max/p_allow, traction and the linkage
@@ -32,23 +30,20 @@ SHOW = {"°": degrees, "W": lambda v: engineering(v, "power"),
 
 
 def run(args):
-    if args.starts is not None and not 1 <= args.starts <= MAX_COUNT:
-        raise InputError(f"--starts: expected from 1 to {MAX_COUNT} multistart points, got {args.starts}")
     console = Console(width=120)
-    loaded = load_study(args.study)         # the one read of the study file; passed down from here
     with progress_bar(console, "multistart", lambda sol: f"last: {sol.status}, f = {sol.objective:.5g}",
                       transient=True) as progress:
-        res = solve.run(loaded, args.out, args.starts, progress, write=False, calibration=args.calibration)
+        result = optimise_run(args.study, args.out, args.starts, progress, calibration=args.calibration)
+    loaded, res = result.study, result.details
     variables = design_kinds(loaded, res["design"])
     blocks = result_blocks(res, variables) + law_notes(loaded, res, variables)
     # the optimum's variant file, the JSON and the HTML report: written together, all or nothing
-    files = res.pop("pending_files")
+    files = dict(result.files)
     kinds = {p: "variant file" for p in files}
     if files and args.out:
         make_folder(args.out, kind="--out")
     if args.json:
-        keys = ("status", "objective", "design", "active_constraints", "variant_file", "unmet_constraints")
-        files[Path(args.json)] = json_text({k: res[k] for k in keys if k in res} | {"details": res})
+        files[Path(args.json)] = result.to_json()
         kinds[Path(args.json)] = "--json"
     if args.report:
         objective = objective_text(res["objective_kind"], res["objective"]) if res["success"] else ""
@@ -69,14 +64,9 @@ def design_kinds(loaded: Study, design: dict) -> dict:
     """{design variable: (kind, lower [SI], upper [SI])} from the study and its base variant: the variable's
     kind as the variant writes the parameter (or, for an expression or a plain number, as its bounds are
     written: a variable declared '30 mm' is a length)."""
-    study_path, spec = loaded.path, loaded.spec
     params = load_spec(loaded.base).parameters
-    out = {}
-    for n in design:
-        v = spec.design[n]
-        out[n] = (kind_of(params.get(n), v.lower, v.upper), parameter_value(v.lower, f"{study_path}: design.{n}.lower", {}),
-                  parameter_value(v.upper, f"{study_path}: design.{n}.upper", {}))
-    return out
+    return {n: (kind_of(params.get(n), loaded.spec.design[n].lower, loaded.spec.design[n].upper), lo, hi)
+            for n, (lo, hi) in bounds(loaded, design).items()}
 
 
 def law_notes(loaded: Study, res: dict, variables: dict) -> list:

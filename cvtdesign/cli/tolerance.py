@@ -4,7 +4,6 @@ resumable, against the first-order prediction from the model's exact derivatives
 inputs ranked together by their effect (design.tolerance, docs/tolerances.md)."""
 from __future__ import annotations
 
-import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -12,72 +11,32 @@ from rich.console import Console
 
 from cvtdesign.cli.compare import COLUMNS
 from cvtdesign.cli.printing import json_text, progress_bar, show
-from cvtdesign.core.tolerances import KINDS
-from cvtdesign.design.tolerance import (
-    FIGURES,
-    LINEAR_DRAWS,
-    built_model,
-    check_directions,
-    check_run,
-    figures,
-    run_samples,
-    tolerance_content,
-)
-from cvtdesign.design.tolerance_stats import effects, first_order, slopes, summary
-from cvtdesign.io import plots
+from cvtdesign.design.tolerance import FIGURES, LINEAR_DRAWS
 from cvtdesign.io.output import make_folder, write_file
 from cvtdesign.io.report import Note, Table
-from cvtdesign.io.units import engineering
+from cvtdesign.uses.tolerance import RANKED, source_name, source_text, tolerance_run
 
 LABELS = {key: label.rstrip(" ¹²³") for key, label, _ in COLUMNS}     # compare's footnotes are compare's
 FORMATS = {key: fmt for key, _, fmt in COLUMNS}
-RANKED = 10          # dimensions ranked in the printed table and the figure (all of them in --json)
 
 
 def run(args):
-    check_run(args.samples, args.workers, args.scheduler)
-    content = tolerance_content(args.variant, args.tolerances, args.dimensions_only)
-    model, nominal = built_model(content)
-    check_directions(model, content.dims, args.tolerances)
-    store = Path(args.store or Path("results") / f"{Path(args.variant).stem}_{content.name}")
     console = Console(width=150)
-    start = []
     with progress_bar(console, "samples", lambda row: f"last: sample {row['sample']} {row['status']}") as progress:
-        def follow(done, total, row):
-            if not start:
-                start.append(done)
-            progress(done, total, row)
-        table, failed = run_samples(content, args.samples, store, (args.scheduler, args.workers), follow,
-                                    lambda text: console.print(text, style="yellow", markup=False, soft_wrap=True))
-    xs = table[[f"x.{d.label}" for d in content.sources]].to_numpy(float)
-    fo = first_order(model, nominal, content, xs)
-    eff = effects(model, nominal, fo, content.sources)
-    out = {"variant": content.layout.name, "variant_file": args.variant, "tolerances_file": args.tolerances,
-           "contact_law": content.layout.contact_law, "store": str(store),
-           **summary(table, figures(model, nominal), fo, eff, slopes(table, fo, content.sources), content)}
-    written = [f"store: {store} ({min(start[0], args.samples)} samples were there, the rest drawn now)"]
+        result = tolerance_run(args.variant, args.tolerances, args.samples, args.dimensions_only, args.store,
+                               (args.scheduler, args.workers), progress,
+                               lambda text: console.print(text, style="yellow", markup=False, soft_wrap=True))
+    out, content = result.content(), result.content_
+    written = [f"store: {out['store']} ({result.drawn_before} samples were there, the rest drawn now)"]
     if args.json:
         write_file(args.json, json_text(out), kind="--json")
         written.append(f"figures written to {args.json}")
     if args.plots:
-        written.append(f"plot: {plot(args, content, table, fo, out)}")
-    show(console, [figure_table(out, content), effect_table(out, content), *notes(out, failed, content)])
+        written.append(f"plot: {result.plot(make_folder(args.plots, kind='--plots'))}")
+    show(console, [figure_table(out, content), effect_table(out, content), *notes(out, result.failed, content)])
     for line in written:
         console.print(line, markup=False)
     return 0 if out["samples_held"] else 1
-
-
-def plot(args, content, table, fo: dict, out: dict) -> Path:
-    """The figure of max |α|: its sampled and first-order distributions, and the tolerances ranked."""
-    path = make_folder(args.plots, kind="--plots") / f"{Path(args.variant).stem}_{Path(args.tolerances).stem}_tolerance.png"
-    key = FIGURES[0]
-    ranked = [(textwrap.fill(f"{source_name(e)}, {source_text(e, content)}", 48), e["effect"])   # inputs' labels
-              for e in out["effects"][key]]                                                   # are long
-    also = f" and {len(content.inputs)} physical inputs" if content.inputs else ""
-    return plots.tolerance_figure(f"{content.layout.name}: {LABELS[key]} under the tolerances of "
-                                  f"{Path(args.tolerances).name}{also} (law {content.layout.contact_law})", LABELS[key],
-                                  table[key].where(table["status"] == "ok"), fo["values"][:, 0],
-                                  out["figures"][key]["nominal"], ranked, path, top=RANKED)
 
 
 def figure_table(out: dict, content) -> Table:
@@ -96,27 +55,6 @@ def figure_table(out: dict, content) -> Table:
 
 def _cell(value, fmt: str) -> str:
     return "—" if value is None else fmt.format(value)
-
-
-def tolerance_text(d) -> str:
-    """A dimension's distribution as an engineer writes it: 'σ 0.1°', '± 0.1 mm', '± 10 %'."""
-    kind = KINDS[d.kind]
-    size = f"{100 * d.size:.4g} %" if kind == "dimensionless" else engineering(d.size, kind)
-    return ("σ " if d.distribution == "normal" else "± ") + size
-
-
-def source_name(e: dict) -> str:
-    """An effect's dimension, or 'input: <label>' for a physical input."""
-    return e["dimension"] if "dimension" in e else f"input: {e['input']}"
-
-
-def source_text(e: dict, content) -> str:
-    """An effect's tolerance (tolerance_text), or a physical input's relative spread: 'σ 20 % (assumed)',
-    '± 25 %' (uniform: its half-width)."""
-    if "dimension" in e:
-        return tolerance_text(next(d for d in content.dims if d.label == e["dimension"]))
-    s = next(s for s in content.inputs if s.label == e["input"])
-    return ("σ " if s.distribution == "normal" else "± ") + f"{100 * s.size:.2g} %" + (" (assumed)" if s.assumed else "")
 
 
 def effect_table(out: dict, content) -> Table:

@@ -558,13 +558,14 @@ def calls_of(name: str) -> dict[str, list[int]]:
 
 def test_the_study_file_is_read_in_one_module():
     """A study file is parsed in design/study_file.py only (read_spec into a StudySpec, in load_study), and
-    load_study is called by the commands alone, once each: the design code gets a study_file.Study and never
-    a path to read (design/solve, study, problem and cases each read it again before)."""
+    load_study is called by the commands or the Python API's use cases (uses/) alone, once each: the design
+    code gets a study_file.Study and never a path to read (design/solve, study, problem and cases each read
+    it again before)."""
     readers = [m for m, tree in MODULES.items() for n in ast.walk(tree) if isinstance(n, ast.Call)
                and ast.unparse(n.func).endswith("read_spec") and "StudySpec" in map(ast.unparse, n.args)]
     assert readers == ["cvtdesign.design.study_file"], readers
     loads = calls_of("load_study")
-    assert loads and all(layer(m) == "cli" and len(lines) == 1 for m, lines in loads.items()), loads
+    assert loads and all(layer(m) in ("cli", "uses") and len(lines) == 1 for m, lines in loads.items()), loads
 
 
 def test_cad_is_given_a_layout():
