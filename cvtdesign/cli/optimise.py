@@ -9,7 +9,7 @@ from rich.console import Console
 from cvtdesign.cli import optimise_report
 from cvtdesign.cli.compare_report import ordering_sentences
 from cvtdesign.cli.export import export_steps
-from cvtdesign.cli.printing import json_text, kind_of, progress_bar, report_text, show
+from cvtdesign.cli.printing import kind_of, progress_bar, report_text, show
 from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.design.objectives import objective
 from cvtdesign.design.study_file import Study
