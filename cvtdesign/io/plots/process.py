@@ -21,7 +21,12 @@ def worker(conn, parent_end, warm=None, call=None):
 
     It runs one call and ends, so Python's cyclic garbage collector stays off: its passes would walk
     matplotlib's objects and the parent's (about a seventh of the process's time) for cycles that the end of
-    the process frees anyway; the memory it uses stays the same."""
+    the process frees anyway; the memory it uses stays the same.
+
+    Its interrupt is its own: a parent started with SIGINT ignored (by `nohup`, or as a background job of a
+    shell without job control) would hand that on through the fork, and close() would then wait its whole
+    timeout for every process it ends (5 s a failing command) before terminating it."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     gc.disable()
     parent_end.close()      # its copy of the parent's end: without it, a parent that dies would not be noticed
     failed = None

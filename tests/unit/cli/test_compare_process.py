@@ -74,3 +74,18 @@ def test_the_table_is_printed_before_the_figure_is_waited_for(tmp_path, monkeypa
     code, out, _ = cli("compare", box, "--out", tmp_path / "p", "--report", tmp_path / "r.html")
     assert code == 0 and "max |α|" in out and events == ["table", "wait"]
     assert (tmp_path / "p" / "box_kim.png").stat().st_size > 20_000 and "<img" in (tmp_path / "r.html").read_text()
+
+
+def test_a_process_ended_early_stops_on_its_interrupt_even_where_the_parent_ignores_it():
+    """A command started with SIGINT ignored (nohup, or a background job of a shell without job control) used to
+    hand that on through the fork: close() then waited its 5 s timeout and terminated the process, for every
+    failing compare (4 min instead of 12 s for tests/unit/bad_input/test_values.py under `trap "" INT`). The
+    process now ends on the interrupt itself: exit code 0, not the terminate's −SIGTERM."""
+    import signal
+    was = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        forked = process.Forked()                     # waits for a call that never comes
+        forked.close()
+    finally:
+        signal.signal(signal.SIGINT, was)
+    assert forked.proc.exitcode == 0
