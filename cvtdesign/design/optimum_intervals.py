@@ -17,7 +17,8 @@ from cvtdesign.core import basis
 from cvtdesign.core.inputs import uncertain_model
 from cvtdesign.core.metrics import envelope, metrics
 from cvtdesign.core.uncertainty import Spread, checked_by_sampling, intervals, orderings, sampled_figures, spread
-from cvtdesign.io.variant import grid, resolve
+from cvtdesign.design.study_file import on_study_envelope
+from cvtdesign.io.variant import resolve
 
 SAMPLES = 128      # draws of every input that check each first-order interval and pair the two designs (as compare's)
 OWN_PRELOAD = "preload of the design, as built"     # one key for both designs' own preloads (_one_preload)
@@ -27,13 +28,8 @@ FIGURES = ("max_abs_alpha_deg", "rms_alpha_deg", "min_efficiency", "max_loss_no_
 def layout_at(problem, design: dict, name: str):
     """The layout of the study's base variant at `design` ({variable: SI value}), on the study's envelope
     where it sets one."""
-    spec = problem.spec
     layout = resolve(problem.vspec, str(problem.base_file), overrides=problem.fixed | design)
-    if spec.envelope is not None:
-        where = f"{problem.study_file}: envelope"
-        layout = dataclasses.replace(layout, gamma_grid=grid(spec.envelope.gamma, "angle", f"{where}.gamma"),
-                                     load_grid=grid(spec.envelope.load, "torque", f"{where}.load"))
-    return dataclasses.replace(layout, name=name)
+    return dataclasses.replace(on_study_envelope(problem.spec, layout, str(problem.study_file)), name=name)
 
 
 def optimum_intervals(problem, design: dict) -> dict:

@@ -40,9 +40,10 @@ from cvtdesign.design.study_file import (
     Study,
     StudySpec,
     min_normal_force,
+    on_study_envelope,
     problem_inputs,
 )
-from cvtdesign.io.variant import grid, parameter_value, resolve
+from cvtdesign.io.variant import parameter_value, resolve
 
 CHECK_OUTPUTS = ("status", "alpha", "N", "F_t", "F_a", "mu", "utilisation")   # what check_envelope reads
 IPOPT_OPTIONS = {"tol": 1e-8, "acceptable_tol": 1e-6, "hessian_approximation": "limited-memory",
@@ -270,11 +271,8 @@ def _steering_data(nlp: NLP) -> tuple[ca.Function, np.ndarray]:
 def _envelope_points(spec: StudySpec, base, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """The envelope (the study's, else the base variant's) as points: γ [rad], load [N m] and a steering
     angle guess φ [rad] per point, γ-major, and the number of loads per γ."""
-    gammas, loads = base.gamma_grid, base.load_grid
-    if spec.envelope is not None:
-        gammas = grid(spec.envelope.gamma, "angle", f"{where}: envelope.gamma")
-        loads = grid(spec.envelope.load, "torque", f"{where}: envelope.load")
-    G, T = np.meshgrid(gammas, loads, indexing="ij")
+    on = on_study_envelope(spec, base, where)
+    G, T = np.meshgrid(on.gamma_grid, on.load_grid, indexing="ij")
     g_pts, l_pts = G.ravel(), T.ravel()
     phi0, _ = steering_angle_guess(*steering_data(base), g_pts)
     return g_pts, l_pts, phi0, G.shape[1]

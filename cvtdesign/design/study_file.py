@@ -329,6 +329,14 @@ def problem_inputs(study_path, spec: StudySpec, base_file, fixed: dict | None = 
     return vspec, base, names, np.array(lower), np.array(upper)
 
 
+def on_study_envelope(spec: StudySpec, layout, where: str):
+    """`layout` on the study's envelope (γ [rad] × τ⊥ [N m] grids), or as it is where the study sets none."""
+    if spec.envelope is None:
+        return layout
+    return dataclasses.replace(layout, gamma_grid=grid(spec.envelope.gamma, "angle", f"{where}: envelope.gamma"),
+                               load_grid=grid(spec.envelope.load, "torque", f"{where}: envelope.load"))
+
+
 def check_settings(study_path, spec: StudySpec, base) -> None:
     """The study-wide settings the NLP reads, checked against the base layout `base`: the effects, the
     envelope, the constraint values, the duty cycle and the solver options (IPOPT's max_iter, the number
@@ -336,11 +344,9 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
     where = str(study_path)
     if spec.effects is not None:
         check_effects(spec.effects, f"{where}: effects", base.contact_law)
-    gammas, loads = base.gamma_grid, base.load_grid
+    on = on_study_envelope(spec, base, where)
     if spec.envelope is not None:
-        gammas = grid(spec.envelope.gamma, "angle", f"{where}: envelope.gamma")
-        loads = grid(spec.envelope.load, "torque", f"{where}: envelope.load")
-        check_envelope_limits(dataclasses.replace(base, gamma_grid=gammas, load_grid=loads), f"{where}: envelope")
+        check_envelope_limits(on, f"{where}: envelope")
     cs = spec.constraints
     if cs.traction_margin is not None:
         w = f"{where}: constraints.traction_margin"
@@ -374,7 +380,7 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
                              f"min_life_h holds over (e.g. ../studies/cobot_duty.yaml)")
     pre0 = np.array([float(r.preload) for r in base.rollers])
     min_normal_force(cs.min_normal_force, pre0, f"{where}: constraints.min_normal_force", base.parameters)
-    duty_cycle(spec, gammas, loads, where)
+    duty_cycle(spec, on.gamma_grid, on.load_grid, where)
     check_counts(where, spec)
     if spec.robust is not None:
         if not 0 < spec.robust.confidence < 1:

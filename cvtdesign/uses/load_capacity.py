@@ -142,8 +142,8 @@ def capacity_records(variants, safety: float = 1.0, max_slip=None, samples: int 
     for i, (L, name) in enumerate(zip(layouts, names)):
         model = uncertain_model(dataclasses.replace(L, name=name))
         cap = search_capacity(model, L.gamma_grid, load_capacity(L), safety, max_slip,
-                       progress=lambda d, t, item, i=i, n=name: progress(i * t + d, len(layouts) * t,
-                                                                         f"{n}: {item or 'done'}"))
+                              progress=lambda d, t, item, i=i, n=name: progress(i * t + d, len(layouts) * t,
+                                                                                f"{n}: {item or 'done'}"))
         progress(i + 1, len(layouts), f"{name}: intervals" + (f" ({samples} samples)" if samples else ""))
         records.append(with_smallest_interval(variant_record(name, model, cap, samples)))
     return records
