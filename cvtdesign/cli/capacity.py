@@ -11,7 +11,8 @@ import numpy as np
 from rich.console import Console
 
 from cvtdesign.uses.load_capacity import capacity_records
-from cvtdesign.cli.printing import json_text, progress_bar, show
+from cvtdesign.cli.printing import progress_bar, show
+from cvtdesign.io.strict_json import json_text
 from cvtdesign.core.capacity_interval import figure
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, named_after, write_file

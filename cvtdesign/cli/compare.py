@@ -10,7 +10,8 @@ from cvtdesign.uses.comparison import comparison_layouts, comparison_rows, figur
 from cvtdesign.cli import compare_report
 from cvtdesign.uses.life import life_fields
 from cvtdesign.cli.life import life_cell
-from cvtdesign.cli.printing import json_text, left_out_text, report_text, show
+from cvtdesign.cli.printing import left_out_text, report_text, show
+from cvtdesign.io.strict_json import json_text
 from cvtdesign.core.inputs import uncertain_model
 from cvtdesign.core.metrics import ZERO_TORQUE, at_key, envelope
 from cvtdesign.io import plots

@@ -15,7 +15,8 @@ from pathlib import Path
 
 from rich.console import Console
 
-from cvtdesign.cli.printing import json_text, show
+from cvtdesign.cli.printing import show
+from cvtdesign.io.strict_json import json_text
 from cvtdesign.core.contact.patch import calibrated_compliance, curves, patch, theory_patch
 from cvtdesign.io import plots
 from cvtdesign.io.output import make_folder, write_file

@@ -10,7 +10,8 @@ from rich.console import Console
 from cvtdesign.uses.diagnosis import check_candidates, plot_report
 from cvtdesign.cli.arguments import effects_arg
 from cvtdesign.cli.diagnosis_text import report_blocks
-from cvtdesign.cli.printing import json_text, progress_bar, report_text, show
+from cvtdesign.cli.printing import progress_bar, report_text, show
+from cvtdesign.io.strict_json import json_text
 from cvtdesign.core.effects import CALIBRATION
 from cvtdesign.diagnosis import diagnose
 from cvtdesign.diagnosis import measured

@@ -10,7 +10,7 @@ import re
 import numpy as np
 
 from cvtdesign.core.effects import EFFECTS
-from cvtdesign.core.model import STATUS
+from cvtdesign.core.status import STATUS
 from cvtdesign.diagnosis.diagnose import Report
 from cvtdesign.diagnosis.diagnose.explain import FORM_WORDS
 from cvtdesign.diagnosis.diagnose.spatial import AUTO_Z

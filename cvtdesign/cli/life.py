@@ -9,7 +9,8 @@ from pathlib import Path
 from rich.console import Console
 
 from cvtdesign.uses.life import C0, life_figures, life_run
-from cvtdesign.cli.printing import json_text, progress_bar, report_text, show
+from cvtdesign.cli.printing import progress_bar, report_text, show
+from cvtdesign.io.strict_json import json_text
 from cvtdesign.io.duty_file import load_duty
 from cvtdesign.io.output import make_folder, write_files
 from cvtdesign.io.report import Note, Table, png_figure

@@ -12,7 +12,6 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.text import Text
 
 from cvtdesign.io.report import Note, Table, html_report
-from cvtdesign.io.strict_json import finite, json_text  # noqa: F401  (the commands' JSON, made in io for the API too)
 from cvtdesign.io.units import KINDS, dimension_of, dimensions
 
 def kind_of(*raws) -> str:

@@ -9,7 +9,8 @@ from rich.table import Table
 
 from cvtdesign.cli.arguments import effects_arg
 from cvtdesign.cli.diagnosis_text import bound_mark
-from cvtdesign.cli.printing import json_text, show
+from cvtdesign.cli.printing import show
+from cvtdesign.io.strict_json import json_text
 from cvtdesign.core.model import compile_model
 from cvtdesign.diagnosis import resteer, rig
 from cvtdesign.errors import InputError

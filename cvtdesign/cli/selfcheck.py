@@ -4,7 +4,8 @@ from __future__ import annotations
 from rich.console import Console
 from rich.table import Table
 
-from cvtdesign.cli.printing import json_text, progress_bar
+from cvtdesign.cli.printing import progress_bar
+from cvtdesign.io.strict_json import json_text
 from cvtdesign.verification import selfcheck
 from cvtdesign.verification.selfcheck import meets_targets
 from cvtdesign.errors import InputError

@@ -10,7 +10,8 @@ import numpy as np
 from rich.console import Console
 
 from cvtdesign.cli.compare import COLUMNS
-from cvtdesign.cli.printing import json_text, progress_bar, show
+from cvtdesign.cli.printing import progress_bar, show
+from cvtdesign.io.strict_json import json_text
 from cvtdesign.design.tolerance import FIGURES, LINEAR_DRAWS
 from cvtdesign.io.output import make_folder, write_file
 from cvtdesign.io.report import Note, Table

@@ -51,7 +51,7 @@ from cvtdesign.core.geometry import ideal_gamma, roller_pose, steering_angle_gue
 from cvtdesign.core.kinematics import ShaftFrame, shaft_frame, shaft_gain, wrap_axis_angle
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.native import Tiered, compiled, from_source
-from cvtdesign.core.status import STATUS, Status  # noqa: F401 (STATUS: its readers import it from here)
+from cvtdesign.core.status import Status
 from cvtdesign.core.newton import newton_solver
 
 RES_TOL = 1e-8        # scaled residual above which a point is reported as not converged

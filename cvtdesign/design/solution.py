@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cvtdesign.core.model import STATUS
+from cvtdesign.core.status import STATUS
 
 
 @dataclass

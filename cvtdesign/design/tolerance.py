@@ -60,7 +60,8 @@ from cvtdesign.core.contact.laws import contact_law
 from cvtdesign.core.inputs import deviated
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.metrics import envelope, envelopes, metrics
-from cvtdesign.core.model import STATUS, CompiledModel, compile_model, library_model
+from cvtdesign.core.model import CompiledModel, compile_model, library_model
+from cvtdesign.core.status import STATUS
 from cvtdesign.core.tolerances import DIRECTIONS, as_built, draw
 from cvtdesign.design import cluster
 from cvtdesign.design.store import done_cases, prepare_store, read_store, store_lock

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cvtdesign.core.model import STATUS
+from cvtdesign.core.status import STATUS
 from cvtdesign.errors import InputError
 from cvtdesign.io.output import write_file
 

@@ -28,7 +28,8 @@ from cvtdesign.core.inputs import model_inputs
 from cvtdesign.core.life import fatigue, hysteresis, thermal, wear
 from cvtdesign.core.life.duty import WEAR_LIMIT_RATIO, DutyCycle
 from cvtdesign.core.life.props import friction_factor, modulus_factor
-from cvtdesign.core.model import STATUS, CompiledModel, compile_model
+from cvtdesign.core.model import CompiledModel, compile_model
+from cvtdesign.core.status import STATUS
 
 TOL_K = 1e-3            # [K] the temperatures' change at which the feedback has converged
 MAX_ITER = 100

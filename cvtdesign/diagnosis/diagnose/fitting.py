@@ -10,7 +10,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from cvtdesign.core.effects import EFFECTS
-from cvtdesign.core.model import STATUS, status_counts
+from cvtdesign.core.model import status_counts
+from cvtdesign.core.status import STATUS
 from cvtdesign.diagnosis.diagnose.predictor import CHANNELS, Predictor, residuals
 from cvtdesign.diagnosis.measured import Measured
 

@@ -19,7 +19,7 @@ from cvtdesign.cli import main
 
 from cvtdesign.core.capacity import LIMITS, RTOL, capacity, limit_codes, smallest_capacity
 from cvtdesign.core.metrics import allowable_pressures
-from cvtdesign.core.model import STATUS
+from cvtdesign.core.status import STATUS
 from cvtdesign.io.limits import load_capacity
 
 GAMMAS = {"start": "-80 deg", "stop": "80 deg", "step": "40 deg"}

@@ -17,7 +17,8 @@ from cvtdesign.diagnosis import rig
 from cvtdesign.cli import main
 from cvtdesign.core.geometry import FRAME
 from cvtdesign.core.kinematics import shaft_frame
-from cvtdesign.core.model import STATUS, compile_model
+from cvtdesign.core.model import compile_model
+from cvtdesign.core.status import STATUS
 from cvtdesign.io.variant import load_variant
 
 EXISTING = str(variant_path("existing_kim"))

@@ -9,7 +9,8 @@ from conftest import ROOT
 from kim_closed_forms import kim_gamma_from_phi  # tests/validation is on sys.path (tests/conftest.py)
 from cvtdesign.core import native
 from cvtdesign.core.geometry import ideal_gamma
-from cvtdesign.core.model import CONTACT_OUTPUTS, POINT_OUTPUTS, STATUS, compile_model
+from cvtdesign.core.model import CONTACT_OUTPUTS, POINT_OUTPUTS, compile_model
+from cvtdesign.core.status import STATUS
 from cvtdesign.io.variant import load_variant
 
 

@@ -9,7 +9,8 @@ import yaml
 from conftest import ROOT
 
 from cvtdesign.cli import main
-from cvtdesign.core.model import STATUS, compile_model
+from cvtdesign.core.model import compile_model
+from cvtdesign.core.status import STATUS
 from cvtdesign.design.problem import build_problem
 from cvtdesign.design.report import constraint_report
 from cvtdesign.design.solution import check_envelope
