@@ -71,10 +71,15 @@ def normal_forces(layout: Layout, poses, Fvec):
     return [r.preload + r.stiffness * ca.dot(n, delta) for r, (n, _) in zip(rollers, poses)]
 
 
-def equations(layout: Layout, hooks: Hooks, law, const, u: Unknowns, w1, phi, calls):
+def equations(layout: Layout, hooks: Hooks, law, const, u: Unknowns, w1, phi, calls, fork_rate=None):
     """Every contact's creep law, the sphere's moment balance, the idlers' torque balance and the shaft
     torques, with the effects' terms. Returns (slip rows, moment, idler rows, shaft torques, per-contact
-    outputs, saturation utilisations)."""
+    outputs, saturation utilisations).
+
+    `fork_rate` [rad/s], the steering angle's rate (the dynamic model, core.dynamics; None: the steady model's
+    forks at rest): a fork turning at ω_f = ρ φ̇ f moves its roller's contact point at R ω_f × n and pivots
+    it at ω_f·n, so each contact sees the sphere's angular velocity relative to its fork, Ω − ω_f, in its slip,
+    rolling speed and spin."""
     R = layout.sphere_radius
     poses = [roller_pose(r, phi) for r in layout.rollers]
     tdirs = [ca.cross(n, a) for n, a in poses]
@@ -82,15 +87,17 @@ def equations(layout: Layout, hooks: Hooks, law, const, u: Unknowns, w1, phi, ca
     N = normal_forces(layout, poses, Fvec)
     slip, moment, idle, tau, sat = [], ca.SX.zeros(3), [], {1: 0, 2: 0}, []
     per = {k: [] for k in ("xi", "eta", "spin", "utilisation", "mu", "M_spin", "loss", "a", "b", "G", "C11", "C22",
-                           "C23", "roll_sign", "T_fork", "fork_pivot", "fork_slide")}
+                           "C23", "roll_sign", "T_fork", "fork_pivot", "fork_slide", "V", "slide", "force_per_row",
+                           "M")}
     for i, r in enumerate(layout.rollers):
         (n, a), t, c = poses[i], tdirs[i], const[i]
         drive = r.role != "steering"
         r_eff = hooks.transform("rolling_radius", r.radius, r)
         w_i = r.ratio * (w1 if r.shaft == 1 else u.w2) if drive else u.w_idle[r.name]
-        s = R * ca.cross(u.Om, n) - r_eff * w_i * t
+        om = u.Om if fork_rate is None or r.fork_axis is None else u.Om - r.fork_ratio * fork_rate * vec(r.fork_axis)
+        s = R * ca.cross(om, n) - r_eff * w_i * t
         s_t, s_a = ca.dot(s, t), ca.dot(s, a)
-        roll, spin = ca.dot(u.Om, a), ca.dot(u.Om, n)
+        roll, spin = ca.dot(om, a), ca.dot(om, n)
         V = smooth_abs(R * roll, 1e-9 * u.v_ref)                          # rolling speed [m/s]
         N_creep, n_exp = law.creep_normal(hooks, r, N[i])
         eps = c["eps0"] * (c["n_ref"] / N_creep) ** n_exp if "eps0" in c else None
@@ -111,6 +118,10 @@ def equations(layout: Layout, hooks: Hooks, law, const, u: Unknowns, w1, phi, ca
         per["eta"].append(s_a / law_rows.speed)
         per["spin"].append(spin / law_rows.speed)
         per["mu"].append(state.mu)
+        per["V"].append(V)
+        per["slide"].append(ca.sqrt(s_t ** 2 + s_a ** 2 + (c["a"] * spin) ** 2 + (1e-9 * u.v_ref) ** 2))  # [m/s]
+        per["force_per_row"].append(law_rows.force_per_row)
+        per["M"].append(M)
         per["M_spin"].append(m_spin)
         for k, v in zip(("T_fork", "fork_pivot", "fork_slide"), fork_terms(r, n, a, on_sphere, R)):
             per[k].append(v)

@@ -266,7 +266,7 @@ def _peak_pressure_functions(layout: Layout, const, design):
     return hertz_p0, peak_pressure, p0_all
 
 
-def _initial_guess(layout: Layout, frame: ShaftFrame, gamma, w1, phi, om_ref):
+def ideal_unknowns(layout: Layout, frame: ShaftFrame, gamma, w1, phi, om_ref):
     """Ideal kinematics about the commanded axis u(γ), no forces (in the scaled unknowns)."""
     R = layout.sphere_radius
     g1, g2 = shaft_gain(layout, 1), shaft_gain(layout, 2)
@@ -311,7 +311,7 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None,
     params = ca.vertcat(gamma, w1, load, brake, phi_cmd, theta, design)
     G = calls.close("residual", [u.x, params], [resid])
     G_jac = calls.jacobian("residual_jac", [u.x, params], resid, 0)
-    x0 = _initial_guess(built, frame, gamma, w1, phi, u.om_ref)
+    x0 = ideal_unknowns(built, frame, gamma, w1, phi, u.om_ref)
     x0_fn = ca.Function("x0", [params], [x0])
 
     alpha = frame.slip_angle(w1, u.w2, gamma)

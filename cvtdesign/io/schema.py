@@ -312,6 +312,36 @@ class FrameSpec(Strict):
     thickness: Num = spec_field("plate thickness", "10 mm", kind="length", plausible="frame_thickness")
 
 
+class DynamicsSpec(Strict):
+    """The inertias and the steering motor of `cvtdesign transient` (docs/dynamics.md); each left out gets its
+    default, which the command reports as assumed."""
+    sphere_inertia: Num | None = spec_field(
+        "the sphere's moment of inertia (omitted: a uniform solid sphere of its material's density)", None,
+        kind="inertia")
+    roller_inertia: Num | None = spec_field(
+        "every roller's moment of inertia about its axle (omitted: a solid disc of its material's density, radius "
+        "and width)", None, kind="inertia")
+    output_inertia: Num | None = spec_field(
+        "shaft 2's moment of inertia with its rollers and the load it drives (omitted: its rollers only)", None,
+        kind="inertia")
+    steering_inertia: Num | None = spec_field(
+        "the steering's moment of inertia at the steering angle: forks, their rollers and the motor's rotor "
+        "(omitted: the rollers as point masses, a fork frame as heavy, and motor_inertia)", None, kind="inertia")
+    motor_torque: Num | None = spec_field(
+        "the steering motor's largest torque at the steering angle (omitted: 4 N·m, assumed)", None, kind="torque")
+    motor_speed: Num | None = spec_field(
+        "the steering motor's no-load speed at the steering angle (omitted: 60 rpm, assumed)", None, kind="speed")
+    motor_inertia: Num | None = spec_field(
+        "the motor's rotor inertia reflected to the steering angle (omitted: 1e-3 kg·m², assumed)", None,
+        kind="inertia")
+    servo_bandwidth: Num | None = spec_field(
+        "the steering position servo's bandwidth on the steering inertia alone (omitted: 20 Hz, assumed)", None,
+        kind="frequency")
+    relaxation_factor: Num | None = spec_field(
+        "each contact's relaxation length over its patch's semi-axis along the rolling direction (omitted: 1)",
+        None, kind="dimensionless")
+
+
 class VariantSpec(Strict):
     """A variant file.
 
@@ -355,6 +385,9 @@ class VariantSpec(Strict):
     preload_std: Num | None = spec_field(
         "relative 1σ of every roller's preload as built, e.g. '5 %' (omitted: 20 %, assumed: no paper states "
         "Kim et al.'s preload; an interval says it was assumed)", None, kind="dimensionless")
+    dynamics: DynamicsSpec = spec_field(
+        "the inertias and the steering motor of the dynamic model (`cvtdesign transient`, docs/dynamics.md); "
+        "each omitted gets a default that the command reports as assumed", DynamicsSpec())
     material_library: list[str] = spec_field(
         "files of the user's own materials and calibrations (the library's format), relative to this file; "
         "they add to the shipped library and take precedence over it", [])

@@ -79,6 +79,9 @@ KINDS = {
     "specific_heat": ("J/(kg*K)", "'1800 J/(kg*K)'"),
     "conductivity": ("W/(m*K)", "'0.2 W/(m*K)'"),
     "wear_coefficient": ("m**3/J", "'5e-14 m**3/J'"),
+    # the dynamic model (cvtdesign transient)
+    "inertia": ("kg*m**2", "'2e-3 kg*m**2'"),
+    "frequency": ("Hz", "'20 Hz'"),
 }
 # units a kind also takes besides its SI unit's dimension: a creep constant is a slip ratio (drive) or a slip
 # angle (steering) per newton

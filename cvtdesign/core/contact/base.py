@@ -13,7 +13,8 @@ assembles the equations:
    base gives linear theory's 1/(G a b C11) or 1/(G a b C22) times the variant's calibration factor;
  * `rows(layout, hooks, c, s_t, s_a, v_ref, calls)`: a ContactRows (two scaled residual rows, zero when the law
    holds; the traction utilisations for the gross-slip test; the spin moment the patch puts on the sphere about
-   its normal; the creep coefficients as the law used them); every law writes its own;
+   its normal; the creep coefficients as the law used them; the force each row stands for at fixed slip,
+   with which the dynamic model lets the force relax to the law); every law writes its own;
  * `load_natives()`: loads into the process the compiled code that a compiled model of the law calls, so that a
    model's library loaded without building the model (core.model.library_model) finds it; the base loads none.
 and says, as class attributes, what the rest of the package reads of it (no module compares a law's name):
@@ -51,6 +52,8 @@ class ContactRows:
     spin_moment: object     # moment of the patch's tractions on the sphere about the contact normal [N m]
     slopes: tuple           # small-creepage slopes as used [N per unit ξ, N per unit η, N m per unit φ [1/m]]
     speed: object           # the rolling speed the creepages are taken at [m/s]
+    force_per_row: tuple = None   # (∂ρ_t/∂F_t)⁻¹, (∂ρ_a/∂F_a)⁻¹ [N] at fixed slip: the force a unit of each row
+                                  # stands for, by which the dynamic model relaxes F to the law (core.dynamics)
 
 
 def patch_constants(layout: Layout, roller: Roller) -> dict:

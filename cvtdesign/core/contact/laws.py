@@ -70,7 +70,8 @@ class KimLaw(ContactLaw):
             ct, ca_ = ct * gain, ca_ * gain
             sat.append(util)
         rows = [(s_t + (ct + floor) * c.Ft) / v_ref, (s_a + (ca_ + floor) * c.Fa) / v_ref]
-        return ContactRows(rows, sat, 0.0, (c.V / (ct + floor), c.V / (ca_ + floor), 0.0), c.V)
+        return ContactRows(rows, sat, 0.0, (c.V / (ct + floor), c.V / (ca_ + floor), 0.0), c.V,
+                           (v_ref / (ct + floor), v_ref / (ca_ + floor)))
 
 
 class KalkerLaw(ContactLaw):
@@ -127,7 +128,8 @@ class KalkerLaw(ContactLaw):
         rows = [(c.Ft - mu_n * f[0]) / scale, (c.Fa + mu_n * f[1]) / scale]
         gab = const["G"] * a * b / k
         return ContactRows(rows, [ca.sqrt(f[0] ** 2 + f[1] ** 2)], layout.spin_factor * mu_n * a * f[2],
-                           (gab * const["C11"], gab * const["C22"], gab * ca.sqrt(a * b) * const["C23"]), v)
+                           (gab * const["C11"], gab * const["C22"], gab * ca.sqrt(a * b) * const["C23"]), v,
+                           (scale, scale))
 
 
 IDEAL = the_law("ideal")        # the ideal CVT's law: rigid rolling contacts with no effect on

@@ -1,0 +1,96 @@
+"""The dynamic model in time: its steady states and its response to a command, integrated by CasADi's CVODES
+(BDF with Newton iterations on the model's exact Jacobian; no hand-written integrator).
+
+A command is a list of segments, each starting at t0 with the commanded γ moving linearly (core.dynamics.model
+INPUTS); the integrator restarts at each segment's start, so a step or a corner of a ramp is resolved exactly.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from cvtdesign.core.dynamics.model import OUTPUTS, DynamicModel
+from cvtdesign.core.geometry import steering_angle_guess, steering_data
+
+RTOL, ATOL = 1e-9, 1e-10      # CVODES tolerances on the scaled states
+STEADY_TOL = 1e-12            # steady-state solve: largest |Ẋ| of the scaled states [1/s] accepted
+
+
+@dataclass
+class Trajectory:
+    """A simulated response: times [s], states (states × times) and OUTPUTS (each times, or contacts × times)."""
+    t: np.ndarray
+    X: np.ndarray
+    out: dict
+
+
+def linkage_angle(model: DynamicModel, gamma) -> np.ndarray:
+    """The linkage's angle φ [rad] that commands each γ [rad] (core.geometry's inverse kinematics)."""
+    phi, _ = steering_angle_guess(*steering_data(model.layout), np.atleast_1d(np.asarray(gamma, float)))
+    return phi
+
+
+def steady_state(model: DynamicModel, u: np.ndarray, theta=None, start=None) -> np.ndarray | None:
+    """The state at which Ẋ = 0 for constant inputs u (a segment with no rates), by Newton from the ideal
+    kinematics (or `start`); None where the solve does not converge."""
+    th = model.param_values if theta is None else theta
+    X = ca.MX.sym("X", model.n_states)
+    p = ca.MX.sym("p", len(u) + len(th))
+    f = ca.Function("g", [X, p], [model.rhs(0, X, p[:len(u)], p[len(u):])])
+    solver = _cached(model, "steady", lambda: ca.rootfinder("steady", "newton", f, {
+        "abstol": STEADY_TOL, "abstolStep": 1e-14, "max_iter": 60, "error_on_fail": False}))
+    x0 = model.steady_guess(u) if start is None else start
+    pv = np.concatenate([u, th])
+    x = np.array(solver(x0, pv)).ravel()
+    resid = np.array(f(x, pv)).ravel()
+    return x if np.all(np.isfinite(resid)) and np.max(np.abs(resid)) < 1e3 * STEADY_TOL else None
+
+
+def simulate(model: DynamicModel, X0: np.ndarray, segments: list, t_end: float, n_points: int = 400,
+             theta=None) -> Trajectory:
+    """Integrate from state X0 at the first segment's start to t_end [s]: `segments` is a list of INPUTS
+    vectors (model.inputs), each holding from its own t0 to the next one's. The outputs are sampled on
+    n_points times over the whole run (and at every segment's start)."""
+    th = np.asarray(model.param_values if theta is None else theta, float)
+    starts = [float(s[4]) for s in segments] + [t_end]
+    times = np.unique(np.concatenate([np.linspace(starts[0], t_end, n_points), starts]))
+    Xs, x = [np.asarray(X0, float)], np.asarray(X0, float)
+    for k, seg in enumerate(segments):
+        grid = times[(times > starts[k]) & (times <= starts[k + 1])]
+        if grid.size == 0:
+            continue
+        F = _integrator(model, starts[k], grid)
+        xs = np.array(F(x0=x, p=np.concatenate([seg, th]))["xf"])
+        Xs.append(xs.T)
+        x = xs[:, -1]
+    X = np.vstack([np.atleast_2d(Xs[0])] + Xs[1:]).T
+    us = np.array([segments[max(0, np.searchsorted(starts[:-1], t, side="right") - 1)] for t in times]).T
+    return Trajectory(times, X, outputs_at(model, times, X, us, th))
+
+
+def outputs_at(model: DynamicModel, times, X, us, theta) -> dict:
+    """OUTPUTS at each time (columns of X and of the inputs us)."""
+    n = len(times)
+    f = _cached(model, ("outputs", n), lambda: model.outputs.map(n))
+    got = f(np.atleast_2d(times), X, us, np.tile(np.asarray(theta, float)[:, None], (1, n)))
+    return {k: (np.array(v)[0] if np.array(v).shape[0] == 1 else np.array(v)) for k, v in zip(OUTPUTS, got)}
+
+
+def _integrator(model: DynamicModel, t0: float, grid: np.ndarray) -> ca.Function:
+    """CVODES over `grid` from t0 for the model's ODE with parameters [INPUTS, θ]."""
+    t = ca.MX.sym("t")
+    X = ca.MX.sym("X", model.n_states)
+    nu = model.rhs.size1_in(2)
+    p = ca.MX.sym("p", nu + model.rhs.size1_in(3))
+    dae = {"t": t, "x": X, "p": p, "ode": model.rhs(t, X, p[:nu], p[nu:])}
+    return ca.integrator("transient", "cvodes", dae, t0, list(grid),
+                         {"abstol": ATOL, "reltol": RTOL, "max_num_steps": 200000, "disable_internal_warnings": True})
+
+
+def _cached(model: DynamicModel, key, build):
+    cache = model.__dict__.setdefault("_cache", {})
+    if key not in cache:
+        cache[key] = build()
+    return cache[key]
