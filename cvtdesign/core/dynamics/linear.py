@@ -13,6 +13,8 @@ import casadi as ca
 import numpy as np
 
 from cvtdesign.core.dynamics.model import DynamicModel
+from cvtdesign.core.dynamics.response import command, linkage_slope
+from cvtdesign.core.dynamics.simulate import steady_state
 
 F_SCAN = np.logspace(-2, 4, 241)    # [Hz] where the response is scanned for the first −3 dB crossing
 SIGNALS = ("gamma_axis", "ratio")
@@ -68,3 +70,10 @@ def linearise(model: DynamicModel, X: np.ndarray, u: np.ndarray, dphi_dgamma: fl
     B0 = Bu[:, 0] + Bu[:, 2] * dphi_dgamma
     B1 = Bu[:, 1] + Bu[:, 3] * dphi_dgamma
     return Linear(A, B0, B1, {k: c.ravel() for k, c in zip(SIGNALS, C)}, np.linalg.eigvals(A))
+
+
+def linear_at(model: DynamicModel, gamma: float, load: float, load_is_tau_2: bool = False) -> Linear | None:
+    """The Linear model at the steady state of command γ [rad] and load [N m]; None where there is none."""
+    u = command(model, gamma, load, load_is_tau_2=load_is_tau_2)
+    X = steady_state(model, u)
+    return None if X is None else linearise(model, X, u, linkage_slope(model, gamma))

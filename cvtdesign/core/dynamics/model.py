@@ -68,6 +68,7 @@ class DynamicModel:
     steady_guess: ca.Function
     n_states: int
     roller_names: list
+    layout_frame: object = None    # the layout's core.kinematics.ShaftFrame
 
     def inputs(self, gamma, phi, omega_1=None, load=0.0, load_is_tau_2=False, gamma_rate=0.0, phi_rate=0.0,
                t0=0.0, contacts=True) -> np.ndarray:
@@ -119,7 +120,7 @@ def compile_dynamics(layout: Layout, parameters: DynamicParameters, effects=None
     guess = _steady_guess(layout, frame, u_in, u.om_ref, phi_eff, phi)
     return DynamicModel(layout, parameters, pvalues, rhs, ca.Function("outputs", ins, outputs.call(ins), ["t", "X", "u", "theta"],
                                                                       list(OUTPUTS)),
-                        guess, X.numel(), [r.name for r in layout.rollers])
+                        guess, X.numel(), [r.name for r in layout.rollers], frame)
 
 
 def _relaxation(layout, slip, per, parameters):

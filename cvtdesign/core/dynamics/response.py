@@ -37,7 +37,7 @@ def command(model: DynamicModel, gamma, load, t0=0.0, gamma_rate=0.0, load_is_ta
     """INPUTS of a segment commanding γ [rad] at t0 [s], moving at gamma_rate [rad/s] (the linkage's angle and its
     rate follow by the inverse kinematics, linear over the segment)."""
     phi = linkage_angle(model, gamma)[0]
-    slope = _linkage_slope(model, gamma)
+    slope = linkage_slope(model, gamma)
     return model.inputs(gamma, phi, load=load, gamma_rate=gamma_rate, phi_rate=slope * gamma_rate, t0=t0,
                         load_is_tau_2=load_is_tau_2, contacts=contacts)
 
@@ -138,6 +138,6 @@ def _ramp_segments(model, gamma_from, gamma_to, rate, t_ramp, load, load_is_tau_
     return segs + [command(model, gamma_to, load, t_ramp, 0.0, load_is_tau_2)]
 
 
-def _linkage_slope(model: DynamicModel, gamma, h: float = 1e-6) -> float:
+def linkage_slope(model: DynamicModel, gamma, h: float = 1e-6) -> float:
     """dφ/dγ [-] of the linkage at γ, by a central difference of its inverse kinematics."""
     return float((linkage_angle(model, gamma + h)[0] - linkage_angle(model, gamma - h)[0]) / (2 * h))
