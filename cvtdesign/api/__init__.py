@@ -19,8 +19,9 @@ from cvtdesign.uses.load_capacity import Capacity, capacity
 from cvtdesign.uses.optimum import Optimum, optimise
 from cvtdesign.uses.result import Result
 from cvtdesign.uses.tolerance import Tolerance, tolerance
+from cvtdesign.uses.transient import Transient, transient
 from cvtdesign.uses.variant import evaluate, load_variant
 from cvtdesign.errors import InputError
 
-__all__ = ["Capacity", "Comparison", "Diagnosis", "InputError", "Life", "Optimum", "Result", "Tolerance", "capacity",
-           "compare", "diagnose", "evaluate", "life", "load_variant", "optimise", "tolerance"]
+__all__ = ["Capacity", "Comparison", "Diagnosis", "InputError", "Life", "Optimum", "Result", "Tolerance", "Transient", "capacity",
+           "compare", "diagnose", "evaluate", "life", "load_variant", "optimise", "tolerance", "transient"]

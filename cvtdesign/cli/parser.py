@@ -43,6 +43,8 @@ COMMANDS = {     # name -> one-line help; cvtdesign.cli.<name> runs it
     "cache": "show the compiled-model cache (its folder and size), or empty it with --clear",
     "tolerance": "Monte Carlo over a variant's manufacturing tolerances on Dask, against the first-order prediction",
     "life": "heat, wear and life of every contact over a duty cycle, and which contact limits the machine",
+    "transient": "transient steering dynamics: a step of the command, the fastest ratio change, the bandwidth and "
+                 "the ratio error while rendering a constraint",
 }
 
 # Short commands that draw one figure. A plotting process (args.painter, an io.plots.Background) draws it, started
@@ -66,6 +68,7 @@ def build_parser():
     adders["capacity"] = _add_capacity
     adders["tolerance"] = _add_tolerance
     adders["life"] = _add_life
+    adders["transient"] = _add_transient
     for name, text in COMMANDS.items():
         adders[name](sub.add_parser(name, help=text, description=text))
     return p
@@ -141,6 +144,25 @@ def _add_life(p):
     p.add_argument("--plots", help="folder for <file stems joined by +>_temperature.png (each roller's temperature "
                                    "over the cycle) and _life.png (each contact's life with its interval)")
     p.add_argument("--report", help="also write an HTML report (the tables and both figures) to this file")
+
+
+def _add_transient(p):
+    p.add_argument("variants", nargs="+", help="variant YAML files (their dynamics: section gives the inertias and "
+                                               "the steering motor; docs/dynamics.md)")
+    p.add_argument("--gamma-from", metavar="ANGLE", help="the step's commanded γ before it, e.g. '10 deg' (default "
+                   "10 deg; a plain number is in rad), and where the ramp and the rendered profile start")
+    p.add_argument("--gamma-to", metavar="ANGLE", help="the step's commanded γ after it (default 40 deg)")
+    p.add_argument("--load", metavar="TORQUE", help="the lateral load τ⊥ held throughout, e.g. '0.5 N*m' (default: "
+                   "half the envelope's largest |τ⊥|, 0.5 N*m on the shipped ±1 N*m envelopes)")
+    p.add_argument("--bandwidth-at", metavar="ANGLES", help="the commanded γ of the bandwidth's operating points, "
+                   "comma-separated, at that load (default '10 deg,25 deg,40 deg')")
+    p.add_argument("--render-hz", type=float, metavar="HZ", help="the frequency [Hz] of the rendered ratio profile, "
+                   "swinging between the ideal ratios of --gamma-from and --gamma-to (default 1)")
+    p.add_argument("--quick", action="store_true", help="leave out the fastest-ratio-change search and the "
+                   "rendering (the long parts: tens of seconds a variant); their figures are null, with why")
+    p.add_argument("--json", help="also write the figures to this JSON file (format in docs/dynamics.md)")
+    p.add_argument("--plots", help="folder for <file stems joined by +>_step.png, _bode.png and _render.png")
+    p.add_argument("--report", help="also write an HTML report (the table and the figures) to this file")
 
 
 def _add_optimise(p):
@@ -330,7 +352,7 @@ def _drop_stdout() -> None:
         pass
 
 
-MINUS_VALUES = ("--table-ratios", "--table-loads")   # options whose value may start with '-' ('-1:1:21')
+MINUS_VALUES = ("--table-ratios", "--table-loads", "--gamma-from", "--gamma-to", "--load", "--bandwidth-at")   # options whose value may start with '-' ('-1:1:21')
 
 
 def _joined_negative_values(argv) -> list[str]:

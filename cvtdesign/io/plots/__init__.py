@@ -21,9 +21,10 @@ from cvtdesign.io.plots.diagnosis import diagnosis_fit_figure, residual_map_figu
 from cvtdesign.io.plots.layout import beside_figure, layout_figure
 from cvtdesign.io.plots.life import life_figure, temperature_figure
 from cvtdesign.io.plots.optimum import convergence_figure, slack_figure
+from cvtdesign.io.plots.transient import bode_figure, render_figure, step_figure
 from cvtdesign.io.plots.process import Background, Forked, describe, worker
 
 __all__ = ["Background", "COMPARE_KEYS", "Forked", "describe", "EXISTING_COLOUR", "IDEAL_COLOUR", "PANELS_MAX", "cad_picture",
-           "beside_figure", "capacity_figure", "compare_figure", "contact_figures", "convergence_figure",
-           "diagnosis_fit_figure", "figure_parts", "layout_figure", "life_figure", "pareto_figure", "slack_figure", "place_labels", "points_along", "residual_map_figure", "resteer_figure", "save", "scale_bar",
+           "beside_figure", "bode_figure", "capacity_figure", "compare_figure", "contact_figures", "convergence_figure",
+           "diagnosis_fit_figure", "figure_parts", "layout_figure", "life_figure", "pareto_figure", "render_figure", "slack_figure", "place_labels", "points_along", "residual_map_figure", "resteer_figure", "save", "scale_bar", "step_figure",
            "temperature_figure", "tolerance_figure", "variant_colours", "worker"]
