@@ -79,6 +79,8 @@ def bode_figure(rows: list[dict], curves: list[dict], path: Path):
         axes[1, j].set_xlabel("frequency [Hz]")
         for ax in axes[:, j]:
             ax.grid(alpha=0.3, which="both")
+            ax.xaxis.set_major_formatter(lambda x, pos: f"{x:g}")     # plain numbers, not mathtext's 10^k
+            ax.xaxis.set_minor_formatter(lambda x, pos: "")
         axes[0, j].set_ylim(bottom=max(-60, axes[0, j].get_ylim()[0]))
     if drawn:
         axes[0, 0].legend(fontsize=7, loc="lower left")
