@@ -352,7 +352,8 @@ def _drop_stdout() -> None:
         pass
 
 
-MINUS_VALUES = ("--table-ratios", "--table-loads", "--gamma-from", "--gamma-to", "--load", "--bandwidth-at")   # options whose value may start with '-' ('-1:1:21')
+# options whose value may start with '-' ('-1:1:21', '-0.5 N*m', '-10 deg')
+MINUS_VALUES = ("--table-ratios", "--table-loads", "--gamma-from", "--gamma-to", "--load", "--bandwidth-at")
 
 
 def _joined_negative_values(argv) -> list[str]:

@@ -12,7 +12,6 @@ from rich.console import Console
 from cvtdesign.cli.printing import progress_bar, report_text, show
 from cvtdesign.io.output import make_folder, write_files
 from cvtdesign.io.report import Note, Table, png_figure
-from cvtdesign.io.strict_json import json_text
 from cvtdesign.io.units import number
 from cvtdesign.uses import transient as uses
 
@@ -102,13 +101,14 @@ def run(args):
         result = uses.transient_run(files, s, progress)
     blocks = transient_blocks(result.rows)
     # the files first, then the terminal (a reader closing stdout early loses no file)
-    written, out, kinds = [], {}, {}
+    written, out, kinds, drawn = [], {}, {}, []
     if args.plots:
-        for p in uses.transient_figures(result.rows, result.curves, files, make_folder(args.plots, kind="--plots")):
-            written.append(f"plot: {p}")
-    if args.report:
+        drawn = uses.transient_figures(result.rows, result.curves, files, make_folder(args.plots, kind="--plots"))
+        written += [f"plot: {p}" for p in drawn]
+    if args.report:         # the figures --plots drew, else drawn for the report alone
         with tempfile.TemporaryDirectory() as tmp:
-            figs = [png_figure(p) for p in uses.transient_figures(result.rows, result.curves, files, Path(tmp))]
+            paths = drawn or uses.transient_figures(result.rows, result.curves, files, Path(tmp))
+            figs = [png_figure(p) for p in paths]
         out[Path(args.report)], kinds[Path(args.report)] = report_text(args, "cvtdesign transient", blocks + figs), \
             "--report"
         written.append(f"report written to {args.report}")

@@ -5,8 +5,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from cvtdesign.io.plots.base import figure_parts, save
 from cvtdesign.io.plots.compare import variant_colours
 

@@ -159,11 +159,11 @@ def test_bad_dynamics_value_is_one_line(tmp_path, capsys, dynamics, words):
 
 
 def test_a_given_motor_is_not_assumed(tmp_path):
-    from cvtdesign import api
-    result = api.transient(_variant_with(tmp_path, "{motor_torque: 2 N*m, servo_bandwidth: 10 Hz}"),
-                           bandwidth_at_deg=[25], quick=True)
-    p = result.rows[0]["parameters"]
-    assert "motor_torque" not in p["assumed"] and "servo_bandwidth" not in p["assumed"]
+    from cvtdesign.io.dynamics import dynamic_parameters
+    from cvtdesign.io.variant import load_variant
+    variant = _variant_with(tmp_path, "{motor_torque: 2 N*m, servo_bandwidth: 10 Hz}")
+    p = uses.parameters_record(dynamic_parameters(load_variant(variant)))
+    assert "motor_torque" not in p["assumed"] and "servo_bandwidth" not in p["assumed"] and "motor_speed" in p["assumed"]
     assert p["values"]["motor_torque"] == {"value": 2.0, "unit": "N·m", "source": "variant: dynamics.motor_torque"}
     assert p["values"]["servo_bandwidth"]["value"] == 10.0
 
