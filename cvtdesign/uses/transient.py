@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ from cvtdesign.core.dynamics.linear import linear_at
 from cvtdesign.core.dynamics.model import compile_dynamics
 from cvtdesign.core.dynamics.parameters import FIELDS
 from cvtdesign.core.dynamics.render import render
-from cvtdesign.core.dynamics.response import RATE_RANGE, fastest_change, step_response
+from cvtdesign.core.dynamics.response import RATE_RANGE, Step, fastest_change, step_response
 from cvtdesign.errors import InputError, shorten
 from cvtdesign.io import plots
 from cvtdesign.io.dynamics import KIND, dynamic_parameters
@@ -188,19 +189,36 @@ def variant_run(layout, name: str, s: Settings, progress) -> tuple[dict, dict]:
     progress("compiling the dynamic model")
     model = compile_dynamics(layout, params)
     progress("step response")
-    st = step_response(model, s.gamma_from, s.gamma_to, load)
+    st, failed = integrated(step_response, model, s.gamma_from, s.gamma_to, load)
+    st = st or Step(None, None, None, None, None, False, failed)
     progress("bandwidth")
     lins = [linear_at(model, g, load) for g in s.bandwidth_at]
     r = fc = None
+    rate = render_failed = None
     if not s.quick:
         progress("rendering")
-        r = render(model, s.gamma_from, s.gamma_to, load, s.render_hz)
+        r, render_failed = integrated(render, model, s.gamma_from, s.gamma_to, load, s.render_hz)
         progress("fastest ratio change")
-        fc = fastest_change(model, s.gamma_from, s.gamma_to, load)
+        fc, failed = integrated(fastest_change, model, s.gamma_from, s.gamma_to, load)
+        rate = {"max_rate_deg_s": None, "max_rate_limit": None, "max_rate_reason": failed} if failed else None
+    rendering = rendering_record(r, s, load) | ({"reason": render_failed} if render_failed else {})
     record = {"name": name, "file": str(layout.file), "step": step_record(st, s.gamma_from, s.gamma_to, load),
-              **rate_record(fc), "bandwidth_Hz": [bandwidth_record(lin, g, load) for g, lin in zip(s.bandwidth_at, lins)],
-              "rendering": rendering_record(r, s, load), "parameters": parameters_record(params)}
+              **(rate or rate_record(fc)),
+              "bandwidth_Hz": [bandwidth_record(lin, g, load) for g, lin in zip(s.bandwidth_at, lins)],
+              "rendering": rendering, "parameters": parameters_record(params)}
     return record, curves(st, lins, r, s)
+
+
+def integrated(part, *args):
+    """(part(*args), None), or (None, the reason) where the integrator could not go on (CVODES stops where the
+    model's rates stop being finite: the physics no longer holds there)."""
+    try:
+        return part(*args), None
+    except RuntimeError as e:
+        code = re.search(r'CVode returned "(\w+)"', str(e))
+        if code is None:
+            raise
+        return None, f"the integration stopped: the model's rates were no longer finite (CVODES {code.group(1)})"
 
 
 PARTS = 3           # progress steps of a quick run per variant (compile, step, bandwidth); a full one adds 2

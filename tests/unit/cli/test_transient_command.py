@@ -120,6 +120,23 @@ def test_no_number_where_the_physics_stopped():
     assert '"f3dB_Hz": null' in json_text(unstable)
 
 
+def test_a_run_beyond_the_physics_gives_nulls_with_reasons(tmp_path, capsys):
+    """A step of Kim's existing CVT from 0° to 80° against −1 N·m cannot be integrated to its end, and its
+    linearisation at 80° is unstable: those figures are null with their reasons, the one at 0° a number, and
+    the table marks them and says why."""
+    argv = ["transient", EXISTING, "--quick", "--gamma-from", "0 deg", "--gamma-to", "80 deg", "--load", "-1 N*m",
+            "--bandwidth-at", "0 deg,80 deg", "--json", str(tmp_path / "t.json")]
+    assert main(argv) == 0
+    v = json.loads((tmp_path / "t.json").read_text())["variants"][0]
+    step = v["step"]
+    assert step["ok"] is False and step["reason"] and all(step[k] is None for k in STEP_KEYS if k.endswith(("_s", "_pct")))
+    at0, at80 = v["bandwidth_Hz"]
+    assert _number(at0["f3dB_Hz"]) and at0["reason"] is None
+    assert at80["f3dB_Hz"] is None and at80["ratio_f3dB_Hz"] is None and "unstable" in at80["reason"]
+    out = capsys.readouterr().out
+    assert f"¹ existing: no figure for step: {step['reason'][:30]}" in out.replace("\n", " ")
+
+
 def _variant_with(tmp_path, dynamics: str):
     text = (ROOT / "variants" / "box.yaml").read_text().replace("\neffects:", f"\ndynamics: {dynamics}\neffects:", 1)
     f = tmp_path / "dyn.yaml"
