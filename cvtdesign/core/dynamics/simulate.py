@@ -15,7 +15,10 @@ from cvtdesign.core.dynamics.model import OUTPUTS, DynamicModel
 from cvtdesign.core.geometry import steering_angle_guess, steering_data
 
 RTOL, ATOL = 1e-9, 1e-10      # CVODES tolerances on the scaled states
-STEADY_TOL = 1e-12            # steady-state solve: largest |Ẋ| of the scaled states [1/s] accepted
+STEADY_TOL = 1e-12            # steady-state solve: the Newton iteration's tolerance on |Ẋ| of the scaled states
+STEP_TOL = 1e-10              # a steady state is accepted where every row's residual over its largest Jacobian entry
+                              # (its size in the states' units: the rows of a rigid direction are 1e9 times stiffer)
+                              # is below this
 
 
 @dataclass
@@ -44,8 +47,10 @@ def steady_state(model: DynamicModel, u: np.ndarray, theta=None, start=None) -> 
     x0 = model.steady_guess(u) if start is None else start
     pv = np.concatenate([u, th])
     x = np.array(solver(x0, pv)).ravel()
-    resid = np.array(f(x, pv)).ravel()
-    return x if np.all(np.isfinite(resid)) and np.max(np.abs(resid)) < 1e3 * STEADY_TOL else None
+    jac = _cached(model, "steady_jacobian", lambda: ca.Function("j", [X, p], [ca.jacobian(f(X, p), X), f(X, p)]))
+    J, resid = (np.array(v) for v in jac(x, pv))
+    step = np.abs(resid.ravel()) / np.max(np.abs(J), axis=1)      # each row's residual in its states' units
+    return x if np.all(np.isfinite(step)) and np.max(step) < STEP_TOL else None
 
 
 def simulate(model: DynamicModel, X0: np.ndarray, segments: list, t_end: float, n_points: int = 400,
