@@ -29,6 +29,7 @@ import numpy as np
 
 from cvtdesign.core.geometry import roller_pose, steering_angle_guess, steering_data
 from cvtdesign.core.steering import sliding_lever_expr
+from cvtdesign.design.dynamic_rows import dynamic_rows
 from cvtdesign.design.life_rows import life_rows
 from cvtdesign.design.objectives import Objective
 from cvtdesign.design.study_file import StudySpec, duty_cycle
@@ -244,7 +245,8 @@ def _clearance_rows(nlp: NLP, c: float) -> tuple[list, list]:
 
 def design_rows(nlp: NLP, rows: Rows) -> None:
     """The rows that depend on the design alone, added to `rows`: clearance and envelope radius (compiled
-    into one function of the design), the capacity and life rows (design.life_rows), and for the Pareto
+    into one function of the design), the capacity and life rows (design.life_rows), the dynamic rows
+    (design.dynamic_rows), and for the Pareto
     problem worst |α| ≤ ε (t − ε ≤ 0)."""
     cs, where = nlp.spec.constraints, nlp.where
     design_rows, design_spec = [], []
@@ -266,6 +268,7 @@ def design_rows(nlp: NLP, rows: Rows) -> None:
         _capacity_rows(nlp, rows, float(parameter_value(cs.min_capacity, f"{where}: constraints.min_capacity", {})))
     if cs.min_life_h is not None:
         life_rows(nlp, rows)
+    dynamic_rows(nlp, rows)
     nlp.objective.add_rows(nlp, rows)
 
 

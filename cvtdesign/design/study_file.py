@@ -35,6 +35,7 @@ from pydantic import BeforeValidator, Field, StrictBool
 
 from cvtdesign.core.checks import check_layout
 from cvtdesign.core.contact.laws import check_effects
+from cvtdesign.design.dynamic_rows import dynamic_limits
 from cvtdesign.design.objectives import OBJECTIVES
 from cvtdesign.errors import InputError, shorten, suggest
 from cvtdesign.io.fitted import read_fitted
@@ -78,7 +79,8 @@ class Constraints(Strict):
     """Constraint settings: `traction_margin` a plain number in [0, 1); `clearance` a length >= 0 (at most
     1 m) between any two rollers; `envelope_radius` a length (0, 10 m]; `min_normal_force` a force > 0;
     `max_steering_torque` a torque (0, 1000 N·m]; `min_capacity` a torque (0, 10,000 N·m]; `min_life_h` a
-    time > 0 with `life_duty` the duty file it holds over.
+    time > 0 with `life_duty` the duty file it holds over; `min_bandwidth_Hz` a frequency (0, 1000 Hz];
+    `min_ratio_rate_deg_s` an angular rate (0, 1e5 deg/s].
     Each is finite; plain numbers are SI, and an implausible plain length gets the unit it probably meant."""
     hertz_pressure: StrictBool = True
     traction_margin: Num | None = 0.2
@@ -97,6 +99,10 @@ class Constraints(Strict):
     # (design.cases.study_content), which life_duty then holds.
     min_life_h: Num | None = None
     life_duty: str | dict | None = None
+    # the dynamic model's (design.dynamic_rows, docs/dynamics.md): the axis angle's −3 dB bandwidth at least this
+    # frequency ('5 Hz'), and the steering able to change γ at least this fast ('100 deg/s') at a few envelope points
+    min_bandwidth_Hz: Num | None = None
+    min_ratio_rate_deg_s: Num | None = None
 
 
 class Multistart(Strict):
@@ -360,6 +366,8 @@ def check_settings(study_path, spec: StudySpec, base) -> None:
         w = f"{where}: constraints.envelope_radius"
         check_range(to_si(cs.envelope_radius, "length", w), cs.envelope_radius, w, "assembly envelope radius",
                     "length", 0.0, 10.0, lo_open=True, guess="mm")
+    if cs.min_bandwidth_Hz is not None or cs.min_ratio_rate_deg_s is not None:
+        dynamic_limits(cs, where)
     if cs.max_steering_torque is not None:
         w = f"{where}: constraints.max_steering_torque"
         check_range(to_si(cs.max_steering_torque, "torque", w), cs.max_steering_torque, w, "steering torque",
@@ -435,3 +443,4 @@ def min_normal_force(raw, preloads: np.ndarray, where: str, names: dict) -> np.n
     if not isinstance(value, float) or not value > 0:
         raise InputError(f"{where}: expected a positive force like '5 N', got '{raw}'")
     return np.full(preloads.size, value)
+

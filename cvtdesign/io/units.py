@@ -338,7 +338,8 @@ def to_si(raw, kind: str, where: str, names: dict | None = None):
 ENGINEERING = {
     "length": ("mm", 1e3), "force": ("N", 1.0), "torque": ("N·m", 1.0), "angle": ("°", 180 / math.pi),
     "pressure": ("MPa", 1e-6), "power": ("W", 1.0), "compliance": ("1/N", 1.0), "stiffness": ("N/mm", 1e-3),
-    "speed": ("rad/s", 1.0), "dimensionless": ("", 1.0), "time": ("h", 1 / 3600),
+    "speed": ("rad/s", 1.0), "dimensionless": ("", 1.0), "time": ("h", 1 / 3600), "frequency": ("Hz", 1.0),
+    "inertia": ("kg·m²", 1.0),
 }
 
 

@@ -169,7 +169,11 @@ def _library() -> tuple[ca.Function, ca.Function, ca.Function]:
     getattr(handle, f"{name}_init")(c.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), ctypes.c_int(c.shape[2]),
                                     ctypes.c_int(c.shape[1]), ctypes.c_double(_z_step()),
                                     ctypes.c_double(np.log(RATIO_NODES[0])), ctypes.c_double(_r_step()))
-    return tuple(ca.external(n, str(library)) for n in (name, f"{name}_pair", f"{name}_pair_jac_value"))
+    # the Jacobian's own derivatives (a Jacobian of the model's Jacobian: the dynamic model's linearisation in an
+    # optimisation, design.dynamic_rows) by central differences of the exact Jacobian
+    fd = {"enable_fd": True, "fd_method": "central"}
+    return tuple(ca.external(n, str(library), fd if n.endswith("_jac_value") else {})
+                 for n in (name, f"{name}_pair", f"{name}_pair_jac_value"))
 
 
 def _casadi_spline(c: np.ndarray, name: str) -> tuple[ca.Function, ca.Function, ca.Function]:

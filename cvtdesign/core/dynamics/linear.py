@@ -14,7 +14,7 @@ import numpy as np
 
 from cvtdesign.core.dynamics.model import DynamicModel
 from cvtdesign.core.dynamics.response import command, linkage_slope
-from cvtdesign.core.dynamics.simulate import steady_state
+from cvtdesign.core.dynamics.simulate import simulate, steady_state
 
 F_SCAN = np.logspace(-2, 4, 241)    # [Hz] where the response is scanned for the first −3 dB crossing
 SIGNALS = ("gamma_axis", "ratio")
@@ -77,3 +77,25 @@ def linear_at(model: DynamicModel, gamma: float, load: float, load_is_tau_2: boo
     u = command(model, gamma, load, load_is_tau_2=load_is_tau_2)
     X = steady_state(model, u)
     return None if X is None else linearise(model, X, u, linkage_slope(model, gamma))
+
+
+def sine_gain(model: DynamicModel, gamma: float, load: float, freq_hz: float, signal: str = "gamma_axis",
+              amplitude: float = 1e-3, periods: int = 8, pieces: int = 60) -> complex | None:
+    """The gain of `signal` per unit commanded γ at freq_hz [Hz], measured in time: the command γ + A sin(2πft)
+    (A = amplitude [rad], piecewise linear in `pieces` a period) from the steady state at γ, and the response's
+    component at f fitted by least squares over the last two of `periods` periods. It checks the linear model's
+    H(j2πf) (tests/unit/dynamics); None where there is no steady state at γ."""
+    u = command(model, gamma, load)
+    X = steady_state(model, u)
+    if X is None:
+        return None
+    T = periods / freq_hz
+    t = np.linspace(0.0, T, periods * pieces + 1)
+    g = gamma + amplitude * np.sin(2 * np.pi * freq_hz * t)
+    segs = [command(model, a, load, t0, (b - a) / (t1 - t0)) for a, b, t0, t1 in zip(g[:-1], g[1:], t[:-1], t[1:])]
+    tr = simulate(model, X, segs, T, periods * 4 * pieces)
+    last = tr.t >= T - 2 / freq_hz
+    w = 2 * np.pi * freq_hz * tr.t[last]
+    basis = np.column_stack([np.sin(w), np.cos(w), np.ones_like(w)])
+    (a, b, _), *_ = np.linalg.lstsq(basis, tr.out[signal][last], rcond=None)
+    return complex(a, b) / amplitude

@@ -51,6 +51,7 @@ from cvtdesign.core.model import ideal_unknowns
 
 INPUTS = ("gamma_cmd", "gamma_rate", "phi_cmd", "phi_rate", "t0", "omega_1", "load", "load_is_tau_2", "contacts")
 OUTPUTS = ("gamma_axis", "ratio", "alpha", "phi", "phi_rate", "motor_torque", "motor_demand", "motor_available",
+           "steering_torque",
            "tau_1", "tau_2", "kinetic_energy", "power_in", "power_loss", "utilisation", "N", "F_t", "F_a")
 
 
@@ -79,8 +80,11 @@ class DynamicModel:
                         float)
 
 
-def compile_dynamics(layout: Layout, parameters: DynamicParameters, effects=None) -> DynamicModel:
-    """The layout's dynamic model with the given effects (default: the variant's; module docstring)."""
+def compile_dynamics(layout: Layout, parameters: DynamicParameters, effects=None, design: ca.SX | None = None
+                     ) -> DynamicModel:
+    """The layout's dynamic model with the given effects (default: the variant's; module docstring). `design`:
+    the symbols the layout's fields depend on (an optimisation study's, core.model.compile_model); its
+    functions then take the design's values as a last input. The parameters (inertias, motor) stay numbers."""
     law = contact_law(layout.contact_law)
     effects = check_effects(tuple(layout.effects if effects is None else effects), f"{layout.file}: effects",
                             layout.contact_law)
@@ -113,12 +117,13 @@ def compile_dynamics(layout: Layout, parameters: DynamicParameters, effects=None
     dwi = [on * row * r.radius * F_SCALE / J.roller_inertia[layout.rollers.index(r)] for row, r in zip(idle, idlers)]
     dphid = (motor["torque"] - on * steer) / J.steering_inertia
     Xdot = ca.vertcat(dOm / u.om_ref, dw2 / w1, *[d / w1 for d in dwi], relax / F_SCALE, phid, dphid, motor["integral"])
-    ins = [t, X, u_in, theta]
+    ins = [t, X, u_in, theta] + ([] if design is None else [design])
+    names = ["t", "X", "u", "theta", "design"][:len(ins)]
     rhs = calls.close("dynamics", ins, [Xdot])
     outs = _outputs(layout, parameters, u, per, tau, tau2_ext, motor, steer, frame, gamma, w1, phi, phid, on)
     outputs = calls.close("dynamics_outputs", ins, [outs[k] for k in OUTPUTS])
-    guess = _steady_guess(layout, frame, u_in, u.om_ref, phi_eff, phi)
-    return DynamicModel(layout, parameters, pvalues, rhs, ca.Function("outputs", ins, outputs.call(ins), ["t", "X", "u", "theta"],
+    guess = _steady_guess(layout, frame, [u_in] + ins[4:], u.om_ref, phi_eff, phi)
+    return DynamicModel(layout, parameters, pvalues, rhs, ca.Function("outputs", ins, outputs.call(ins), names,
                                                                       list(OUTPUTS)),
                         guess, X.numel(), [r.name for r in layout.rollers], frame)
 
@@ -157,15 +162,15 @@ def _outputs(layout, parameters, u, per, tau, tau2_ext, motor, steer, frame, gam
                 + sum(J.roller_inertia[layout.rollers.index(r)] * w ** 2 for r, w in idlers))
     return {"gamma_axis": frame.axis_angle(u.Om), "ratio": u.w2 / w1, "alpha": frame.slip_angle(w1, u.w2, gamma),
             "phi": phi, "phi_rate": phid, "motor_torque": motor["torque"], "motor_demand": motor["demand"],
-            "motor_available": motor["available"], "tau_1": on * tau[1], "tau_2": tau2_ext, "kinetic_energy": ke,
+            "motor_available": motor["available"], "steering_torque": on * steer, "tau_1": on * tau[1], "tau_2": tau2_ext, "kinetic_energy": ke,
             "power_in": on * tau[1] * w1 + tau2_ext * u.w2 + motor["torque"] * phid,
             "power_loss": on * sum(per["loss"]), "utilisation": ca.vertcat(*per["utilisation"]),
             "N": ca.vertcat(*per["N"]), "F_t": u.Ft, "F_a": u.Fa}
 
 
-def _steady_guess(layout, frame, u_in, om_ref, phi_eff, phi) -> ca.Function:
-    """(u, θ) → the state of the ideal kinematics about the commanded axis with no force, φ = φ_cmd, the servo
-    at rest: where a steady-state solve starts (as the steady model's does, core.model.ideal_unknowns)."""
-    g0, _, p0, _, _, w1, *_ = ca.vertsplit(u_in)
+def _steady_guess(layout, frame, ins, om_ref, phi_eff, phi) -> ca.Function:
+    """(u[, design]) → the state of the ideal kinematics about the commanded axis with no force, φ = φ_cmd, the
+    servo at rest: where a steady-state solve starts (as the steady model's does, core.model.ideal_unknowns)."""
+    g0, _, p0, _, _, w1, *_ = ca.vertsplit(ins[0])
     x0 = ideal_unknowns(layout, frame, g0, w1, ca.substitute(phi_eff, phi, p0), om_ref)
-    return ca.Function("steady_guess", [u_in], [ca.vertcat(x0, p0, 0, 0)])
+    return ca.Function("steady_guess", ins, [ca.vertcat(x0, p0, 0, 0)])

@@ -15,7 +15,10 @@ from cvtdesign.core.dynamics.model import OUTPUTS, DynamicModel
 from cvtdesign.core.geometry import steering_angle_guess, steering_data
 
 RTOL, ATOL = 1e-9, 1e-10      # CVODES tolerances on the scaled states
-STEADY_TOL = 1e-12            # steady-state solve: largest |Ẋ| of the scaled states [1/s] accepted
+STEADY_TOL = 1e-12            # steady-state solve: the Newton iteration's tolerance on |Ẋ| of the scaled states
+STEP_TOL = 1e-10              # a steady state is accepted where every row's residual over its largest Jacobian entry
+                              # (its size in the states' units: the rows of a rigid direction are 1e9 times stiffer)
+                              # is below this
 
 
 @dataclass
@@ -44,29 +47,32 @@ def steady_state(model: DynamicModel, u: np.ndarray, theta=None, start=None) -> 
     x0 = model.steady_guess(u) if start is None else start
     pv = np.concatenate([u, th])
     x = np.array(solver(x0, pv)).ravel()
-    resid = np.array(f(x, pv)).ravel()
-    return x if np.all(np.isfinite(resid)) and np.max(np.abs(resid)) < 1e3 * STEADY_TOL else None
+    jac = _cached(model, "steady_jacobian", lambda: ca.Function("j", [X, p], [ca.jacobian(f(X, p), X), f(X, p)]))
+    J, resid = (np.array(v) for v in jac(x, pv))
+    step = np.abs(resid.ravel()) / np.max(np.abs(J), axis=1)      # each row's residual in its states' units
+    return x if np.all(np.isfinite(step)) and np.max(step) < STEP_TOL else None
 
 
 def simulate(model: DynamicModel, X0: np.ndarray, segments: list, t_end: float, n_points: int = 400,
              theta=None) -> Trajectory:
     """Integrate from state X0 at the first segment's start to t_end [s]: `segments` is a list of INPUTS
-    vectors (model.inputs), each holding from its own t0 to the next one's. The outputs are sampled on
-    n_points times over the whole run (and at every segment's start)."""
+    vectors (model.inputs), each holding from its own t0 to the next one's. The outputs are sampled at every
+    segment's start and on about n_points times over the run, evenly within each segment."""
     th = np.asarray(model.param_values if theta is None else theta, float)
     starts = [float(s[4]) for s in segments] + [t_end]
-    times = np.unique(np.concatenate([np.linspace(starts[0], t_end, n_points), starts]))
-    Xs, x = [np.asarray(X0, float)], np.asarray(X0, float)
+    span = starts[-1] - starts[0]
+    times, Xs, x = [starts[0]], [np.asarray(X0, float)], np.asarray(X0, float)
     for k, seg in enumerate(segments):
-        grid = times[(times > starts[k]) & (times <= starts[k + 1])]
-        if grid.size == 0:
+        h = starts[k + 1] - starts[k]
+        if h <= 0:
             continue
-        F = _integrator(model, starts[k], grid)
-        xs = np.array(F(x0=x, p=np.concatenate([seg, th]))["xf"])
-        Xs.append(xs.T)
+        K = int(max(1, min(n_points, np.ceil(n_points * h / span))))
+        xs = np.array(_integrator(model, K)(x0=x, p=np.concatenate([seg, th, [starts[k], h]]))["xf"])
+        Xs.extend(xs.T)
+        times.extend(starts[k] + h * np.arange(1, K + 1) / K)
         x = xs[:, -1]
-    X = np.vstack([np.atleast_2d(Xs[0])] + Xs[1:]).T
-    us = np.array([segments[max(0, np.searchsorted(starts[:-1], t, side="right") - 1)] for t in times]).T
+    times, X = np.array(times), np.array(Xs).T
+    us = np.array([segments[max(0, np.searchsorted(starts[:-1], t, side="left") - 1)] for t in times]).T
     return Trajectory(times, X, outputs_at(model, times, X, us, th))
 
 
@@ -78,15 +84,20 @@ def outputs_at(model: DynamicModel, times, X, us, theta) -> dict:
     return {k: (np.array(v)[0] if np.array(v).shape[0] == 1 else np.array(v)) for k, v in zip(OUTPUTS, got)}
 
 
-def _integrator(model: DynamicModel, t0: float, grid: np.ndarray) -> ca.Function:
-    """CVODES over `grid` from t0 for the model's ODE with parameters [INPUTS, θ]."""
-    t = ca.MX.sym("t")
-    X = ca.MX.sym("X", model.n_states)
-    nu = model.rhs.size1_in(2)
-    p = ca.MX.sym("p", nu + model.rhs.size1_in(3))
-    dae = {"t": t, "x": X, "p": p, "ode": model.rhs(t, X, p[:nu], p[nu:])}
-    return ca.integrator("transient", "cvodes", dae, t0, list(grid),
-                         {"abstol": ATOL, "reltol": RTOL, "max_num_steps": 200000, "disable_internal_warnings": True})
+def _integrator(model: DynamicModel, K: int) -> ca.Function:
+    """CVODES over one segment, in its own time τ = (t − t_start)/h ∈ [0, 1] with K outputs evenly spaced, for
+    parameters [INPUTS, θ, t_start, h]: one integrator serves every segment of any length."""
+    def build():
+        tau = ca.MX.sym("tau")
+        X = ca.MX.sym("X", model.n_states)
+        nu, nth = model.rhs.size1_in(2), model.rhs.size1_in(3)
+        p = ca.MX.sym("p", nu + nth + 2)
+        t_start, h = p[nu + nth], p[nu + nth + 1]
+        dae = {"t": tau, "x": X, "p": p, "ode": h * model.rhs(t_start + h * tau, X, p[:nu], p[nu:nu + nth])}
+        return ca.integrator("transient", "cvodes", dae, 0.0, list(np.arange(1, K + 1) / K),
+                             {"abstol": ATOL, "reltol": RTOL, "max_num_steps": 200000,
+                              "disable_internal_warnings": True})
+    return _cached(model, ("integrator", K), build)
 
 
 def _cached(model: DynamicModel, key, build):
