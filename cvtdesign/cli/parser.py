@@ -159,7 +159,7 @@ def _add_transient(p):
     p.add_argument("--render-hz", type=float, metavar="HZ", help="the frequency [Hz] of the rendered ratio profile, "
                    "swinging between the ideal ratios of --gamma-from and --gamma-to (default 1)")
     p.add_argument("--quick", action="store_true", help="leave out the fastest-ratio-change search and the "
-                   "rendering (the long parts: tens of seconds a variant); their figures are null, with why")
+                   "rendering (the long parts: seconds a variant); their figures are null, with why")
     p.add_argument("--json", help="also write the figures to this JSON file (format in docs/dynamics.md)")
     p.add_argument("--plots", help="folder for <file stems joined by +>_step.png, _bode.png and _render.png")
     p.add_argument("--report", help="also write an HTML report (the table and the figures) to this file")

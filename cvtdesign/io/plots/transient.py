@@ -15,6 +15,14 @@ def _note(ax, text: str):
     ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", fontsize=9, color="0.4", wrap=True)
 
 
+def _assumed(fig, rows: list[dict]):
+    """A footer naming the parameters the figure rests on that are assumed, not the variants' own."""
+    names = sorted({k for r in rows for k in r["parameters"]["assumed"]})
+    if names:
+        fig.text(0.01, 0.005, "assumed, not the variants' own (docs/dynamics.md): " + ", ".join(names), fontsize=7,
+                 color="0.35", ha="left", va="bottom")
+
+
 def step_figure(rows: list[dict], curves: list[dict], path: Path):
     """The step of the command: the axis angle γ_axis with the command γ_cmd [°], the speed ratio ω2/ω1 [-] and
     the slip angle α [°] against time [ms]; a variant without a response (no steady state) is named, not drawn."""
@@ -48,7 +56,8 @@ def step_figure(rows: list[dict], curves: list[dict], path: Path):
     if missing:
         _note(axes[1], "no response: " + "; ".join(missing))
     axes[0].legend(fontsize=8, loc="lower right")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.025, 1, 1))
+    _assumed(fig, rows)
     save(fig, path, dpi=100)
 
 
@@ -84,7 +93,8 @@ def bode_figure(rows: list[dict], curves: list[dict], path: Path):
         axes[0, 0].legend(fontsize=7, loc="lower left")
     else:
         _note(axes[0, 0], "no stable steady state at any operating point")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.025, 1, 1))
+    _assumed(fig, rows)
     save(fig, path, dpi=100)
 
 
@@ -109,5 +119,6 @@ def render_figure(rows: list[dict], curves: list[dict], path: Path):
         ax.axvspan(d["t_s"][-1] - period, d["t_s"][-1], color="0.9", zorder=0)
         ax.legend(fontsize=8, loc="upper left")
     axes[-1, 0].set_xlabel("time [s] (shaded: the period the errors are taken over)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.025, 1, 1))
+    _assumed(fig, rows)
     save(fig, path, dpi=100)
