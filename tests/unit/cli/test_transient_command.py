@@ -202,3 +202,11 @@ def test_both_machines_in_full(tmp_path, capsys):
         from cvtdesign.cli.transient import _rate_cell
         assert _rate_cell(v) in out and _rate_cell(v) in readme, _rate_cell(v)
     assert (tmp_path / "p" / "box+existing_render.png").read_bytes().startswith(b"\x89PNG")
+
+
+@pytest.mark.slow
+def test_report_fits_any_width(quick_run, tmp_path):
+    """The report (the table and both figures of a --quick run) fits 1280 and 700 pixels in a headless
+    browser, its images decode."""
+    from test_report import fits
+    assert len(fits(quick_run / "t.html", tmp_path)) == 2
