@@ -210,15 +210,16 @@ def variant_run(layout, name: str, s: Settings, progress) -> tuple[dict, dict]:
 
 
 def integrated(part, *args):
-    """(part(*args), None), or (None, the reason) where the integrator could not go on (CVODES stops where the
-    model's rates stop being finite: the physics no longer holds there)."""
+    """(part(*args), None), or (None, the reason) where the integrator could not go on: CVODES stops where the
+    model's rates stop being finite (the physics no longer holds there) or its steps became too small."""
     try:
         return part(*args), None
     except RuntimeError as e:
         code = re.search(r'CVode returned "(\w+)"', str(e))
         if code is None:
             raise
-        return None, f"the integration stopped: the model's rates were no longer finite (CVODES {code.group(1)})"
+        why = "the model's rates were no longer finite" if "RHSFUNC" in code.group(1) else "CVODES could not go on"
+        return None, f"the integration stopped: {why} (CVODES {code.group(1)})"
 
 
 PARTS = 3           # progress steps of a quick run per variant (compile, step, bandwidth); a full one adds 2
