@@ -4,7 +4,7 @@ the dynamic model compiled with the design variables as symbols (core.dynamics.m
 
 * `constraints.min_bandwidth_Hz: f`: at each point, the axis angle's small-signal response to the command at f
   is at least 1/√2 of its static gain, |H(j2πf)|² / |H(0)|² ≥ 1/2, H from the model linearised at its steady
-  state (core.dynamics.linear). Where the response falls monotonically, as on the shipped layouts below their
+  state with shaft 2's torque held (core.dynamics.linear). Where the response falls monotonically, as on the shipped layouts below their
   first resonance, this is f_3dB ≥ f. The steady state comes from a Newton solve of Ẋ = 0 and the linearisation
   from the model's Jacobian, so the row's derivatives follow by the implicit function theorem; the derivative of
   the Jacobian needs the creep-force table's second derivatives, which CasADi takes by finite differences of its
@@ -73,9 +73,12 @@ def _bandwidth_row(dyn, nlp, theta, g, load, phi, slope, f_hz):
     solve = ca.rootfinder("dyn_steady", "newton", ca.Function("g", [Xs, ca.vertcat(us, ps)], [f]),
                           {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False})
     X = solve(dyn.steady_guess(u, nlp.P), ca.vertcat(u, nlp.P))
-    axis = dyn.outputs.call([0, Xs, us, theta, ps])[OUTPUTS.index("gamma_axis")]
-    lin = ca.Function("lin", [Xs, us, ps], [ca.jacobian(f, Xs), ca.jacobian(f, us), ca.jacobian(axis, Xs)])
-    A, Bu, C = lin(X, u, nlp.P)
+    outs = dyn.outputs.call([0, Xs, us, theta, ps])
+    held = ca.Function("held", [Xs, us, ps], [outs[OUTPUTS.index("tau_2")]])(X, u, nlp.P)
+    u_held = ca.vertcat(u[:INPUTS.index("load")], held, 1, u[INPUTS.index("contacts"):])   # shaft 2's torque held
+    lin = ca.Function("lin", [Xs, us, ps], [ca.jacobian(f, Xs), ca.jacobian(f, us),
+                                            ca.jacobian(outs[OUTPUTS.index("gamma_axis")], Xs)])
+    A, Bu, C = lin(X, u_held, nlp.P)
     B0 = Bu[:, INPUTS.index("gamma_cmd")] + Bu[:, INPUTS.index("phi_cmd")] * slope
     w = 2 * np.pi * f_hz
     eye = ca.MX.eye(n)
