@@ -63,8 +63,8 @@ OUTPUTS = ("gamma_axis", "ratio", "alpha", "phi", "phi_rate", "motor_torque", "m
 class DynamicModel:
     """The compiled dynamic model of one layout (module docstring). `rhs(t, X, u, θ)` → Ẋ and
     `outputs(t, X, u, θ)` → OUTPUTS (scalars, and one row per contact for utilisation, N, F_t, F_a), with u the
-    INPUTS in their order and θ the effects' parameters; `steady_guess(u, θ)` the ideal kinematics with no
-    force, the servo at rest."""
+    INPUTS in their order and θ the effects' parameters (and the design's values last, for a model compiled
+    with design symbols); `steady_guess(u)` the ideal kinematics with no force, the servo at rest."""
     layout: Layout
     parameters: DynamicParameters
     param_values: list
@@ -134,7 +134,7 @@ def compile_dynamics(layout: Layout, parameters: DynamicParameters, effects=None
 
 def _relaxation(layout, slip, per, parameters):
     """Ḟ [N/s] of every contact's two forces (F_t of every contact, then F_a): each relaxes to its law's value at
-    the current slip at the rate V/σ, σ = k_σ a (module docstring); `slip` the laws' rows, two a contact."""
+    the current slip at the rate (V + w)/σ, σ = k_σ a (module docstring); `slip` the laws' rows, two a contact."""
     dFt, dFa = [], []
     for i in range(len(layout.rollers)):
         rate = (per["V"][i] + per["slide"][i]) / (parameters.relaxation_factor * per["a"][i])
