@@ -72,3 +72,14 @@ def test_dynamic_rows_derivatives_are_exact(tmp_path):
 def test_bad_dynamic_constraints_are_one_line(tmp_path, field, value, words):
     with pytest.raises(InputError, match=words):
         build_problem(study(tmp_path, **{field: value}))
+
+
+def test_dynamic_gamma_outside_the_envelope_is_one_line(tmp_path):
+    with pytest.raises(InputError, match=r"constraints.dynamic_gamma\[1\]: expected an angle within the envelope"):
+        build_problem(study(tmp_path, min_bandwidth_Hz=5.0, dynamic_gamma=["10 deg", "95 deg"]))
+
+
+def test_dynamic_gamma_chooses_the_points(tmp_path):
+    pr = build_problem(study(tmp_path, min_bandwidth_Hz=5.0, dynamic_gamma=["-20 deg", "30 deg"]))
+    labels = [lab for lab, f in zip(pr.g_labels, pr.g_family) if f == "bandwidth"]
+    assert labels == ["bandwidth ≥ 5 Hz at γ=-20° τ⊥=+1", "bandwidth ≥ 5 Hz at γ=+30° τ⊥=+1"]
