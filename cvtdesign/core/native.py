@@ -25,7 +25,8 @@ When to compile (CVTDESIGN_COMPILE):
    taken HOT_SECONDS, then compiles it in a separate process and switches to the library once it is in
    the cache. A model used for longer than its compile takes pays for the compile; one used briefly never
    waits for the compiler. A call estimated to take longer than WAIT_SECONDS interpreted waits for the
-   library instead. The compiling process is detached: a command that ends first still leaves the
+   library instead, and so does the first call of a run that announced (`Tiered.expect`) evaluations
+   estimated to take that long (a diagnosis: about 900 evaluations of its rows). The compiling process is detached: a command that ends first still leaves the
    library for the next run.
  * 'always': compile at first use and wait for it. 'never': stay interpreted.
 """
@@ -356,14 +357,21 @@ class Tiered:
         self.per_point = 1e-4          # interpreted seconds a point, as last measured
         self.pending: tuple | None = None    # (code, command, library) of the compile under way
         self.given_up = False
+        self.expected = 0              # points announced to come (`expect`)
         self.lock = threading.Lock()
+
+    def expect(self, points: int) -> None:
+        """Announce that about `points` more points will be evaluated: whether to wait for the compiler is then
+        judged on them all, not on the next call alone."""
+        with self.lock:
+            self.expected += points
 
     def function(self, points: int) -> ca.Function:
         """The function to evaluate `points` points with: compiled if it is there (or worth waiting for),
         else interpreted."""
         with self.lock:
             if self.native is None and not self.given_up:
-                self._advance(points * self.per_point)
+                self._advance(max(points, self.expected) * self.per_point)
             return self.native or self.interpreted
 
     def code(self) -> str:

@@ -131,7 +131,7 @@ def failed_points(P: Predictor, data: Measured, f: Fit) -> dict:
     g, t = r["gamma_cmd_deg"].to_numpy()[bad], r["tau_perp"].to_numpy()[bad]
     counts = {"points": 0} | {k: 0 for k in STATUS[1:]}
     if bad.any():
-        res = P.model.evaluate(np.radians(g), t, speeds=r["omega_1"].to_numpy()[bad], theta=f.theta)
+        res = P.evaluate(np.radians(g), t, r["omega_1"].to_numpy()[bad], f.theta)
         counts = {"points": int(bad.sum())} | {k: v for k, v in status_counts(res, P.model.roller_names).items()
                                                  if k != "ok"}
     return counts | {"at": [{"gamma_cmd_deg": float(a), "tau_perp_Nm": float(b)} for a, b in zip(g, t)]}
