@@ -12,7 +12,7 @@ from scipy.optimize import least_squares
 from cvtdesign.core.effects import EFFECTS
 from cvtdesign.core.model import status_counts
 from cvtdesign.core.status import STATUS
-from cvtdesign.diagnosis.diagnose.predictor import CHANNELS, Predictor, residuals
+from cvtdesign.diagnosis.diagnose.predictor import CHANNELS, Predictor, observed, residuals
 from cvtdesign.diagnosis.measured import Measured
 
 FAIL_Z = 1e3           # z-score of a row whose model solve fails (gross slip where the rig measured creep):
@@ -82,11 +82,12 @@ def fit(P: Predictor, data: Measured, noise: dict, rows=None, x0=None, multistar
     chans = [c for c in CHANNELS if c in noise]
     x0 = P.defaults if x0 is None else np.asarray(x0, float)
     lo, hi = bounds(P.names)
+    measured = observed(data)
 
     def zfun(theta, jac=False):
         out = P(theta, jacobian=jac)
         pred, ok = out[0], out[1]
-        res = residuals(data, pred)
+        res = residuals(data, pred, measured)
         z = np.array([res[c] / noise[c] for c in chans])[:, rows]
         okr = ok[rows]
         z[:, ~okr] = FAIL_Z

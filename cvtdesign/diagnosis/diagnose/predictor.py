@@ -70,10 +70,12 @@ class Switched:
                                                                       [1] * len(DERIVED)))
 
     def _call(self, kind: str, n: int, run):
+        """`run` of the tier's function mapped over n rows: the rows' solves on two threads, the derivatives
+        (a fifth as long a row, where a thread's start costs more CPU than it saves) on one."""
         tier = self.tiers[kind]
         fn = tier.function(n)
         if (id(fn), n) not in self._maps:
-            self._maps[id(fn), n] = fn.map(n, "thread", 2)
+            self._maps[id(fn), n] = fn.map(n, "thread", 2) if kind == "rows" else fn.map(n)
         t = time.perf_counter()
         out = run(self._maps[id(fn), n])
         tier.record(fn, n, time.perf_counter() - t)
@@ -137,13 +139,20 @@ def _wrap_deg(x):
     return (x + 90.0) % 180.0 - 90.0
 
 
-def residuals(data: Measured, pred: dict) -> dict:
-    """Measured − predicted per channel (the axis only when measured)."""
+def observed(data: Measured) -> dict:
+    """The measured channels as arrays (the axis only when measured): α [deg], τ∥ [N m], γ_axis [deg]."""
     r = data.rows
-    out = {"alpha": _wrap_deg(r["alpha_deg"].to_numpy() - pred["alpha"]),
-           "tau_par": r["tau_par"].to_numpy() - pred["tau_par"]}
-    if data.has_axis:
-        out["axis"] = _wrap_deg(r["gamma_axis_deg"].to_numpy() - pred["axis"])
+    cols = {"alpha": "alpha_deg", "tau_par": "tau_par"} | ({"axis": "gamma_axis_deg"} if data.has_axis else {})
+    return {c: r[k].to_numpy() for c, k in cols.items()}
+
+
+def residuals(data: Measured, pred: dict, measured: dict | None = None) -> dict:
+    """Measured − predicted per channel (the axis only when measured); `measured`: `observed(data)`, when a
+    caller that asks many times has it."""
+    m = observed(data) if measured is None else measured
+    out = {"alpha": _wrap_deg(m["alpha"] - pred["alpha"]), "tau_par": m["tau_par"] - pred["tau_par"]}
+    if "axis" in m:
+        out["axis"] = _wrap_deg(m["axis"] - pred["axis"])
     return out
 
 

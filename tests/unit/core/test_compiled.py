@@ -203,3 +203,19 @@ def test_cache_folder_and_policy_from_the_environment(monkeypatch, tmp_path, cap
     monkeypatch.setenv("CVTDESIGN_COMPILE", "sometimes")
     assert native.policy() == "auto"
     assert "CVTDESIGN_COMPILE='sometimes' is not one of auto, always, never" in capsys.readouterr().err
+
+
+@needs_compiler
+def test_a_run_that_announces_many_evaluations_waits_for_the_compiled_function(cache, monkeypatch):
+    """'auto': evaluations announced (Tiered.expect) past WAIT_SECONDS interpreted make the first call compile
+    and wait (a diagnosis's ~900 evaluations of its rows); without the announcement the first call of the
+    same size stays interpreted."""
+    monkeypatch.setenv("CVTDESIGN_COMPILE", "auto")
+    x = ca.SX.sym("x")
+    fn = ca.Function("announced", [x], [ca.sin(x) * x])
+    quiet, told = native.Tiered(fn, lambda: fn), native.Tiered(fn, lambda: fn)
+    assert quiet.function(10) is fn and quiet.pending is None
+    told.expect(int(native.WAIT_SECONDS / told.per_point) + 1)
+    compiled = told.function(10)
+    assert compiled is not fn and told.native is compiled
+    assert float(compiled(0.5)) == float(fn(0.5))

@@ -312,3 +312,44 @@ def test_noisy_replicates_keep_their_load_levels_and_the_verdict(layout, tmp_pat
     assert len(data.load_levels) in (11, 12) and data.replicated
     rep = diagnose.diagnose(layout, data, ("drive_longitudinal_creep",), ("steering_lateral_creep", "steering_offset"))
     assert rep.verdict == "steering_lateral_creep" and rep.gap["structured"]
+
+
+def test_a_diagnosis_builds_one_model_for_the_base_and_every_candidate(layout, tmp_path, monkeypatch):
+    """The candidates' fits share one model: the base's and every candidate's effects, each switchable
+    (core.model.compile_model, switched), built once for the whole diagnosis, not once per effect set; and
+    the verdict stays Kim's steering creep."""
+    from cvtdesign.diagnosis.diagnose import predictor
+    built, real = [], predictor.compile_model
+    monkeypatch.setattr(predictor, "compile_model", lambda *a, **k: built.append((a[1], k)) or real(*a, **k))
+    path = dataset(layout, tmp_path, KIM, seed=1)
+    rep = diagnose.diagnose(layout, measured.load_measured(path, layout), KIM[:1])
+    assert rep.verdict == "steering_lateral_creep" and len(rep.candidates) == 7
+    assert len(built) == 1
+    effects, options = built[0]
+    assert set(effects) == set(KIM[:1]) | set(rep.candidates) and options == {"switched": True}
+
+
+def test_a_candidates_predictor_is_its_own_models(layout, tmp_path):
+    """A Predictor of one effect set on the diagnosis's shared switched model gives the predictions and the
+    Jacobian of that set's own model (core.sensitivity), to round-off: the solves' linear algebra is ordered
+    by the Jacobian's sparsity, which the other effects' switched terms widen."""
+    from cvtdesign.core.sensitivity import derivatives
+    from cvtdesign.diagnosis.diagnose.predictor import Switched
+    data = measured.merge_points(measured.load_measured(dataset(layout, tmp_path, KIM, seed=2), layout))
+    r = data.rows
+    g, w, t = np.radians(r["gamma_cmd_deg"].to_numpy()), r["omega_1"].to_numpy(), r["tau_perp"].to_numpy()
+    shared = Switched(layout, KIM + ("drive_spin_creep", "traction_saturation", "steering_offset"))
+    for effects in (KIM[:1], KIM, KIM[:1] + ("traction_saturation",), KIM[:1] + ("steering_offset",)):
+        own, P = compile_model(layout, effects), diagnose.Predictor(layout, effects, data, shared)
+        assert P.names == own.param_names and list(P.defaults) == own.param_values
+        pred, ok, J = P(P.defaults, jacobian=True)
+        ref = own.evaluate(g, t, speeds=w)
+        np.testing.assert_array_equal(ok, ref["ok"])
+        assert ok.sum() > 0.9 * len(r)
+        d = derivatives(own, g, w, t, own.steering_guess(g)[0], ["alpha", "gamma_axis", "omega_2"],
+                        list(range(len(own.param_names))), [])
+        for k, mine, theirs, dk, j in (("alpha", pred["alpha"], np.degrees(ref["alpha"]), np.degrees(d[0][0]), 0),
+                                       ("axis", pred["axis"], np.degrees(ref["gamma_axis"]), np.degrees(d[1][0]), 2),
+                                       ("omega_2", pred["omega_2"], ref["omega_2"], d[2][0], 3)):
+            np.testing.assert_allclose(mine[ok], theirs[ok], rtol=1e-8, atol=1e-8 * np.abs(theirs[ok]).max(), err_msg=k)
+            np.testing.assert_allclose(J[j][ok], dk[ok], rtol=1e-6, atol=1e-6 * np.abs(dk[ok]).max(), err_msg=k)
