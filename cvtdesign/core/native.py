@@ -26,7 +26,8 @@ When to compile (CVTDESIGN_COMPILE):
    the cache. A model used for longer than its compile takes pays for the compile; one used briefly never
    waits for the compiler. A call estimated to take longer than WAIT_SECONDS interpreted waits for the
    library instead, and so does the first call of a run that announced (`Tiered.expect`) evaluations
-   estimated to take that long (a diagnosis: about 900 evaluations of its rows). The compiling process is detached: a command that ends first still leaves the
+   estimated to take that long (a diagnosis: about 900 evaluations of its rows). `Tiered.start` starts the
+   detached compile at once (a diagnosis's derivative function, compiled beside its rows' function). The compiling process is detached: a command that ends first still leaves the
    library for the next run.
  * 'always': compile at first use and wait for it. 'never': stay interpreted.
 """
@@ -365,6 +366,14 @@ class Tiered:
         judged on them all, not on the next call alone."""
         with self.lock:
             self.expected += points
+
+    def start(self) -> None:
+        """Start compiling now, in a detached process, however little it has been used: from the cache if the
+        library is there, else the compile runs beside this process (under 'always': now, waited for; under
+        'never': not at all) and later calls use the library once it is there."""
+        with self.lock:
+            if self.native is None and not self.given_up:
+                self._advance(HOT_SECONDS - self.seconds)
 
     def function(self, points: int) -> ca.Function:
         """The function to evaluate `points` points with: compiled if it is there (or worth waiting for),

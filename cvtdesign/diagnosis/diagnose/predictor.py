@@ -47,9 +47,11 @@ class Switched:
         self._maps = {}
 
     def expect(self, calls: int, points: int) -> None:
-        """Announce `calls` evaluations of `points` rows (core.native.Tiered.expect)."""
-        for tier in self.tiers.values():
-            tier.expect(calls * points)
+        """Announce `calls` evaluations of `points` rows (core.native.Tiered): the rows' function is then
+        compiled at its first evaluation, waited for, while the derivative function compiles in another
+        process (beside it, on a machine with a second core) and is used once it is there."""
+        self.tiers["rows"].expect(calls * points)
+        self.tiers["derivatives"].start()
 
     def theta(self, effects) -> tuple[list, np.ndarray]:
         """(indices in θ of the parameters of `effects`, in their own model's order; θ with their switches on,
