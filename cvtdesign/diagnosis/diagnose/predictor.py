@@ -17,7 +17,7 @@ from cvtdesign.core.effects import SWITCH, parameter_vector
 from cvtdesign.core.layout import Layout
 from cvtdesign.core.metrics import efficiency
 from cvtdesign.core.model import call_mapped, compile_model
-from cvtdesign.core.native import Tiered
+from cvtdesign.core.native import Tiered, compiler, policy
 from cvtdesign.core.sensitivity import at_points, derivative_function
 from cvtdesign.core.status import Status
 from cvtdesign.diagnosis.measured import Measured
@@ -34,17 +34,29 @@ class Switched:
     the same numbers as that set's own model. Its rows' function (the predictions and the roots) is evaluated
     compiled (core.native.Tiered) once `expect` says enough evaluations are coming to pay for compiling it,
     or once its interpreted evaluations have taken long enough; the compiled library stays in the cache, so a
-    later diagnosis of the same variant and effects loads it."""
+    later diagnosis of the same variant and effects loads it. Where nothing is compiled (no C compiler,
+    CVTDESIGN_COMPILE=never) each effect set gets a model of its own (`view`): interpreted, the model of every
+    effect costs 1.75× a set's own."""
 
     def __init__(self, layout: Layout, effects):
-        self.effects = tuple(effects)
+        self.layout, self.effects = layout, tuple(effects)
         self.model = compile_model(layout, self.effects, switched=True)
+        self._alone = {}
         params = [n for n in self.model.param_names if not n.endswith(SWITCH)]
         derivatives = derivative_function(self.model, DERIVED, list(range(len(params))), [])
         self.tiers = {"rows": Tiered(self.model.point_function(OUTPUTS + ["root"]),
                                      lambda: self.model.point_function(OUTPUTS + ["root"], written_out=True)),
                       "derivatives": Tiered(derivatives, lambda: derivatives)}
         self._maps = {}
+
+    def view(self, effects) -> Switched:
+        """The model a Predictor of `effects` evaluates: this one where models are compiled, else a model of
+        those effects alone (built once)."""
+        if set(effects) == set(self.effects) or (policy() != "never" and compiler() is not None):
+            return self
+        if tuple(effects) not in self._alone:
+            self._alone[tuple(effects)] = Switched(self.layout, effects)
+        return self._alone[tuple(effects)]
 
     def expect(self, calls: int, points: int) -> None:
         """Announce `calls` evaluations of `points` rows (core.native.Tiered): the rows' function is then
@@ -93,7 +105,7 @@ class Predictor:
 
     def __init__(self, layout: Layout, effects, data: Measured, shared: Switched | None = None):
         self.effects = tuple(effects)
-        self.shared = shared or Switched(layout, self.effects)
+        self.shared = (shared or Switched(layout, self.effects)).view(self.effects)
         self.model = self.shared.model          # its θ is the Switched one's: evaluate through `evaluate`
         self._index, self._theta = self.shared.theta(self.effects)
         self.names = [self.model.param_names[i] for i in self._index]

@@ -16,6 +16,7 @@ from cvtdesign.diagnosis import resteer
 from cvtdesign.diagnosis import rig
 from cvtdesign.cli import main
 from cvtdesign.cli.diagnose import report_blocks
+from cvtdesign.core import native
 from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.core.model import compile_model
 from cvtdesign.io.variant import load_variant
@@ -353,3 +354,20 @@ def test_a_candidates_predictor_is_its_own_models(layout, tmp_path):
                                        ("omega_2", pred["omega_2"], ref["omega_2"], d[2][0], 3)):
             np.testing.assert_allclose(mine[ok], theirs[ok], rtol=1e-8, atol=1e-8 * np.abs(theirs[ok]).max(), err_msg=k)
             np.testing.assert_allclose(J[j][ok], dk[ok], rtol=1e-6, atol=1e-6 * np.abs(dk[ok]).max(), err_msg=k)
+
+
+def test_where_nothing_is_compiled_each_effect_set_has_a_model_of_its_own(layout, tmp_path, monkeypatch):
+    """Interpreted (CVTDESIGN_COMPILE=never, or no C compiler), the model of every candidate costs 1.75× a
+    set's own: each set's Predictor then evaluates a model of its effects alone, built once; compiled, they
+    all share the one model."""
+    from cvtdesign.diagnosis.diagnose.predictor import Models
+    data = measured.merge_points(measured.load_measured(dataset(layout, tmp_path, KIM, seed=3), layout))
+    every = KIM + ("traction_saturation", "steering_offset")
+    monkeypatch.setenv("CVTDESIGN_COMPILE", "never")
+    models = Models(layout, data, every)
+    a, b = models.get(KIM), models.get(KIM[:1] + ("steering_offset",))
+    assert a.shared.effects == KIM and b.shared.effects == KIM[:1] + ("steering_offset",)
+    assert models.shared.view(KIM) is a.shared and models.get(every).shared is models.shared
+    monkeypatch.setenv("CVTDESIGN_COMPILE", "auto")
+    if native.compiler() is not None:
+        assert Models(layout, data, every).get(KIM).shared.effects == every
