@@ -368,9 +368,8 @@ class Tiered:
             self.expected += points
 
     def start(self) -> None:
-        """Start compiling now, in a detached process, however little it has been used: from the cache if the
-        library is there, else the compile runs beside this process (under 'always': now, waited for; under
-        'never': not at all) and later calls use the library once it is there."""
+        """Compile now, however little it was used: a detached compile ('always': waited for; 'never': none),
+        whose library later calls use once it is there; the cached library, if it is there."""
         with self.lock:
             if self.native is None and not self.given_up:
                 self._advance(HOT_SECONDS - self.seconds)
