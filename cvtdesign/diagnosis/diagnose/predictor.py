@@ -84,12 +84,13 @@ class Switched:
                                                                       [1] * len(DERIVED)))
 
     def _call(self, kind: str, n: int, run):
-        """`run` of the tier's function mapped over n rows: the rows' solves on two threads, the derivatives
-        (a fifth as long a row, where a thread's start costs more CPU than it saves) on one."""
+        """`run` of the tier's function mapped over n rows: compiled on one thread (a call takes 1–2 ms, and two
+        threads cost more CPU and, on a loaded machine, more wall time too: each call waits for both), else on
+        two."""
         tier = self.tiers[kind]
         fn = tier.function(n)
         if (id(fn), n) not in self._maps:
-            self._maps[id(fn), n] = fn.map(n, "thread", 2) if kind == "rows" else fn.map(n)
+            self._maps[id(fn), n] = fn.map(n) if fn is tier.native else fn.map(n, "thread", 2)
         t = time.perf_counter()
         out = run(self._maps[id(fn), n])
         tier.record(fn, n, time.perf_counter() - t)
