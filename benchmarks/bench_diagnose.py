@@ -99,8 +99,8 @@ def whole_diagnosis(L, rounds):
         cpu_diag.append(cpu)
     ratio = min(t_diag) / min(t_ref)
     print(f"1. diagnose, {rep.rows} rows, {len(rep.candidates)} candidates, verdict {rep.verdict}: "
-          f"{min(t_diag):.2f} s ({min(cpu_diag):.2f} s of CPU); reference {1e3 * min(t_ref):.1f} ms, ratio {ratio:.0f}; one base-model "
-          f"evaluation at the rows {1e3 * min(t_eval):.2f} ms, ratio {min(t_diag) / min(t_eval):.0f}")
+          f"{min(t_diag):.2f} s ({min(cpu_diag):.2f} s of CPU); reference {1e3 * min(t_ref):.1f} ms, ratio {ratio:.0f}; "
+          f"one base-model evaluation at the rows {1e3 * min(t_eval):.2f} ms, ratio {min(t_diag) / min(t_eval):.0f}")
     goal_line("whole diagnosis", ratio, DIAGNOSE_GOAL, " references")
     goal_line("whole diagnosis against one base-model evaluation at the rows", min(t_diag) / min(t_eval),
               EVALUATION_GOAL, "×")

@@ -27,8 +27,8 @@ When to compile (CVTDESIGN_COMPILE):
    waits for the compiler. A call estimated to take longer than WAIT_SECONDS interpreted waits for the
    library instead, and so does the first call of a run that announced (`Tiered.expect`) evaluations
    estimated to take that long (a diagnosis: about 900 evaluations of its rows). `Tiered.start` starts the
-   detached compile at once (a diagnosis's derivative function, compiled beside its rows' function). The compiling process is detached: a command that ends first still leaves the
-   library for the next run.
+   detached compile at once (a diagnosis's derivative function, beside its rows' function). The compiling
+   process is detached: a command that ends first still leaves the library for the next run.
  * 'always': compile at first use and wait for it. 'never': stay interpreted.
 """
 
