@@ -17,14 +17,16 @@ issue.
    multiple of the 187-row diagnosis read the same way. Goal: at most SCALE_GOAL (replicates are merged into
    operating points, so the fit's cost follows the 187 points, not the rows). With --large, also × 535
    (≈ 100k rows), without a goal.
+4. With --cold: the 187-row diagnosis with an empty compiled-model cache, then with the libraries it left.
 
 The rounds are interleaved (each baseline is measured next to what it is the baseline of) and each figure is
 the best of the rounds: the machine is shared and noisy.
 
-Run: python benchmarks/bench_diagnose.py [--rounds N] [--large]
+Run: python benchmarks/bench_diagnose.py [--rounds N] [--large] [--cold]
 """
 import argparse
 import os
+import resource
 import tempfile
 import time
 from pathlib import Path
@@ -143,16 +145,43 @@ def scale(L, rounds, large):
               f"to 187 rows (one round)")
 
 
+def cold(L):
+    """4. With --cold: one 187-row diagnosis with an empty compiled-model cache (the first run of a variant and
+    set of effects compiles the shared model), against one with the cache it leaves, wall and CPU time (this
+    process and the compiler it waited for; the derivative function's compile runs detached, not counted)."""
+    text, before = dataset(L), os.environ.get("CVTDESIGN_CACHE")
+    with tempfile.TemporaryDirectory() as tmp:
+        os.environ["CVTDESIGN_CACHE"] = tmp
+        try:
+            out = []
+            for _ in range(2):
+                child = resource.getrusage(resource.RUSAGE_CHILDREN)
+                t, _, cpu = diagnose_csv(L, text)
+                after = resource.getrusage(resource.RUSAGE_CHILDREN)
+                out.append((t, cpu, after.ru_utime + after.ru_stime - child.ru_utime - child.ru_stime))
+        finally:
+            if before is None:
+                del os.environ["CVTDESIGN_CACHE"]
+            else:
+                os.environ["CVTDESIGN_CACHE"] = before
+    (t0, c0, k0), (t1, c1, k1) = out
+    print(f"4. diagnose with an empty cache: {t0:.2f} s wall, {c0:.2f} s of CPU and {k0:.2f} s of the compiler's; "
+          f"then with its libraries {t1:.2f} s, {c1:.2f} s of CPU")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds; each figure is the best (default 3)")
     parser.add_argument("--large", action="store_true", help="also the 100k-row diagnosis (one round)")
+    parser.add_argument("--cold", action="store_true", help="also a diagnosis with an empty compiled-model cache")
     args = parser.parse_args()
     L = load_variant(ROOT / "variants/existing_kim.yaml")
     print(f"load average {os.getloadavg()[0]:.1f} at the start; best of {args.rounds} interleaved rounds")
     whole_diagnosis(L, args.rounds)
     exact_jacobian(L)
     scale(L, args.rounds, args.large)
+    if args.cold:
+        cold(L)
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
 
 
