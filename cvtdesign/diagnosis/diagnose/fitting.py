@@ -112,6 +112,7 @@ def fit(P: Predictor, data: Measured, noise: dict, rows=None, x0=None, multistar
     best = None
     for s in (_starts(P, x0) if multistart else [x0]):
         s = np.clip(s, lo + 1e-12 * scale, hi - 1e-12 * scale)
+        P.pin(s)
         sol = least_squares(f, s, jac=j, bounds=(lo, hi), x_scale=scale, method="trf", xtol=1e-8,
                             ftol=1e-8, max_nfev=max_nfev)
         if best is None or sol.cost < best.cost:

@@ -118,6 +118,7 @@ class Predictor:
         self._rows = [g, r["omega_1"].to_numpy(), r["tau_perp"].to_numpy(), np.zeros(n), phi0]
         self.n, self.gamma = n, g
         self._last = None        # (θ, its outputs)
+        self._pinned = None      # (θ, its outputs or None until evaluated): see `pin`
 
     def full(self, theta) -> np.ndarray:
         """The Switched model's θ of this effect set's parameters `theta`."""
@@ -129,21 +130,40 @@ class Predictor:
         """The model with these effects at `theta`, evaluated at any points (CompiledModel.evaluate)."""
         return self.model.evaluate(gammas, loads, speeds=speeds, theta=self.full(theta))
 
+    def pin(self, theta) -> None:
+        """Keep the solutions (and Jacobian) at `theta` besides the last θ's, until another θ is pinned: a fit
+        pins its start, and the cross-validation's folds all start from the full fit's θ (16 % of a diagnosis's
+        solves were at a θ solved before)."""
+        theta = np.asarray(theta, float)
+        if self._pinned is None or not np.array_equal(self._pinned[0], theta):
+            kept = self._last[1] if self._last is not None and np.array_equal(self._last[0], theta) else None
+            self._pinned = (theta.copy(), kept)
+
+    def _outputs(self, theta: np.ndarray) -> dict:
+        """The rows' outputs at θ: the last θ's or the pinned θ's when it is one of them, else solved."""
+        for slot in (self._last, self._pinned):
+            if slot is not None and slot[1] is not None and np.array_equal(slot[0], theta):
+                self._last = slot
+                return slot[1]
+        out = dict(zip(OUTPUTS + ["root"], self.shared.rows(self.n, [*self._rows, self.full(theta), np.zeros(0)])))
+        self._last = (theta.copy(), out)
+        if self._pinned is not None and self._pinned[1] is None and np.array_equal(self._pinned[0], theta):
+            self._pinned = self._last
+        return out
+
     def __call__(self, theta, jacobian=False):
         """Predictions {alpha [deg], tau_par [N m], axis [deg], omega_2 [rad/s], tau_1, tau_2 [N m]}, converged
         mask: the points where the model's physics holds (and dY/dθ, shape (6, n, p), with `jacobian`)."""
-        theta = np.asarray(theta, float)
-        if self._last is None or not np.array_equal(self._last[0], theta):
-            out = self.shared.rows(self.n, [*self._rows, self.full(theta), np.zeros(0)])
-            self._last = (theta.copy(), dict(zip(OUTPUTS + ["root"], out)))
-        out = self._last[1]
+        out = self._outputs(np.asarray(theta, float))
         ok = out["status"][0] == Status.OK      # the model's status: converged, in contact, no gross slip
         _, tau_par = self.model.frame.load_split(self.gamma, out["tau_1"][0], out["tau_2"][0])
         pred = {"alpha": np.degrees(out["alpha"][0]), "tau_par": tau_par, "axis": np.degrees(out["gamma_axis"][0]),
                 "omega_2": out["omega_2"][0], "tau_1": out["tau_1"][0], "tau_2": out["tau_2"][0]}
         if not jacobian:
             return pred, ok
-        d = dict(zip(DERIVED, (v[0][:, self._index] for v in self.shared.derivatives(self.n, out["root"]))))
+        if "derivatives" not in out:
+            out["derivatives"] = self.shared.derivatives(self.n, out["root"])
+        d = dict(zip(DERIVED, (v[0][:, self._index] for v in out["derivatives"])))
         _, d_par = self.model.frame.load_split(self.gamma[:, None], d["tau_1"], d["tau_2"])    # linear in τ1, τ2
         J = np.array([np.degrees(d["alpha"]), d_par, np.degrees(d["gamma_axis"]), d["omega_2"], d["tau_1"],
                       d["tau_2"]])

@@ -371,3 +371,30 @@ def test_where_nothing_is_compiled_each_effect_set_has_a_model_of_its_own(layout
     monkeypatch.setenv("CVTDESIGN_COMPILE", "auto")
     if native.compiler() is not None:
         assert Models(layout, data, every).get(KIM).shared.effects == every
+
+
+def test_a_pinned_theta_is_solved_once_between_other_thetas(layout, tmp_path, monkeypatch):
+    """A fit pins its start (the cross-validation's folds all start from the full fit's θ): the pinned θ's
+    solutions and Jacobian are kept besides the last θ's, and give the same numbers as solving again."""
+    data = measured.merge_points(measured.load_measured(dataset(layout, tmp_path, KIM, seed=4), layout))
+    P = diagnose.Predictor(layout, KIM, data)
+    calls = {"rows": 0, "derivatives": 0}
+    for kind in calls:
+        def counted(*a, real=getattr(P.shared, kind), kind=kind):
+            calls[kind] += 1
+            return real(*a)
+        monkeypatch.setattr(P.shared, kind, counted)
+    start, other = P.defaults, P.defaults * 1.05
+    P.pin(start)
+    first = P(start, jacobian=True)
+    P(other, jacobian=True)
+    P(other * 1.01)
+    again = P(start, jacobian=True)
+    assert calls == {"rows": 3, "derivatives": 2}
+    np.testing.assert_array_equal(again[0]["alpha"], first[0]["alpha"])
+    np.testing.assert_array_equal(again[2], first[2])
+    P.pin(other)                         # another start: the first one is no longer kept
+    P(other * 1.02)
+    fresh = P(start)
+    assert calls["rows"] == 5
+    np.testing.assert_array_equal(fresh[0]["alpha"], first[0]["alpha"])
