@@ -7,22 +7,26 @@ issue.
    as a multiple of a fixed numpy computation (`reference`: what this machine does in a given time, whatever
    cvtdesign's code does). Goal: at most DIAGNOSE_GOAL references, the issue's "under 60 s" on this machine
    (60 s over the reference's best time on this machine when the goal was set, 18.3 ms). And the diagnosis
-   in evaluations of the base model at the same rows, the unit its fits are made of: at most EVALUATION_GOAL
-   (about 3 s on a quiet machine).
+   in evaluations of the base model at the same rows, interpreted (the unit the goal was set in, when one
+   took 20 ms): at most EVALUATION_GOAL (about 3 s on a quiet machine). Its CPU time is printed beside its wall
+   time. The diagnosis evaluates one model of every effect it tries, compiled (diagnose.predictor.Switched),
+   from the cache after the first run: a cold cache adds its compile (docs/diagnosis.md).
 2. One weighted fit of the base model with the model's exact Jacobian (CasADi through the Newton solves)
    against the same fit with scipy's finite-difference Jacobian, from the same start to the same optimum.
 3. Scale: the same diagnosis on Kim's protocol × 27 replicates (5049 rows), reading the CSV included, as a
    multiple of the 187-row diagnosis read the same way. Goal: at most SCALE_GOAL (replicates are merged into
    operating points, so the fit's cost follows the 187 points, not the rows). With --large, also × 535
    (≈ 100k rows), without a goal.
+4. With --cold: the 187-row diagnosis with an empty compiled-model cache, then with the libraries it left.
 
 The rounds are interleaved (each baseline is measured next to what it is the baseline of) and each figure is
 the best of the rounds: the machine is shared and noisy.
 
-Run: python benchmarks/bench_diagnose.py [--rounds N] [--large]
+Run: python benchmarks/bench_diagnose.py [--rounds N] [--large] [--cold]
 """
 import argparse
 import os
+import resource
 import tempfile
 import time
 from pathlib import Path
@@ -72,31 +76,33 @@ def load(L, text):
         return measured.load_measured(path, L)
 
 
-def diagnose_csv(L, text) -> tuple[float, dict]:
-    """(wall time [s], report) of the diagnosis of the CSV text, reading the file included."""
+def diagnose_csv(L, text) -> tuple[float, dict, float]:
+    """(wall time [s], report, CPU time of this process [s]) of the diagnosis of the CSV text, reading the file
+    included."""
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "d.csv"
         path.write_text(text)
-        t = time.perf_counter()
+        t, cpu = time.perf_counter(), time.process_time()
         report = diagnose.diagnose(L, measured.load_measured(path, L), BASE)
-        return time.perf_counter() - t, report
+        return time.perf_counter() - t, report, time.process_time() - cpu
 
 
 def whole_diagnosis(L, rounds):
     """1. The 187-row diagnosis against the reference and one base-model evaluation at its rows, interleaved."""
     text = dataset(L)
     P = diagnose.Predictor(L, BASE, load(L, text))
-    t_ref, t_eval, t_diag = [], [], []
+    t_ref, t_eval, t_diag, cpu_diag = [], [], [], []
     step = iter(range(1, 10 ** 6))     # a new θ each call: a Predictor keeps its last θ's solutions
     for _ in range(rounds):
         t_ref.append(best_of(reference, 10)[0])
         t_eval.append(best_of(lambda: P(P.defaults * (1 + 1e-12 * next(step))), 20)[0])
-        t, rep = diagnose_csv(L, text)
+        t, rep, cpu = diagnose_csv(L, text)
         t_diag.append(t)
+        cpu_diag.append(cpu)
     ratio = min(t_diag) / min(t_ref)
     print(f"1. diagnose, {rep.rows} rows, {len(rep.candidates)} candidates, verdict {rep.verdict}: "
-          f"{min(t_diag):.1f} s; reference {1e3 * min(t_ref):.1f} ms, ratio {ratio:.0f}; one base-model "
-          f"evaluation at the rows {1e3 * min(t_eval):.2f} ms, ratio {min(t_diag) / min(t_eval):.0f}")
+          f"{min(t_diag):.2f} s ({min(cpu_diag):.2f} s of CPU); reference {1e3 * min(t_ref):.1f} ms, ratio {ratio:.0f}; "
+          f"one base-model evaluation at the rows {1e3 * min(t_eval):.2f} ms, ratio {min(t_diag) / min(t_eval):.0f}")
     goal_line("whole diagnosis", ratio, DIAGNOSE_GOAL, " references")
     goal_line("whole diagnosis against one base-model evaluation at the rows", min(t_diag) / min(t_eval),
               EVALUATION_GOAL, "×")
@@ -134,21 +140,48 @@ def scale(L, rounds, large):
           f"({min(t_small):.1f} s)")
     goal_line("5049 rows against 187 rows", ratio, SCALE_GOAL, "×")
     if large:
-        t, _ = diagnose_csv(L, dataset(L, rig.kim_protocol(L, replicates=535), seed=3))
+        t = diagnose_csv(L, dataset(L, rig.kim_protocol(L, replicates=535), seed=3))[0]
         print(f"3. diagnose from the CSV, 100045 rows (535 replicates): {t:.1f} s, ratio {t / min(t_small):.2f} "
               f"to 187 rows (one round)")
+
+
+def cold(L):
+    """4. With --cold: one 187-row diagnosis with an empty compiled-model cache (the first run of a variant and
+    set of effects compiles the shared model), against one with the cache it leaves, wall and CPU time (this
+    process and the compiler it waited for; the derivative function's compile runs detached, not counted)."""
+    text, before = dataset(L), os.environ.get("CVTDESIGN_CACHE")
+    with tempfile.TemporaryDirectory() as tmp:
+        os.environ["CVTDESIGN_CACHE"] = tmp
+        try:
+            out = []
+            for _ in range(2):
+                child = resource.getrusage(resource.RUSAGE_CHILDREN)
+                t, _, cpu = diagnose_csv(L, text)
+                after = resource.getrusage(resource.RUSAGE_CHILDREN)
+                out.append((t, cpu, after.ru_utime + after.ru_stime - child.ru_utime - child.ru_stime))
+        finally:
+            if before is None:
+                del os.environ["CVTDESIGN_CACHE"]
+            else:
+                os.environ["CVTDESIGN_CACHE"] = before
+    (t0, c0, k0), (t1, c1, k1) = out
+    print(f"4. diagnose with an empty cache: {t0:.2f} s wall, {c0:.2f} s of CPU and {k0:.2f} s of the compiler's; "
+          f"then with its libraries {t1:.2f} s, {c1:.2f} s of CPU")
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds; each figure is the best (default 3)")
     parser.add_argument("--large", action="store_true", help="also the 100k-row diagnosis (one round)")
+    parser.add_argument("--cold", action="store_true", help="also a diagnosis with an empty compiled-model cache")
     args = parser.parse_args()
     L = load_variant(ROOT / "variants/existing_kim.yaml")
     print(f"load average {os.getloadavg()[0]:.1f} at the start; best of {args.rounds} interleaved rounds")
     whole_diagnosis(L, args.rounds)
     exact_jacobian(L)
     scale(L, args.rounds, args.large)
+    if args.cold:
+        cold(L)
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
 
 

@@ -42,6 +42,10 @@ from cvtdesign.errors import InputError, suggest
 
 HOOKS = ("steering_angle", "rolling_radius", "creep_normal", "friction", "compliance", "saturation", "resistance",
          "calibration")   # the hook table above, in its order
+SWITCH = ":on"        # the suffix of an effect's switch in a switched model's parameters (parameter_vector)
+# what a `collect` hook of an effect that is switched off contributes (core.equations.Hooks): no compliance, a
+# saturation gain of 1 at utilisation 0, no resisting moment, a calibration factor of 1
+NEUTRAL = {"compliance": (0.0, 0.0), "saturation": (1.0, 0.0), "resistance": 0.0, "calibration": 1.0}
 
 
 @dataclass(frozen=True)
@@ -247,11 +251,15 @@ def friction_factor(effects, parameters: dict) -> object:
     return mu
 
 
-def parameter_vector(effects, overrides: dict | None = None):
-    """Ordered (names, values) of the parameters of the effects that are on; overrides: {effect: {param: v}}."""
+def parameter_vector(effects, overrides: dict | None = None, switched: bool = False):
+    """Ordered (names, values) of the parameters of the effects that are on; overrides: {effect: {param: v}}.
+    `switched`: then each effect's switch, 'effect:on' (SWITCH), at 1: a model compiled with them holds every
+    subset of the effects, with each subset's own numbers (core.equations.Hooks)."""
     names, values = [], []
     for e in effects:
         for p, spec in EFFECTS[e].params.items():
             names.append(f"{e}.{p}")
             values.append(float((overrides or {}).get(e, {}).get(p, spec.default)))
+    if switched:
+        names, values = names + [f"{e}{SWITCH}" for e in effects], values + [1.0] * len(effects)
     return names, values

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from cvtdesign.core.effects import EFFECTS, ContactState, smooth_abs
+from cvtdesign.core.effects import EFFECTS, NEUTRAL, SWITCH, ContactState, smooth_abs
 from cvtdesign.core.geometry import roller_pose
 from cvtdesign.core.kinematics import vec
 from cvtdesign.core.layout import Layout
@@ -20,21 +20,40 @@ F_SCALE = 10.0        # [N] force scaling of the unknowns
 
 
 class Hooks:
-    """The hooks of the effects that are on, with their parameter symbols, in the vocabulary's order."""
+    """The hooks of the effects that are on, with their parameter symbols, in the vocabulary's order.
+
+    An effect whose switch ('effect:on', core.effects.SWITCH) is among the names can be switched off: while
+    its switch is 0 its hooks leave the value as it was (`transform`) or give the hook's NEUTRAL term
+    (`collect`), so one model holds several effect sets (the diagnosis's candidates) with each set's own
+    numbers: the switch selects (CasADi's if_else), it never scales, and an exact zero added or a one
+    multiplied changes no value. (The Newton solves' linear algebra, ordered by the Jacobian's sparsity, which
+    the switched terms widen, can differ in round-off: 1e-12 of α, 1e-9 of the scaled unknowns.)"""
 
     def __init__(self, effects, theta, names):
         ordered = [e for e in EFFECTS if e in effects]
-        self.items = [(EFFECTS[e], {p: theta[names.index(f"{e}.{p}")] for p in EFFECTS[e].params}) for e in ordered]
+        self.items = [(EFFECTS[e], {p: theta[names.index(f"{e}.{p}")] for p in EFFECTS[e].params},
+                       theta[names.index(e + SWITCH)] if e + SWITCH in names else None) for e in ordered]
 
     def transform(self, hook, value, *context):
         """value ← f(*context, value, p) for every effect with that hook."""
-        for eff, p in self.items:
+        for eff, p, on in self.items:
             if hook in eff.hooks:
-                value = eff.hooks[hook](*context, value, p)
+                value = _switched(on, eff.hooks[hook](*context, value, p), value)
         return value
 
     def collect(self, hook, *context) -> list:
-        return [eff.hooks[hook](*context, p) for eff, p in self.items if hook in eff.hooks]
+        return [_switched(on, eff.hooks[hook](*context, p), NEUTRAL[hook]) for eff, p, on in self.items
+                if hook in eff.hooks]
+
+
+def _switched(on, value, otherwise):
+    """`value` where the switch `on` is 1, `otherwise` where it is 0 (element by element for tuples); `value`
+    itself for an effect that is always on (on is None)."""
+    if on is None:
+        return value
+    if isinstance(value, tuple):
+        return tuple(ca.if_else(on, v, o) for v, o in zip(value, otherwise))
+    return ca.if_else(on, value, otherwise)
 
 
 @dataclass

@@ -93,11 +93,12 @@ class CompiledModel:
     peak_pressure: ca.Function = None  # (N, p0, design) → Hertz peak pressure p0·(max(N, 0)/preload)^(1/3) [Pa]
     steering_residual: ca.Function = None  # (φ, [γ_cmd, design]) → residual whose root is the steering angle
 
-    def point_function(self, outputs) -> ca.Function:
+    def point_function(self, outputs, written_out: bool = False) -> ca.Function:
         """`point` restricted to the named outputs (POINT_OUTPUTS, CONTACT_OUTPUTS, 'steer_misfit', 'root'): same
         inputs and the same expressions, but only what those outputs need is evaluated and differentiated
-        (the Newton solve is left out when only 'steer_misfit' is asked for)."""
-        return self._point_builder(list(outputs))
+        (the Newton solve is left out when only 'steer_misfit' is asked for); `written_out`: in nodes that can
+        be compiled (core.newton), with the same numbers."""
+        return self._point_builder(list(outputs), written_out)
 
     def native_point(self, derivatives: bool = False) -> ca.Function | None:
         """`point` compiled to C (from the cache, else compiled now; with `derivatives`, the library also
@@ -280,20 +281,21 @@ def ideal_unknowns(layout: Layout, frame: ShaftFrame, gamma, w1, phi, om_ref):
 
 
 def compile_model(layout: Layout, effects=None, design: ca.SX | None = None,
-                  as_built: Layout | None = None) -> CompiledModel:
+                  as_built: Layout | None = None, switched: bool = False) -> CompiledModel:
     """Compile `layout` with the given effects (default: the variant's) into a CompiledModel.
 
     `design` is the vector of CasADi symbols that the layout's fields may depend on (design variables of
     an optimisation study); numeric layouts need none. `as_built`: the machine as manufactured, `layout`
     with rollers whose fields are expressions of `design` (toleranced dimensions: design.tolerance). Its
     rollers are what the equations hold, while the ideal law, γ and α and the linkage's inverse kinematics
-    stay those of `layout`, the drawing: a machine built off its drawing is commanded, and judged, by it."""
+    stay those of `layout`, the drawing: a machine built off its drawing is commanded, and judged, by it.
+    `switched`: each effect has a switch in θ (core.effects.parameter_vector): one model for every subset."""
     built = layout if as_built is None else as_built
     law = contact_law(layout.contact_law)
     effects = check_effects(tuple(layout.effects if effects is None else effects), f"{layout.file}: effects",
                             layout.contact_law)
     design = ca.SX(0, 1) if design is None else design
-    pnames, pvalues = parameter_vector(effects, layout.effect_parameters)
+    pnames, pvalues = parameter_vector(effects, layout.effect_parameters, switched)
     theta = ca.SX.sym("theta", len(pnames))
     hooks = Hooks(effects, theta, pnames)
     frame = shaft_frame(layout)

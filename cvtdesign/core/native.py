@@ -25,8 +25,10 @@ When to compile (CVTDESIGN_COMPILE):
    taken HOT_SECONDS, then compiles it in a separate process and switches to the library once it is in
    the cache. A model used for longer than its compile takes pays for the compile; one used briefly never
    waits for the compiler. A call estimated to take longer than WAIT_SECONDS interpreted waits for the
-   library instead. The compiling process is detached: a command that ends first still leaves the
-   library for the next run.
+   library instead, and so does the first call of a run that announced (`Tiered.expect`) evaluations
+   estimated to take that long (a diagnosis: about 900 evaluations of its rows). `Tiered.start` starts the
+   detached compile at once (a diagnosis's derivative function, beside its rows' function). The compiling
+   process is detached: a command that ends first still leaves the library for the next run.
  * 'always': compile at first use and wait for it. 'never': stay interpreted.
 """
 
@@ -356,14 +358,28 @@ class Tiered:
         self.per_point = 1e-4          # interpreted seconds a point, as last measured
         self.pending: tuple | None = None    # (code, command, library) of the compile under way
         self.given_up = False
+        self.expected = 0              # points announced to come (`expect`)
         self.lock = threading.Lock()
+
+    def expect(self, points: int) -> None:
+        """Announce that about `points` more points will be evaluated: whether to wait for the compiler is then
+        judged on them all, not on the next call alone."""
+        with self.lock:
+            self.expected += points
+
+    def start(self) -> None:
+        """Compile now, however little it was used: a detached compile ('always': waited for; 'never': none),
+        whose library later calls use once it is there; the cached library, if it is there."""
+        with self.lock:
+            if self.native is None and not self.given_up:
+                self._advance(HOT_SECONDS - self.seconds)
 
     def function(self, points: int) -> ca.Function:
         """The function to evaluate `points` points with: compiled if it is there (or worth waiting for),
         else interpreted."""
         with self.lock:
             if self.native is None and not self.given_up:
-                self._advance(points * self.per_point)
+                self._advance(max(points, self.expected) * self.per_point)
             return self.native or self.interpreted
 
     def code(self) -> str:

@@ -4,7 +4,7 @@ the dynamic model compiled with the design variables as symbols (core.dynamics.m
 
 * `constraints.min_bandwidth_Hz: f`: at each point, the axis angle's small-signal response to the command at f
   is at least 1/√2 of its static gain, |H(j2πf)|² / |H(0)|² ≥ 1/2, H from the model linearised at its steady
-  state (core.dynamics.linear). Where the response falls monotonically, as on the shipped layouts below their
+  state with shaft 2's torque held (core.dynamics.linear). Where the response falls monotonically, as on the shipped layouts below their
   first resonance, this is f_3dB ≥ f. The steady state comes from a Newton solve of Ẋ = 0 and the linearisation
   from the model's Jacobian, so the row's derivatives follow by the implicit function theorem; the derivative of
   the Jacobian needs the creep-force table's second derivatives, which CasADi takes by finite differences of its
@@ -16,7 +16,10 @@ the dynamic model compiled with the design variables as symbols (core.dynamics.m
   change (core.dynamics.response, `cvtdesign transient`) checks the optimum in time.
 
 The inertias and the steering motor are the base design's (io.dynamics): a motor and its servo tuned once. The
-points: up to POINTS commanded γ spread over the study's envelope, at its largest positive load.
+points: the commanded γ of `constraints.dynamic_gamma` (default: POINTS spread over the study's envelope), at the
+envelope's largest positive load. Near γ = ±90° the output shaft turns much faster than the motor's, so its
+inertia seen from the motor's side is large and its speed settles slowly (on the box at ±80° and 1 N·m, a pole at
+−4.9 1/s: 0.8 Hz whatever the placement); a study asks for a bandwidth where the cobot needs it.
 """
 from __future__ import annotations
 
@@ -24,6 +27,7 @@ import casadi as ca
 import numpy as np
 
 from cvtdesign.core.dynamics.model import INPUTS, OUTPUTS, compile_dynamics
+from cvtdesign.core.geometry import steering_angle_guess, steering_data
 from cvtdesign.errors import InputError
 from cvtdesign.io.dynamics import dynamic_parameters
 from cvtdesign.io.units import is_plain_number, to_si
@@ -37,14 +41,12 @@ def dynamic_rows(nlp, rows) -> None:
     if f_min is None and rate_min is None:
         return
     dyn = compile_dynamics(nlp.layout, dynamic_parameters(nlp.base), effects=nlp.spec.effects, design=nlp.p)
-    first = nlp.first
-    pick = first[np.unique(np.round(np.linspace(0, first.size - 1, min(POINTS, first.size))).astype(int))]
+    gammas = _gammas(nlp)
     load = float(np.max(nlp.l_pts))
     theta = ca.DM(nlp.model.param_values)
     phi_fn = nlp.model.point_function(["phi"])
-    for k in pick:
-        g = float(nlp.g_pts[k])
-        phi = phi_fn(g, nlp.w1, load, 0.0, nlp.phi0[k], theta, nlp.P)
+    for g, phi0 in zip(gammas, steering_angle_guess(*steering_data(nlp.base), gammas)[0]):
+        phi = phi_fn(g, nlp.w1, load, 0.0, phi0, theta, nlp.P)
         slope = _linkage_slope(nlp)(phi, g, nlp.P)
         at = f"γ={np.degrees(g):+.0f}° τ⊥={load:+.3g}"
         if f_min is not None:
@@ -55,6 +57,24 @@ def dynamic_rows(nlp, rows) -> None:
                 expr, labels = _rate_rows(dyn, nlp, theta, g, load, phi, sign * rate_min * slope, at,
                                           sign * np.degrees(rate_min))
                 rows.add(expr, -np.inf, 0.0, "ratio_rate", labels)
+
+
+def _gammas(nlp) -> np.ndarray:
+    """The commanded γ [rad] of the dynamic rows: constraints.dynamic_gamma, else POINTS spread over the
+    envelope's γ."""
+    given = nlp.spec.constraints.dynamic_gamma
+    grid = np.unique(nlp.g_pts)
+    if not given:
+        return grid[np.unique(np.round(np.linspace(0, grid.size - 1, min(POINTS, grid.size))).astype(int))]
+    out = []
+    for i, raw in enumerate(given):
+        where = f"{nlp.where}: constraints.dynamic_gamma[{i}]"
+        g = to_si(raw, "angle", where)
+        if not grid.min() - 1e-12 <= g <= grid.max() + 1e-12:
+            raise InputError(f"{where}: expected an angle within the envelope's γ, {np.degrees(grid.min()):g}.."
+                             f"{np.degrees(grid.max()):g} deg, got {raw}")
+        out.append(float(g))
+    return np.array(out)
 
 
 def _inputs(nlp, g, load, phi):
@@ -73,9 +93,12 @@ def _bandwidth_row(dyn, nlp, theta, g, load, phi, slope, f_hz):
     solve = ca.rootfinder("dyn_steady", "newton", ca.Function("g", [Xs, ca.vertcat(us, ps)], [f]),
                           {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False})
     X = solve(dyn.steady_guess(u, nlp.P), ca.vertcat(u, nlp.P))
-    axis = dyn.outputs.call([0, Xs, us, theta, ps])[OUTPUTS.index("gamma_axis")]
-    lin = ca.Function("lin", [Xs, us, ps], [ca.jacobian(f, Xs), ca.jacobian(f, us), ca.jacobian(axis, Xs)])
-    A, Bu, C = lin(X, u, nlp.P)
+    outs = dyn.outputs.call([0, Xs, us, theta, ps])
+    held = ca.Function("held", [Xs, us, ps], [outs[OUTPUTS.index("tau_2")]])(X, u, nlp.P)
+    u_held = ca.vertcat(u[:INPUTS.index("load")], held, 1, u[INPUTS.index("contacts"):])   # shaft 2's torque held
+    lin = ca.Function("lin", [Xs, us, ps], [ca.jacobian(f, Xs), ca.jacobian(f, us),
+                                            ca.jacobian(outs[OUTPUTS.index("gamma_axis")], Xs)])
+    A, Bu, C = lin(X, u_held, nlp.P)
     B0 = Bu[:, INPUTS.index("gamma_cmd")] + Bu[:, INPUTS.index("phi_cmd")] * slope
     w = 2 * np.pi * f_hz
     eye = ca.MX.eye(n)

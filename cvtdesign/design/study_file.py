@@ -80,7 +80,7 @@ class Constraints(Strict):
     1 m) between any two rollers; `envelope_radius` a length (0, 10 m]; `min_normal_force` a force > 0;
     `max_steering_torque` a torque (0, 1000 N·m]; `min_capacity` a torque (0, 10,000 N·m]; `min_life_h` a
     time > 0 with `life_duty` the duty file it holds over; `min_bandwidth_Hz` a frequency (0, 1000 Hz];
-    `min_ratio_rate_deg_s` an angular rate (0, 1e5 deg/s].
+    `min_ratio_rate_deg_s` an angular rate (0, 1e5 deg/s]; `dynamic_gamma` angles within the envelope.
     Each is finite; plain numbers are SI, and an implausible plain length gets the unit it probably meant."""
     hertz_pressure: StrictBool = True
     traction_margin: Num | None = 0.2
@@ -103,6 +103,7 @@ class Constraints(Strict):
     # frequency ('5 Hz'), and the steering able to change γ at least this fast ('100 deg/s') at a few envelope points
     min_bandwidth_Hz: Num | None = None
     min_ratio_rate_deg_s: Num | None = None
+    dynamic_gamma: list[Num] | None = None    # the commanded γ where those two hold (default: five over the envelope)
 
 
 class Multistart(Strict):

@@ -179,8 +179,7 @@ def model_and_fit(layout, effects, data=None):
     fit.theta its fitted parameters, one compiled model for the nominal and the fitted commands), else None."""
     if data is None:
         return compile_model(layout, effects), None
-    fitted = fit_model(layout, data, effects)
-    return fitted[0].model, fitted[1]
+    return compile_model(layout, effects), fit_model(layout, data, effects)[1]
 
 
 def commands(layout, effects, load, ratios=RATIOS, data=None) -> dict:

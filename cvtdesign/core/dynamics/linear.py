@@ -13,8 +13,8 @@ import casadi as ca
 import numpy as np
 
 from cvtdesign.core.dynamics.model import DynamicModel
-from cvtdesign.core.dynamics.response import command, linkage_slope
-from cvtdesign.core.dynamics.simulate import simulate, steady_state
+from cvtdesign.core.dynamics.response import command, linkage_slope, start
+from cvtdesign.core.dynamics.simulate import simulate
 
 F_SCAN = np.logspace(-2, 4, 241)    # [Hz] where the response is scanned for the first −3 dB crossing
 SIGNALS = ("gamma_axis", "ratio")
@@ -73,9 +73,10 @@ def linearise(model: DynamicModel, X: np.ndarray, u: np.ndarray, dphi_dgamma: fl
 
 
 def linear_at(model: DynamicModel, gamma: float, load: float, load_is_tau_2: bool = False) -> Linear | None:
-    """The Linear model at the steady state of command γ [rad] and load [N m]; None where there is none."""
-    u = command(model, gamma, load, load_is_tau_2=load_is_tau_2)
-    X = steady_state(model, u)
+    """The Linear model at the steady state of command γ [rad] and load [N m], shaft 2's torque held
+    (core.dynamics.response.start); None where there is no steady state."""
+    X, tau2 = start(model, gamma, load, load_is_tau_2)
+    u = command(model, gamma, tau2, load_is_tau_2=True)
     return None if X is None else linearise(model, X, u, linkage_slope(model, gamma))
 
 
@@ -85,14 +86,13 @@ def sine_gain(model: DynamicModel, gamma: float, load: float, freq_hz: float, si
     (A = amplitude [rad], piecewise linear in `pieces` a period) from the steady state at γ, and the response's
     component at f fitted by least squares over the last two of `periods` periods. It checks the linear model's
     H(j2πf) (tests/unit/dynamics); None where there is no steady state at γ."""
-    u = command(model, gamma, load)
-    X = steady_state(model, u)
+    X, tau2 = start(model, gamma, load)
     if X is None:
         return None
     T = periods / freq_hz
     t = np.linspace(0.0, T, periods * pieces + 1)
     g = gamma + amplitude * np.sin(2 * np.pi * freq_hz * t)
-    segs = [command(model, a, load, t0, (b - a) / (t1 - t0)) for a, b, t0, t1 in zip(g[:-1], g[1:], t[:-1], t[1:])]
+    segs = [command(model, a, tau2, t0, (b - a) / (t1 - t0), True) for a, b, t0, t1 in zip(g[:-1], g[1:], t[:-1], t[1:])]
     tr = simulate(model, X, segs, T, periods * 4 * pieces)
     last = tr.t >= T - 2 / freq_hz
     w = 2 * np.pi * freq_hz * tr.t[last]

@@ -13,9 +13,13 @@ Equations (J_s the sphere's inertia, J_i an idler's, J_2 shaft 2's, J_φ the ste
    (the steady model's moment balance, Kim et al., "Causes of microslip in a continuously variable
    transmission", eqs 19-32, generalised);
  * idler i:  J_i ω̇_i = −r_i F_t,i + M_r,i (the roller's torque balance, with its inertia);
- * shaft 2:  J_2 ω̇_2 = τ_2,ext − Σ_{i on 2} ρ_i (r_i F_t,i − M_r,i); the outside torque τ_2,ext is the brake's,
-   or the one that holds τ⊥ at the load: τ⊥ = −τ1 sin γ + τ2 (s cos γ − c sin γ) (core.kinematics) with τ1 the
-   motor's torque Σ_{i on 1} ρ_i (r_i F_t,i − M_r,i) at the imposed ω1;
+ * shaft 2:  J_2 ω̇_2 = τ_2,ext − Σ_{i on 2} ρ_i (r_i F_t,i − M_r,i); the outside torque τ_2,ext is the load
+   input itself (load_is_tau_2 = 1: a brake, or the operator's push on the joint; what the transient figures
+   hold, core.dynamics.response.start), or the one that holds τ⊥ at the load, τ⊥ = −τ1 sin γ + τ2 (s cos γ −
+   c sin γ) (core.kinematics) with τ1 the motor's torque Σ_{i on 1} ρ_i (r_i F_t,i − M_r,i) at the imposed ω1:
+   the steady model's definition of an operating point, exact at a steady state, but in a transient it makes
+   shaft 2's torque follow the motor's instantly (an operator of no inertia and infinite speed), which on the
+   box swings the axis through 180° during a fast step;
  * contact i: Ḟ_i = −((V_i + w_i) / σ_i) K_i ρ_i, ρ_i the law's two residual rows at the current slip (zero at
    the steady law), K_i the force each row stands for at fixed slip (ContactRows.force_per_row): the force
    relaxes to the law's over the relaxation length σ_i = k_σ a_i (Pacejka) of the distance the patch's material
@@ -59,8 +63,8 @@ OUTPUTS = ("gamma_axis", "ratio", "alpha", "phi", "phi_rate", "motor_torque", "m
 class DynamicModel:
     """The compiled dynamic model of one layout (module docstring). `rhs(t, X, u, θ)` → Ẋ and
     `outputs(t, X, u, θ)` → OUTPUTS (scalars, and one row per contact for utilisation, N, F_t, F_a), with u the
-    INPUTS in their order and θ the effects' parameters; `steady_guess(u, θ)` the ideal kinematics with no
-    force, the servo at rest."""
+    INPUTS in their order and θ the effects' parameters (and the design's values last, for a model compiled
+    with design symbols); `steady_guess(u)` the ideal kinematics with no force, the servo at rest."""
     layout: Layout
     parameters: DynamicParameters
     param_values: list
@@ -130,7 +134,7 @@ def compile_dynamics(layout: Layout, parameters: DynamicParameters, effects=None
 
 def _relaxation(layout, slip, per, parameters):
     """Ḟ [N/s] of every contact's two forces (F_t of every contact, then F_a): each relaxes to its law's value at
-    the current slip at the rate V/σ, σ = k_σ a (module docstring); `slip` the laws' rows, two a contact."""
+    the current slip at the rate (V + w)/σ, σ = k_σ a (module docstring); `slip` the laws' rows, two a contact."""
     dFt, dFa = [], []
     for i in range(len(layout.rollers)):
         rate = (per["V"][i] + per["slide"][i]) / (parameters.relaxation_factor * per["a"][i])

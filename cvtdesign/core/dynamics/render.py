@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cvtdesign.core.dynamics.model import DynamicModel
-from cvtdesign.core.dynamics.response import SAT_LIMIT, command
+from cvtdesign.core.dynamics.response import SAT_LIMIT, command, start
 from cvtdesign.core.dynamics.simulate import simulate, steady_state
 
 PIECES = 60          # linear pieces of the command per period
@@ -39,20 +39,20 @@ class Rendering:
 
 def render(model: DynamicModel, gamma_from, gamma_to, load, frequency_hz, load_is_tau_2=False) -> Rendering:
     """The ratio error while the commanded ratio swings between the ideal ratios at γ_from and γ_to [rad] at
-    frequency_hz [Hz] under a constant load [N m] (module docstring)."""
+    frequency_hz [Hz] from the load [N m] at the start, shaft 2's torque then held (module docstring)."""
     frame = model.layout_frame
     r0, r1 = (float(frame.ideal_ratio(g)) for g in (gamma_from, gamma_to))
     period = 1.0 / frequency_hz
     times = np.linspace(0.0, PERIODS * period, PERIODS * PIECES + 1)
     rho = 0.5 * (r0 + r1) - 0.5 * (r1 - r0) * np.cos(2 * np.pi * frequency_hz * times)
     gam = np.array([float(frame.command_for_ratio(r)) for r in rho])
-    segs = [command(model, g, load, t, (g1 - g) / (t1 - t), load_is_tau_2)
-            for g, g1, t, t1 in zip(gam[:-1], gam[1:], times[:-1], times[1:])]
-    x0 = steady_state(model, command(model, gam[0], load, load_is_tau_2=load_is_tau_2))
+    x0, tau2 = start(model, gam[0], load, load_is_tau_2)
     if x0 is None:
         return _failed(times, rho, "no steady state at the profile's start")
+    segs = [command(model, g, tau2, t, (g1 - g) / (t1 - t), True)
+            for g, g1, t, t1 in zip(gam[:-1], gam[1:], times[:-1], times[1:])]
     tr = simulate(model, x0, segs, times[-1], 8 * PIECES * PERIODS)
-    quasi = np.array([_steady_ratio(model, g, load, load_is_tau_2) for g in gam])
+    quasi = np.array([_steady_ratio(model, g, tau2) for g in gam])
     dyn = np.interp(times, tr.t, tr.out["ratio"])
     if np.nanmax(tr.out["utilisation"]) >= SAT_LIMIT:
         return _failed(times, rho, "gross slip while rendering")
@@ -64,9 +64,10 @@ def render(model: DynamicModel, gamma_from, gamma_to, load, frequency_hz, load_i
                      float(np.sqrt(np.mean(e_qs ** 2))), float(np.max(np.abs(e_qs))), True)
 
 
-def _steady_ratio(model: DynamicModel, gamma, load, load_is_tau_2) -> float:
-    """The quasi-static ratio ω2/ω1 at command γ: the dynamic model's steady state (the steady model's point)."""
-    u = command(model, gamma, load, load_is_tau_2=load_is_tau_2)
+def _steady_ratio(model: DynamicModel, gamma, tau2) -> float:
+    """The quasi-static ratio ω2/ω1 at command γ with shaft 2's torque τ2: the dynamic model's steady state (the
+    steady model's point)."""
+    u = command(model, gamma, tau2, load_is_tau_2=True)
     x = steady_state(model, u)
     return np.nan if x is None else float(model.outputs(0, x, u, model.param_values)[1])
 

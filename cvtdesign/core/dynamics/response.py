@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cvtdesign.core.dynamics.model import DynamicModel
+from cvtdesign.core.dynamics.model import OUTPUTS, DynamicModel
 from cvtdesign.core.dynamics.simulate import Trajectory, linkage_angle, simulate, steady_state
 
 SAT_LIMIT = 0.999          # traction utilisation at which a contact is in gross slip (as core.model's)
@@ -43,11 +43,25 @@ def command(model: DynamicModel, gamma, load, t0=0.0, gamma_rate=0.0, load_is_ta
                         load_is_tau_2=load_is_tau_2, contacts=contacts)
 
 
+def start(model: DynamicModel, gamma, load, load_is_tau_2=False) -> tuple[np.ndarray | None, float]:
+    """(the steady state at command γ [rad] and load [N m], the torque τ2 [N m] on shaft 2 there). A transient
+    holds that τ2: what loads shaft 2 (a brake, the operator's push on the joint) stays as it was while the
+    ratio changes. The load stated as τ⊥ is the steady model's definition, which in a transient would make
+    shaft 2's torque follow the motor's instantly (core.dynamics.model); it fixes the start only."""
+    u = command(model, gamma, load, load_is_tau_2=load_is_tau_2)
+    x = steady_state(model, u)
+    if x is None or load_is_tau_2:
+        return x, float(load)
+    return x, float(model.outputs(0, x, u, model.param_values)[OUTPUTS.index("tau_2")])
+
+
 def step_response(model: DynamicModel, gamma_from, gamma_to, load, duration=None, load_is_tau_2=False) -> Step:
-    """The response to a step of the command from γ_from to γ_to [rad] at t = 0, at a constant load [N m],
-    from the steady state at γ_from; run for `duration` [s] (default: 20 servo periods)."""
-    u0, u1 = (command(model, g, load, load_is_tau_2=load_is_tau_2) for g in (gamma_from, gamma_to))
-    x0, x1 = steady_state(model, u0), steady_state(model, u1)
+    """The response to a step of the command from γ_from to γ_to [rad] at t = 0 from the steady state at γ_from
+    and the load [N m] there, shaft 2's torque then held (`start`); run for `duration` [s] (default: 20 servo
+    periods)."""
+    x0, tau2 = start(model, gamma_from, load, load_is_tau_2)
+    u0, u1 = (command(model, g, tau2, load_is_tau_2=True) for g in (gamma_from, gamma_to))
+    x1 = None if x0 is None else steady_state(model, u1)
     if x0 is None or x1 is None:
         return Step(None, None, None, None, None, False, "no steady state at " + ("γ_from" if x0 is None else "γ_to"))
     T = 20.0 / model.parameters.servo_bandwidth if duration is None else duration
@@ -92,12 +106,11 @@ def ramp_limit(model: DynamicModel, gamma_from, gamma_to, load, rate_deg_s, load
     """What a ramp of the command from γ_from to γ_to [rad] at rate_deg_s meets first (FastestChange's limit
     words), or None if it runs within every limit until a settling time after the ramp."""
     rate = np.radians(rate_deg_s) * np.sign(gamma_to - gamma_from)
-    u0 = command(model, gamma_from, load, load_is_tau_2=load_is_tau_2)
-    x0 = steady_state(model, u0)
+    x0, tau2 = start(model, gamma_from, load, load_is_tau_2)
     if x0 is None:
         return "no steady state at γ_from"
     t_ramp = abs(gamma_to - gamma_from) / abs(rate)
-    segments = _ramp_segments(model, gamma_from, gamma_to, rate, t_ramp, load, load_is_tau_2)
+    segments = _ramp_segments(model, gamma_from, gamma_to, rate, t_ramp, tau2)
     tr = simulate(model, x0, segments, t_ramp + 5.0 / model.parameters.servo_bandwidth, 400)
     util = tr.out["utilisation"]
     over = np.nonzero(np.nanmax(util, axis=0) >= SAT_LIMIT)[0]
@@ -128,15 +141,15 @@ def fastest_change(model: DynamicModel, gamma_from, gamma_to, load, load_is_tau_
     return FastestChange(float(lo), limit or ramp_limit(model, gamma_from, gamma_to, load, hi, load_is_tau_2))
 
 
-def _ramp_segments(model, gamma_from, gamma_to, rate, t_ramp, load, load_is_tau_2, pieces: int = 8) -> list:
-    """Segments of a ramp at `rate` [rad/s] for t_ramp [s], then the command held at γ_to: the linkage's angle
-    linear within each of `pieces` pieces (exact for a linkage with φ = γ)."""
+def _ramp_segments(model, gamma_from, gamma_to, rate, t_ramp, tau2, pieces: int = 8) -> list:
+    """Segments of a ramp at `rate` [rad/s] for t_ramp [s], then the command held at γ_to, shaft 2's torque τ2
+    [N m] held: the linkage's angle linear within each of `pieces` pieces (exact for a linkage with φ = γ)."""
     times = np.linspace(0.0, t_ramp, pieces + 1)
-    segs = [command(model, gamma_from + rate * t, load, t, rate, load_is_tau_2) for t in times[:-1]]
+    segs = [command(model, gamma_from + rate * t, tau2, t, rate, True) for t in times[:-1]]
     for k, s in enumerate(segs):       # the linkage's angle as the chord of each piece
         phi_end = linkage_angle(model, gamma_from + rate * times[k + 1])[0]
         s[3] = (phi_end - s[2]) / (times[k + 1] - times[k])
-    return segs + [command(model, gamma_to, load, t_ramp, 0.0, load_is_tau_2)]
+    return segs + [command(model, gamma_to, tau2, t_ramp, 0.0, True)]
 
 
 def linkage_slope(model: DynamicModel, gamma, h: float = 1e-6) -> float:

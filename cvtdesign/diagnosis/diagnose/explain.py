@@ -59,10 +59,10 @@ def suggest_points(models: Models, data: Measured, noise: dict, fa: Fit, fb: Fit
     sigma = {c: float(np.median(v * np.sqrt(data.rows["count"].to_numpy()))) for c, v in noise.items()}
     preds = []
     for f in (fa, fb):
-        m = models.get(f.effects).model
-        r = m.evaluate(G, T, speeds=w, theta=f.theta)
+        P = models.get(f.effects)
+        r = P.evaluate(G, T, w, f.theta)
         preds.append({"alpha": np.degrees(r["alpha"]), "axis": np.degrees(r["gamma_axis"]),
-                      "tau_par": m.frame.load_split(G, r["tau_1"], r["tau_2"])[1]})
+                      "tau_par": P.model.frame.load_split(G, r["tau_1"], r["tau_2"])[1]})
     sep = np.sqrt(sum(((preds[0][c] - preds[1][c]) / sigma[c]) ** 2 for c in sigma))
     sep = np.where(np.isfinite(sep), sep, -1.0)
     out = []
@@ -90,9 +90,10 @@ def form_checks(models: Models, data: Measured, final: Score, noise: dict) -> di
     r = data.rows
     ok = final.ok
     z = zscores(residuals(data, final.fit.pred), noise)[:, ok]
-    m = models.get(final.effects).model
-    ev = m.evaluate(np.radians(r["gamma_cmd_deg"].to_numpy()[ok]), r["tau_perp"].to_numpy()[ok],
-                    speeds=r["omega_1"].to_numpy()[ok], theta=final.fit.theta)
+    P = models.get(final.effects)
+    m = P.model
+    ev = P.evaluate(np.radians(r["gamma_cmd_deg"].to_numpy()[ok]), r["tau_perp"].to_numpy()[ok],
+                    r["omega_1"].to_numpy()[ok], final.fit.theta)
     drive = np.array([x.role != "steering" for x in m.layout.rollers])
     r2 = float(next(x.radius for x in m.layout.rollers if x.role == "drive" and x.shaft == 2))
     variables = {"gamma_cmd_deg": r["gamma_cmd_deg"].to_numpy()[ok],

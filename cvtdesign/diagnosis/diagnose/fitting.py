@@ -12,7 +12,7 @@ from scipy.optimize import least_squares
 from cvtdesign.core.effects import EFFECTS
 from cvtdesign.core.model import status_counts
 from cvtdesign.core.status import STATUS
-from cvtdesign.diagnosis.diagnose.predictor import CHANNELS, Predictor, residuals
+from cvtdesign.diagnosis.diagnose.predictor import CHANNELS, Predictor, observed, residuals
 from cvtdesign.diagnosis.measured import Measured
 
 FAIL_Z = 1e3           # z-score of a row whose model solve fails (gross slip where the rig measured creep):
@@ -82,11 +82,12 @@ def fit(P: Predictor, data: Measured, noise: dict, rows=None, x0=None, multistar
     chans = [c for c in CHANNELS if c in noise]
     x0 = P.defaults if x0 is None else np.asarray(x0, float)
     lo, hi = bounds(P.names)
+    measured = observed(data)
 
     def zfun(theta, jac=False):
         out = P(theta, jacobian=jac)
         pred, ok = out[0], out[1]
-        res = residuals(data, pred)
+        res = residuals(data, pred, measured)
         z = np.array([res[c] / noise[c] for c in chans])[:, rows]
         okr = ok[rows]
         z[:, ~okr] = FAIL_Z
@@ -111,6 +112,7 @@ def fit(P: Predictor, data: Measured, noise: dict, rows=None, x0=None, multistar
     best = None
     for s in (_starts(P, x0) if multistart else [x0]):
         s = np.clip(s, lo + 1e-12 * scale, hi - 1e-12 * scale)
+        P.pin(s)
         sol = least_squares(f, s, jac=j, bounds=(lo, hi), x_scale=scale, method="trf", xtol=1e-8,
                             ftol=1e-8, max_nfev=max_nfev)
         if best is None or sol.cost < best.cost:
@@ -131,7 +133,7 @@ def failed_points(P: Predictor, data: Measured, f: Fit) -> dict:
     g, t = r["gamma_cmd_deg"].to_numpy()[bad], r["tau_perp"].to_numpy()[bad]
     counts = {"points": 0} | {k: 0 for k in STATUS[1:]}
     if bad.any():
-        res = P.model.evaluate(np.radians(g), t, speeds=r["omega_1"].to_numpy()[bad], theta=f.theta)
+        res = P.evaluate(np.radians(g), t, r["omega_1"].to_numpy()[bad], f.theta)
         counts = {"points": int(bad.sum())} | {k: v for k, v in status_counts(res, P.model.roller_names).items()
                                                  if k != "ok"}
     return counts | {"at": [{"gamma_cmd_deg": float(a), "tau_perp_Nm": float(b)} for a, b in zip(g, t)]}

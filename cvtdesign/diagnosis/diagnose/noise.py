@@ -97,7 +97,7 @@ def load_slopes(P: Predictor, points: Measured, theta) -> dict:
     h = LOAD_STEP * max(float(np.ptp(model.layout.load_grid)), 1e-3)
     sides = []
     for dt in (-h, 0.0, h):
-        res = model.evaluate(g, t + dt, speeds=r["omega_1"].to_numpy(), theta=theta)
+        res = P.evaluate(g, t + dt, r["omega_1"].to_numpy(), theta)
         _, tau_par = model.frame.load_split(g, res["tau_1"], res["tau_2"])
         sides.append({"alpha": np.degrees(res["alpha"]), "tau_par": tau_par, "axis": np.degrees(res["gamma_axis"])})
     out = {}

@@ -14,13 +14,16 @@ from cvtdesign.diagnosis.diagnose.explain import confounded, form_checks
 from cvtdesign.diagnosis.diagnose.fitting import Fit, failed_points, fit
 from cvtdesign.diagnosis.diagnose.noise import estimate_noise, held, noise_source, refine, row_noise
 from cvtdesign.diagnosis.diagnose.outliers import gross_outliers
-from cvtdesign.diagnosis.diagnose.predictor import UNITS, Models, Predictor, channels, residuals, rms
+from cvtdesign.diagnosis.diagnose.predictor import UNITS, Models, Predictor, Switched, channels, residuals, rms
 from cvtdesign.diagnosis.diagnose.report import Evidence, Report, by_speed, how_far, ranking, rounds
 from cvtdesign.diagnosis.diagnose.search import MAX_ADDED, Search, search
 from cvtdesign.diagnosis.diagnose.sequence import Direction, direction_test, drift_test, split_by_direction
 from cvtdesign.diagnosis.diagnose.spatial import Neighbours, local_fits, neighbours, regions
 from cvtdesign.diagnosis.diagnose.verdict import GAP, structured_gap, verdict
 from cvtdesign.diagnosis.measured import Measured, from_rows, merge_points
+
+EVALUATIONS = 60       # evaluations of the rows per candidate's score (its fit and its folds' fits; about 60 on
+                       # Kim's 187 rows): what a diagnosis announces to its model (Switched.expect)
 
 
 @dataclass
@@ -41,31 +44,33 @@ class Prepared:
 
 def fit_model(layout: Layout, data: Measured, effects) -> tuple[Predictor, Fit]:
     """Fit the model with `effects` to the data (noise-weighted): the fitted model of resteering."""
-    s = _stage(layout, data, tuple(effects))
+    s = _stage(layout, data, tuple(effects), Switched(layout, effects))
     P = s.models.get(tuple(effects))
     return P, fit(P, s.points, s.noise)
 
 
-def _stage(layout: Layout, raw: Measured, base: tuple) -> Prepared:
+def _stage(layout: Layout, raw: Measured, base: tuple, shared: Switched) -> Prepared:
     """Operating points, neighbourhoods, a first (unweighted) fit of the base model, and the noise."""
     points = merge_points(raw)
     nb = neighbours(points, layout)
-    models = Models(layout, points)
+    models = Models(layout, points, shared.effects, shared)
     P = models.get(base)
     prelim = fit(P, points, {c: np.ones(P.n) for c in channels(points)})
     fits = local_fits(points, layout, held(points, prelim))
     return Prepared(raw, points, nb, fits, models, prelim, estimate_noise(prelim, points, raw, fits, P), [], None)
 
 
-def prepare(layout: Layout, frame: ShaftFrame, raw: Measured, base: tuple) -> Prepared:
+def prepare(layout: Layout, frame: ShaftFrame, raw: Measured, base: tuple, shared: Switched | None = None) -> Prepared:
     """Split the operating points by the direction they were approached from when the readings depend on
-    it (sequence.py), then leave the gross outliers out (outliers.py)."""
+    it (sequence.py), then leave the gross outliers out (outliers.py). `shared`: the model of the effects the
+    diagnosis will try (default: the base's)."""
+    shared = shared or Switched(layout, base)
     split, direction, s = split_by_direction(raw), None, None
     if split is not None:
-        s = _stage(layout, split, base)
+        s = _stage(layout, split, base, shared)
         direction = direction_test(s.points, held(s.points, s.prelim), s.noise)
         s = s if direction is not None and direction.found else None
-    s = s or _stage(layout, raw, base)
+    s = s or _stage(layout, raw, base, shared)
     found = gross_outliers(s.raw, s.points, held(s.points, s.prelim), s.noise, s.fits, frame)
     if found:
         lines = {o.line for o in found}
@@ -73,7 +78,7 @@ def prepare(layout: Layout, frame: ShaftFrame, raw: Measured, base: tuple) -> Pr
         again = from_rows(keep, frame, raw.file, raw.dropped)
         if direction is not None and direction.found:
             again = split_by_direction(again) or again
-        s = _stage(layout, again, base)
+        s = _stage(layout, again, base, shared)
     s.outliers, s.direction = [o.to_json() for o in found], direction
     return s
 
@@ -91,7 +96,9 @@ def diagnose(layout: Layout, data: Measured, base, candidates=None, progress=Non
         if progress:
             progress(min(done[0], total), total, what)
 
-    s = prepare(layout, shaft_frame(layout), data, base)
+    shared = Switched(layout, base + tuple(candidates))
+    shared.expect(EVALUATIONS * (1 + MAX_ADDED) * len(candidates), len(data.rows))
+    s = prepare(layout, shaft_frame(layout), data, base, shared)
     fold = folds(s.points)
     base_score, found = _search(s, s.noise, fold, base, candidates, tick)
     noise, refined = refine(s.points, s.raw, s.fits, s.noise, found.final.fit)

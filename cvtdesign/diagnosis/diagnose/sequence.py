@@ -143,7 +143,7 @@ def drift_test(models: Models, raw: Measured, final: Fit, row_noise: dict, point
     for rows in halves:
         half = merge_points(Measured(raw.file, rows, raw.has_axis, raw.dropped, raw.gamma_levels, raw.load_levels,
                                      raw.speed_levels))
-        P = Predictor(models.layout, final.effects, half, models.get(final.effects).model)
+        P = Predictor(models.layout, final.effects, half, models.shared)
         noise = {c: np.interp(half.rows["gamma_cmd_deg"], *_by_gamma(points, row_noise[c]))
                  / np.sqrt(half.rows["count"].to_numpy()) for c in channels(half)}
         fits.append(fit(P, half, noise, x0=final.theta, multistart=False))

@@ -203,3 +203,37 @@ def test_cache_folder_and_policy_from_the_environment(monkeypatch, tmp_path, cap
     monkeypatch.setenv("CVTDESIGN_COMPILE", "sometimes")
     assert native.policy() == "auto"
     assert "CVTDESIGN_COMPILE='sometimes' is not one of auto, always, never" in capsys.readouterr().err
+
+
+@needs_compiler
+def test_a_run_that_announces_many_evaluations_waits_for_the_compiled_function(cache, monkeypatch):
+    """'auto': evaluations announced (Tiered.expect) past WAIT_SECONDS interpreted make the first call compile
+    and wait (a diagnosis's ~900 evaluations of its rows); without the announcement the first call of the
+    same size stays interpreted."""
+    monkeypatch.setenv("CVTDESIGN_COMPILE", "auto")
+    x = ca.SX.sym("x")
+    fn = ca.Function("announced", [x], [ca.sin(x) * x])
+    quiet, told = native.Tiered(fn, lambda: fn), native.Tiered(fn, lambda: fn)
+    assert quiet.function(10) is fn and quiet.pending is None
+    told.expect(int(native.WAIT_SECONDS / told.per_point) + 1)
+    compiled = told.function(10)
+    assert compiled is not fn and told.native is compiled
+    assert float(compiled(0.5)) == float(fn(0.5))
+
+
+@needs_compiler
+def test_start_compiles_beside_the_process_and_switches_once_the_library_is_there(cache, monkeypatch):
+    """Tiered.start under 'auto': a detached compile at once, however little the function was used; the
+    calls stay interpreted until the library is in the cache, then use it."""
+    monkeypatch.setenv("CVTDESIGN_COMPILE", "auto")
+    x = ca.SX.sym("x")
+    fn = ca.Function("started", [x], [ca.cos(x) * x])
+    tier = native.Tiered(fn, lambda: fn)
+    tier.start()
+    assert tier.pending is not None and tier.native is None
+    lib = tier.pending[2]
+    for _ in range(600):
+        if native.verified(lib):
+            break
+        time.sleep(0.1)
+    assert tier.function(1) is not fn and float(tier.native(0.3)) == float(fn(0.3))

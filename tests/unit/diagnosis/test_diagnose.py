@@ -16,6 +16,7 @@ from cvtdesign.diagnosis import resteer
 from cvtdesign.diagnosis import rig
 from cvtdesign.cli import main
 from cvtdesign.cli.diagnose import report_blocks
+from cvtdesign.core import native
 from cvtdesign.core.kinematics import shaft_frame
 from cvtdesign.core.model import compile_model
 from cvtdesign.io.variant import load_variant
@@ -312,3 +313,88 @@ def test_noisy_replicates_keep_their_load_levels_and_the_verdict(layout, tmp_pat
     assert len(data.load_levels) in (11, 12) and data.replicated
     rep = diagnose.diagnose(layout, data, ("drive_longitudinal_creep",), ("steering_lateral_creep", "steering_offset"))
     assert rep.verdict == "steering_lateral_creep" and rep.gap["structured"]
+
+
+def test_a_diagnosis_builds_one_model_for_the_base_and_every_candidate(layout, tmp_path, monkeypatch):
+    """The candidates' fits share one model: the base's and every candidate's effects, each switchable
+    (core.model.compile_model, switched), built once for the whole diagnosis, not once per effect set; and
+    the verdict stays Kim's steering creep."""
+    from cvtdesign.diagnosis.diagnose import predictor
+    built, real = [], predictor.compile_model
+    monkeypatch.setattr(predictor, "compile_model", lambda *a, **k: built.append((a[1], k)) or real(*a, **k))
+    path = dataset(layout, tmp_path, KIM, seed=1)
+    rep = diagnose.diagnose(layout, measured.load_measured(path, layout), KIM[:1])
+    assert rep.verdict == "steering_lateral_creep" and len(rep.candidates) == 7
+    assert len(built) == 1
+    effects, options = built[0]
+    assert set(effects) == set(KIM[:1]) | set(rep.candidates) and options == {"switched": True}
+
+
+def test_a_candidates_predictor_is_its_own_models(layout, tmp_path):
+    """A Predictor of one effect set on the diagnosis's shared switched model gives the predictions and the
+    Jacobian of that set's own model (core.sensitivity), to round-off: the solves' linear algebra is ordered
+    by the Jacobian's sparsity, which the other effects' switched terms widen."""
+    from cvtdesign.core.sensitivity import derivatives
+    from cvtdesign.diagnosis.diagnose.predictor import Switched
+    data = measured.merge_points(measured.load_measured(dataset(layout, tmp_path, KIM, seed=2), layout))
+    r = data.rows
+    g, w, t = np.radians(r["gamma_cmd_deg"].to_numpy()), r["omega_1"].to_numpy(), r["tau_perp"].to_numpy()
+    shared = Switched(layout, KIM + ("drive_spin_creep", "traction_saturation", "steering_offset"))
+    for effects in (KIM[:1], KIM, KIM[:1] + ("traction_saturation",), KIM[:1] + ("steering_offset",)):
+        own, P = compile_model(layout, effects), diagnose.Predictor(layout, effects, data, shared)
+        assert P.names == own.param_names and list(P.defaults) == own.param_values
+        pred, ok, J = P(P.defaults, jacobian=True)
+        ref = own.evaluate(g, t, speeds=w)
+        np.testing.assert_array_equal(ok, ref["ok"])
+        assert ok.sum() > 0.9 * len(r)
+        d = derivatives(own, g, w, t, own.steering_guess(g)[0], ["alpha", "gamma_axis", "omega_2"],
+                        list(range(len(own.param_names))), [])
+        for k, mine, theirs, dk, j in (("alpha", pred["alpha"], np.degrees(ref["alpha"]), np.degrees(d[0][0]), 0),
+                                       ("axis", pred["axis"], np.degrees(ref["gamma_axis"]), np.degrees(d[1][0]), 2),
+                                       ("omega_2", pred["omega_2"], ref["omega_2"], d[2][0], 3)):
+            np.testing.assert_allclose(mine[ok], theirs[ok], rtol=1e-8, atol=1e-8 * np.abs(theirs[ok]).max(), err_msg=k)
+            np.testing.assert_allclose(J[j][ok], dk[ok], rtol=1e-6, atol=1e-6 * np.abs(dk[ok]).max(), err_msg=k)
+
+
+def test_where_nothing_is_compiled_each_effect_set_has_a_model_of_its_own(layout, tmp_path, monkeypatch):
+    """Interpreted (CVTDESIGN_COMPILE=never, or no C compiler), the model of every candidate costs 1.75× a
+    set's own: each set's Predictor then evaluates a model of its effects alone, built once; compiled, they
+    all share the one model."""
+    from cvtdesign.diagnosis.diagnose.predictor import Models
+    data = measured.merge_points(measured.load_measured(dataset(layout, tmp_path, KIM, seed=3), layout))
+    every = KIM + ("traction_saturation", "steering_offset")
+    monkeypatch.setenv("CVTDESIGN_COMPILE", "never")
+    models = Models(layout, data, every)
+    a, b = models.get(KIM), models.get(KIM[:1] + ("steering_offset",))
+    assert a.shared.effects == KIM and b.shared.effects == KIM[:1] + ("steering_offset",)
+    assert models.shared.view(KIM) is a.shared and models.get(every).shared is models.shared
+    monkeypatch.setenv("CVTDESIGN_COMPILE", "auto")
+    if native.compiler() is not None:
+        assert Models(layout, data, every).get(KIM).shared.effects == every
+
+
+def test_a_pinned_theta_is_solved_once_between_other_thetas(layout, tmp_path, monkeypatch):
+    """A fit pins its start (the cross-validation's folds all start from the full fit's θ): the pinned θ's
+    solutions and Jacobian are kept besides the last θ's, and give the same numbers as solving again."""
+    data = measured.merge_points(measured.load_measured(dataset(layout, tmp_path, KIM, seed=4), layout))
+    P = diagnose.Predictor(layout, KIM, data)
+    calls = {"rows": 0, "derivatives": 0}
+    for kind in calls:
+        def counted(*a, real=getattr(P.shared, kind), kind=kind):
+            calls[kind] += 1
+            return real(*a)
+        monkeypatch.setattr(P.shared, kind, counted)
+    start, other = P.defaults, P.defaults * 1.05
+    P.pin(start)
+    first = P(start, jacobian=True)
+    P(other, jacobian=True)
+    P(other * 1.01)
+    again = P(start, jacobian=True)
+    assert calls == {"rows": 3, "derivatives": 2}
+    np.testing.assert_array_equal(again[0]["alpha"], first[0]["alpha"])
+    np.testing.assert_array_equal(again[2], first[2])
+    P.pin(other)                         # another start: the first one is no longer kept
+    P(other * 1.02)
+    fresh = P(start)
+    assert calls["rows"] == 5
+    np.testing.assert_array_equal(fresh[0]["alpha"], first[0]["alpha"])
