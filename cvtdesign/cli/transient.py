@@ -38,7 +38,8 @@ def transient_blocks(rows: list[dict]) -> list:
     s = rows[0]["step"]
     t = Table(f"Transient steering: step of γ_cmd {s['gamma_from_deg']:g}° → {s['gamma_to_deg']:g}°",
               ["figure", *[r["name"] for r in rows]])
-    t.add("load τ⊥ [N·m]", *[number(r["step"]["load_Nm"], 3) for r in rows])
+    t.add("load τ⊥ at the start [N·m]", *[number(r["step"]["load_Nm"], 3) for r in rows])
+    t.add("  shaft 2's torque τ2, then held [N·m]", *[_cell(r["step"]["tau_2_Nm"]) for r in rows])
     t.add("lag to 50 % [ms]", *[_ms(r["step"]["lag_s"]) for r in rows])
     t.add("rise 10–90 % [ms]", *[_ms(r["step"]["rise_s"]) for r in rows])
     t.add("settling to 2 % [ms]", *[_ms(r["step"]["settle_s"]) for r in rows])
@@ -60,7 +61,10 @@ def transient_blocks(rows: list[dict]) -> list:
 def transient_notes(rows: list[dict]) -> list:
     """The table's footer: what each row means, the reasons of its missing figures, the assumed parameters."""
     g = rows[0]["rendering"]
-    notes = [Note(f"step: from the steady state at γ_cmd {g['gamma_from_deg']:g}°, lag the time to 50 % of γ_axis's "
+    notes = [Note(f"the load τ⊥ fixes the steady state at γ_cmd {g['gamma_from_deg']:g}°, where every run starts; "
+                  "shaft 2's torque there is then held (a brake, or the operator's push on the joint, stays as it "
+                  "was while the ratio changes), as it is at each bandwidth point's γ. "
+                  f"Step: from the steady state at γ_cmd {g['gamma_from_deg']:g}°, lag the time to 50 % of γ_axis's "
                   "change, settling the last time outside ±2 %; fastest ratio change: the fastest ramp of γ_cmd "
                   "with no contact in gross slip and the steering motor within its torque-speed curve; bandwidth: "
                   "the −3 dB frequency of the linearised model; rendering: the speed ratio swung between the ideal "

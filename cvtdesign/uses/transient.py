@@ -18,7 +18,7 @@ from cvtdesign.core.dynamics.linear import linear_at
 from cvtdesign.core.dynamics.model import compile_dynamics
 from cvtdesign.core.dynamics.parameters import FIELDS
 from cvtdesign.core.dynamics.render import render
-from cvtdesign.core.dynamics.response import RATE_RANGE, Step, fastest_change, step_response
+from cvtdesign.core.dynamics.response import RATE_RANGE, Step, fastest_change, start, step_response
 from cvtdesign.errors import InputError, shorten
 from cvtdesign.io import plots
 from cvtdesign.io.dynamics import KIND, dynamic_parameters
@@ -104,12 +104,12 @@ def parameters_record(p) -> dict:
     return {"values": out, "assumed": p.assumed()}
 
 
-def step_record(st, gamma_from, gamma_to, load) -> dict:
-    """The step's JSON (the interface's keys, then ok and reason): None where the run left the physics, or a
-    time not reached within the run."""
+def step_record(st, gamma_from, gamma_to, load, tau_2=None) -> dict:
+    """The step's JSON (the interface's keys, then shaft 2's torque τ2 [N m] held from the start at the load
+    τ⊥, ok and reason): None where the run left the physics, or a time not reached within the run."""
     rec = {"gamma_from_deg": math.degrees(gamma_from), "gamma_to_deg": math.degrees(gamma_to), "load_Nm": load,
            "rise_s": st.rise_s, "settle_s": st.settle_s, "overshoot_pct": st.overshoot_pct, "lag_s": st.lag_s,
-           "ok": st.ok, "reason": st.reason or None}
+           "tau_2_Nm": tau_2, "ok": st.ok, "reason": st.reason or None}
     if st.ok and (st.settle_s is None or st.rise_s is None or st.lag_s is None):
         rec["reason"] = "not settled within the run" if st.lag_s is not None else "the step not reached within the run"
     return rec
@@ -202,7 +202,9 @@ def variant_run(layout, name: str, s: Settings, progress) -> tuple[dict, dict]:
         fc, failed = integrated(fastest_change, model, s.gamma_from, s.gamma_to, load)
         rate = {"max_rate_deg_s": None, "max_rate_limit": None, "max_rate_reason": failed} if failed else None
     rendering = rendering_record(r, s, load) | ({"reason": render_failed} if render_failed else {})
-    record = {"name": name, "file": str(layout.file), "step": step_record(st, s.gamma_from, s.gamma_to, load),
+    x0, tau2 = start(model, s.gamma_from, load)        # the torque on shaft 2 the transients hold
+    step = step_record(st, s.gamma_from, s.gamma_to, load, None if x0 is None else tau2)
+    record = {"name": name, "file": str(layout.file), "step": step,
               **(rate or rate_record(fc)),
               "bandwidth_Hz": [bandwidth_record(lin, g, load) for g, lin in zip(s.bandwidth_at, lins)],
               "rendering": rendering, "parameters": parameters_record(params)}

@@ -3,6 +3,7 @@ while a constraint is rendered; one colour per variant. Each takes the `transien
 variant's curves (uses.transient.curves)."""
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 from cvtdesign.io.plots.base import figure_parts, save
@@ -16,11 +17,15 @@ def _note(ax, text: str):
 
 
 def _assumed(fig, rows: list[dict]):
-    """A footer naming the parameters the figure rests on that are assumed, not the variants' own."""
+    """A footer naming the parameters the figure rests on that are assumed, not the variants' own, wrapped to
+    the figure's width; the figure laid out above it."""
     names = sorted({k for r in rows for k in r["parameters"]["assumed"]})
-    if names:
-        fig.text(0.01, 0.005, "assumed, not the variants' own (docs/dynamics.md): " + ", ".join(names), fontsize=7,
-                 color="0.35", ha="left", va="bottom")
+    width, height = fig.get_size_inches()
+    lines = textwrap.wrap("assumed, not the variants' own (docs/dynamics.md): " + ", ".join(names),
+                          int(width * 17)) if names else []
+    fig.tight_layout(rect=(0, len(lines) * 10 / (72 * height) + 0.005, 1, 1))
+    if lines:
+        fig.text(0.01, 0.005, "\n".join(lines), fontsize=7, color="0.35", ha="left", va="bottom")
 
 
 def step_figure(rows: list[dict], curves: list[dict], path: Path):
@@ -43,8 +48,8 @@ def step_figure(rows: list[dict], curves: list[dict], path: Path):
         if lag is not None:
             axes[0].axvline(lag * 1e3, color=col, lw=0.6, ls=":")
     s = rows[0]["step"]
-    axes[0].set_title(f"step of γ_cmd {s['gamma_from_deg']:g}° → {s['gamma_to_deg']:g}° at τ⊥ {s['load_Nm']:g} N·m "
-                      "(dashed: the command; dotted: the lag, 50 %)", fontsize=10)
+    axes[0].set_title(f"step of γ_cmd {s['gamma_from_deg']:g}° → {s['gamma_to_deg']:g}° from τ⊥ {s['load_Nm']:g} N·m, "
+                      "shaft 2's torque held (dashed: the command; dotted: the lag, 50 %)", fontsize=10)
     for ax, label in zip(axes, ("γ [°]", "speed ratio ω2/ω1 [-]", "slip angle α [°]")):
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
@@ -56,7 +61,6 @@ def step_figure(rows: list[dict], curves: list[dict], path: Path):
     if missing:
         _note(axes[1], "no response: " + "; ".join(missing))
     axes[0].legend(fontsize=8, loc="lower right")
-    fig.tight_layout(rect=(0, 0.025, 1, 1))
     _assumed(fig, rows)
     save(fig, path, dpi=100)
 
@@ -80,7 +84,7 @@ def bode_figure(rows: list[dict], curves: list[dict], path: Path):
     load = rows[0]["bandwidth_Hz"][0]["load_Nm"] if rows[0]["bandwidth_Hz"] else None
     for j, what in enumerate(("γ_axis / γ_cmd", "speed ratio ω2/ω1 / γ_cmd")):
         axes[0, j].axhline(-3, color="0.3", lw=0.8, ls="--")
-        axes[0, j].set_title(f"{what}" + (f" at τ⊥ {load:g} N·m" if load is not None else ""), fontsize=10)
+        axes[0, j].set_title(f"{what}" + (f" from τ⊥ {load:g} N·m, τ2 held" if load is not None else ""), fontsize=10)
         axes[0, j].set_ylabel("|H| / |H(0)| [dB]")
         axes[1, j].set_ylabel("phase [°]")
         axes[1, j].set_xlabel("frequency [Hz]")
@@ -93,7 +97,6 @@ def bode_figure(rows: list[dict], curves: list[dict], path: Path):
         axes[0, 0].legend(fontsize=7, loc="lower left")
     else:
         _note(axes[0, 0], "no stable steady state at any operating point")
-    fig.tight_layout(rect=(0, 0.025, 1, 1))
     _assumed(fig, rows)
     save(fig, path, dpi=100)
 
@@ -106,7 +109,8 @@ def render_figure(rows: list[dict], curves: list[dict], path: Path):
     colours = variant_colours([r["name"] for r in rows])
     for ax, r, c in zip(axes[:, 0], rows, curves):
         d, rec = c["render"], r["rendering"]
-        ax.set_title(f"{r['name']}: ratio profile at {rec['frequency_Hz']:g} Hz, τ⊥ {rec['load_Nm']:g} N·m", fontsize=10)
+        ax.set_title(f"{r['name']}: ratio profile at {rec['frequency_Hz']:g} Hz from τ⊥ {rec['load_Nm']:g} N·m, "
+                     "shaft 2's torque held", fontsize=10)
         ax.set_ylabel("speed ratio ω2/ω1 [-]")
         ax.grid(alpha=0.3)
         if d is None:
@@ -119,6 +123,5 @@ def render_figure(rows: list[dict], curves: list[dict], path: Path):
         ax.axvspan(d["t_s"][-1] - period, d["t_s"][-1], color="0.9", zorder=0)
         ax.legend(fontsize=8, loc="upper left")
     axes[-1, 0].set_xlabel("time [s] (shaded: the period the errors are taken over)")
-    fig.tight_layout(rect=(0, 0.025, 1, 1))
     _assumed(fig, rows)
     save(fig, path, dpi=100)
