@@ -91,7 +91,8 @@ def _bandwidth_row(dyn, nlp, theta, g, load, phi, slope, f_hz):
     Xs, us, ps = ca.MX.sym("X", n), ca.MX.sym("u", len(INPUTS)), ca.MX.sym("p", nlp.p.numel())
     f = dyn.rhs(0, Xs, us, theta, ps)
     solve = ca.rootfinder("dyn_steady", "newton", ca.Function("g", [Xs, ca.vertcat(us, ps)], [f]),
-                          {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False})
+                          {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False,
+        "show_eval_warnings": False})
     X = solve(dyn.steady_guess(u, nlp.P), ca.vertcat(u, nlp.P))
     outs = dyn.outputs.call([0, Xs, us, theta, ps])
     held = ca.Function("held", [Xs, us, ps], [outs[OUTPUTS.index("tau_2")]])(X, u, nlp.P)
@@ -117,7 +118,8 @@ def _rate_rows(dyn, nlp, theta, g, load, phi, phi_rate, at, rate_deg):
     xs, us, ps, rate = ca.MX.sym("x", nx), ca.MX.sym("u", len(INPUTS)), ca.MX.sym("p", nlp.p.numel()), ca.MX.sym("r")
     f = dyn.rhs(0, ca.vertcat(xs, us[INPUTS.index("phi_cmd")], rate, 0), us, theta, ps)[:nx]
     solve = ca.rootfinder("dyn_rate", "newton", ca.Function("g", [xs, ca.vertcat(us, ps, rate)], [f]),
-                          {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False})
+                          {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False,
+        "show_eval_warnings": False})
     x = solve(dyn.steady_guess(u, nlp.P)[:nx], ca.vertcat(u, nlp.P, phi_rate))
     outs = dict(zip(OUTPUTS, dyn.outputs.call([0, ca.vertcat(x, phi, phi_rate, 0), u, theta, nlp.P])))
     P = dyn.parameters

@@ -108,7 +108,7 @@ def compile_dynamics(layout: Layout, parameters: DynamicParameters, effects=None
     gear = ca.jacobian(phi_eff, phi)          # dφ_eff/dφ: 1 unless an effect scales the linkage's angle
     slip, moment, idle, tau, per, _ = equations(layout, hooks, law, const, u, w1, phi_eff, calls,
                                                 fork_rate=gear * phid)
-    relax = _relaxation(layout, slip, per, parameters)
+    relax, sliding = _relaxation(layout, slip, per, parameters, u)
     steer = gear * sum(r.fork_ratio * tf for r, tf in zip(layout.rollers, per["T_fork"]))
     motor = _servo(parameters, phi_cmd - phi, integral, phid)
     frame = shaft_frame(layout)
@@ -125,6 +125,7 @@ def compile_dynamics(layout: Layout, parameters: DynamicParameters, effects=None
     names = ["t", "X", "u", "theta", "design"][:len(ins)]
     rhs = calls.close("dynamics", ins, [Xdot])
     outs = _outputs(layout, parameters, u, per, tau, tau2_ext, motor, steer, frame, gamma, w1, phi, phid, on)
+    outs["utilisation"] = ca.fmax(outs["utilisation"], sliding)
     outputs = calls.close("dynamics_outputs", ins, [outs[k] for k in OUTPUTS])
     guess = _steady_guess(layout, frame, [u_in] + ins[4:], u.om_ref, phi_eff, phi)
     return DynamicModel(layout, parameters, pvalues, rhs, ca.Function("outputs", ins, outputs.call(ins), names,
@@ -132,16 +133,20 @@ def compile_dynamics(layout: Layout, parameters: DynamicParameters, effects=None
                         guess, X.numel(), [r.name for r in layout.rollers], frame)
 
 
-def _relaxation(layout, slip, per, parameters):
-    """Ḟ [N/s] of every contact's two forces (F_t of every contact, then F_a): each relaxes to its law's value at
-    the current slip at the rate (V + w)/σ, σ = k_σ a (module docstring); `slip` the laws' rows, two a contact."""
-    dFt, dFa = [], []
+def _relaxation(layout, slip, per, parameters, u):
+    """(Ḟ [N/s] of every contact's two forces, F_t of every contact then F_a; the traction utilisation of the
+    force the law gives at each contact's current slip, F* = F − K ρ): each force relaxes to F* at the rate
+    (V + w)/σ, σ = k_σ a (module docstring); `slip` the laws' rows, two a contact. A contact is in gross slip
+    when its force or F* reaches μN: a force that lags may still be below μN while the patch already slides."""
+    dFt, dFa, target = [], [], []
     for i in range(len(layout.rollers)):
         rate = (per["V"][i] + per["slide"][i]) / (parameters.relaxation_factor * per["a"][i])
         kt, ka = per["force_per_row"][i]
         dFt.append(-rate * kt * slip[2 * i])
         dFa.append(-rate * ka * slip[2 * i + 1])
-    return ca.vertcat(*dFt, *dFa)
+        ft, fa = u.Ft[i] - kt * slip[2 * i], u.Fa[i] - ka * slip[2 * i + 1]
+        target.append(ca.sqrt(ft ** 2 + fa ** 2 + 1e-6) / (per["mu"][i] * per["N"][i]))
+    return ca.vertcat(*dFt, *dFa), ca.vertcat(*target)
 
 
 def _servo(parameters: DynamicParameters, error, integral, phid) -> dict:

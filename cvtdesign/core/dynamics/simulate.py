@@ -43,7 +43,8 @@ def steady_state(model: DynamicModel, u: np.ndarray, theta=None, start=None) -> 
     p = ca.MX.sym("p", len(u) + len(th))
     f = ca.Function("g", [X, p], [model.rhs(0, X, p[:len(u)], p[len(u):])])
     solver = _cached(model, "steady", lambda: ca.rootfinder("steady", "newton", f, {
-        "abstol": STEADY_TOL, "abstolStep": 1e-14, "max_iter": 60, "error_on_fail": False}))
+        "abstol": STEADY_TOL, "abstolStep": 1e-14, "max_iter": 60, "error_on_fail": False,
+        "show_eval_warnings": False}))
     x0 = model.steady_guess(u) if start is None else start
     pv = np.concatenate([u, th])
     x = np.array(solver(x0, pv)).ravel()
@@ -96,7 +97,7 @@ def _integrator(model: DynamicModel, K: int) -> ca.Function:
         dae = {"t": tau, "x": X, "p": p, "ode": h * model.rhs(t_start + h * tau, X, p[:nu], p[nu:nu + nth])}
         return ca.integrator("transient", "cvodes", dae, 0.0, list(np.arange(1, K + 1) / K),
                              {"abstol": ATOL, "reltol": RTOL, "max_num_steps": 200000,
-                              "disable_internal_warnings": True})
+                              "disable_internal_warnings": True, "show_eval_warnings": False})
     return _cached(model, ("integrator", K), build)
 
 
