@@ -122,6 +122,7 @@ def test_power_balance_with_kinetic_energy(name):
     assert moving > 3          # states away from equilibrium, where kinetic energy changes
 
 
+@pytest.mark.slow
 def test_linear_bandwidth_agrees_with_the_time_response():
     dyn = dynamic("box")
     lin = linear_at(dyn, 25 * DEG, 0.5)
@@ -145,6 +146,7 @@ def test_a_faster_servo_gives_a_faster_step():
     assert quick.rise_s < 0.8 * slow.rise_s
 
 
+@pytest.mark.slow
 def test_a_rotated_layout_has_the_same_dynamics():
     """The box stated in another orientation: the same bandwidth and step response (to solver tolerance)."""
     data = rotate(read("box"), axis_angle_matrix([0.3, -0.5, 0.8], 1.1))

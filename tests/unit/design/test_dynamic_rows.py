@@ -45,6 +45,7 @@ def test_bandwidth_row_is_the_linear_models_bandwidth(tmp_path):
         assert len(at40) == 1 and np.sign(at40[0]) == sign
 
 
+@pytest.mark.slow
 def test_dynamic_rows_derivatives_are_exact(tmp_path):
     """Under Kim's law (no creep-force table) the rows' derivatives are exact: central differences agree, to
     their own error (step 1e-4 of the normalised design: truncation 1e-8, the inner Newton solves' round-off
@@ -80,6 +81,7 @@ def test_dynamic_gamma_outside_the_envelope_is_one_line(tmp_path):
         build_problem(study(tmp_path, min_bandwidth_Hz=5.0, dynamic_gamma=["10 deg", "95 deg"]))
 
 
+@pytest.mark.slow
 def test_dynamic_gamma_chooses_the_points(tmp_path):
     pr = build_problem(study(tmp_path, min_bandwidth_Hz=5.0, dynamic_gamma=["-20 deg", "30 deg"]))
     labels = [lab for lab, f in zip(pr.g_labels, pr.g_family) if f == "bandwidth"]

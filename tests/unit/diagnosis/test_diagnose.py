@@ -315,6 +315,7 @@ def test_noisy_replicates_keep_their_load_levels_and_the_verdict(layout, tmp_pat
     assert rep.verdict == "steering_lateral_creep" and rep.gap["structured"]
 
 
+@pytest.mark.slow
 def test_a_diagnosis_builds_one_model_for_the_base_and_every_candidate(layout, tmp_path, monkeypatch):
     """The candidates' fits share one model: the base's and every candidate's effects, each switchable
     (core.model.compile_model, switched), built once for the whole diagnosis, not once per effect set; and
