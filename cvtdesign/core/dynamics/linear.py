@@ -85,7 +85,7 @@ def sine_gain(model: DynamicModel, gamma: float, load: float, freq_hz: float, si
     """The gain of `signal` per unit commanded γ at freq_hz [Hz], measured in time: the command γ + A sin(2πft)
     (A = amplitude [rad], piecewise linear in `pieces` a period) from the steady state at γ, and the response's
     component at f fitted by least squares over the last two of `periods` periods. It checks the linear model's
-    H(j2πf) (tests/unit/dynamics); None where there is no steady state at γ."""
+    H(j2πf) (tests/unit/core/test_dynamics.py); None where there is no steady state at γ."""
     X, tau2 = start(model, gamma, load)
     if X is None:
         return None

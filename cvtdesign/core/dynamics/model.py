@@ -35,7 +35,7 @@ Equations (J_s the sphere's inertia, J_i an idler's, J_2 shaft 2's, J_φ the ste
 
 At an equilibrium Ω̇ = 0 is the moment balance, ω̇_i = 0 the idlers', ω̇_2 = 0 the load's row, Ḟ = 0 the law's
 rows, and φ = φ_cmd, φ̇ = 0: the steady model's residual (core.model) and the linkage's angle, so the dynamic
-model's steady state is the quasi-static model's answer (tests/unit/dynamics).
+model's steady state is the quasi-static model's answer (tests/unit/core/test_dynamics.py).
 """
 from __future__ import annotations
 
