@@ -4,11 +4,11 @@ the dynamic model compiled with the design variables as symbols (core.dynamics.m
 
 * `constraints.min_bandwidth_Hz: f`: at each point, the axis angle's small-signal response to the command at f
   is at least 1/√2 of its static gain, |H(j2πf)|² / |H(0)|² ≥ 1/2, H from the model linearised at its steady
-  state with shaft 2's torque held (core.dynamics.linear). Where the response falls monotonically, as on the shipped layouts below their
-  first resonance, this is f_3dB ≥ f. The steady state comes from a Newton solve of Ẋ = 0 and the linearisation
-  from the model's Jacobian, so the row's derivatives follow by the implicit function theorem; the derivative of
-  the Jacobian needs the creep-force table's second derivatives, which CasADi takes by finite differences of its
-  exact first ones (the one part that is not exact).
+  state with shaft 2's torque held (core.dynamics.linear). Where the response falls monotonically, as on the
+  shipped layouts below their first resonance, this is f_3dB ≥ f. The steady state comes from a Newton solve
+  of Ẋ = 0 and the linearisation from the model's Jacobian, so the row's derivatives follow by the implicit
+  function theorem; the derivative of the Jacobian needs the creep-force table's second derivatives, which
+  CasADi takes by finite differences of its exact first ones (the one part that is not exact).
 * `constraints.min_ratio_rate_deg_s: r`: at each point, with the forks turning steadily at the rate that changes
   γ at ±r (φ̇ = ±r dφ/dγ) and the sphere, rollers and contact forces at their steady state under that rate, the
   steering motor's torque-speed curve gives the contacts' torque through the linkage, |τ| ≤ τ_max (1 −

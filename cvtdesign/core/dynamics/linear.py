@@ -92,7 +92,8 @@ def sine_gain(model: DynamicModel, gamma: float, load: float, freq_hz: float, si
     T = periods / freq_hz
     t = np.linspace(0.0, T, periods * pieces + 1)
     g = gamma + amplitude * np.sin(2 * np.pi * freq_hz * t)
-    segs = [command(model, a, tau2, t0, (b - a) / (t1 - t0), True) for a, b, t0, t1 in zip(g[:-1], g[1:], t[:-1], t[1:])]
+    segs = [command(model, a, tau2, t0, (b - a) / (t1 - t0), True)
+            for a, b, t0, t1 in zip(g[:-1], g[1:], t[:-1], t[1:])]
     tr = simulate(model, X, segs, T, periods * 4 * pieces)
     last = tr.t >= T - 2 / freq_hz
     w = 2 * np.pi * freq_hz * tr.t[last]

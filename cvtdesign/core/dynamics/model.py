@@ -29,9 +29,9 @@ Equations (J_s the sphere's inertia, J_i an idler's, J_2 shaft 2's, J_φ the ste
    over σ of sliding, as a patch does, instead of freezing;
  * steering: J_φ φ̈ = τ_m − Σ_i ρ_i f_i·M_i (each fork's contact moment through the linkage, as the steady
    model's `steering_torque`); a turning fork moves its contact (core.equations, fork_rate);
- * motor: a position servo u = K_p e + K_i ∫e − K_d φ̇, e = φ_cmd − φ (core.dynamics.parameters), and the torque it gets,
-   τ_m = clip(u, ±τ_max (1 − |φ̇|/φ̇_max)); the integral is held back while clipped (back-calculation,
-   d∫e/dt = e + (τ_m − u)/(J_φ ω_s²)).
+ * motor: a position servo u = K_p e + K_i ∫e − K_d φ̇, e = φ_cmd − φ (core.dynamics.parameters), and the
+   torque it gets, τ_m = clip(u, ±τ_max (1 − |φ̇|/φ̇_max)); the integral is held back while clipped
+   (back-calculation, d∫e/dt = e + 3 (τ_m − u)/K_p).
 
 At an equilibrium Ω̇ = 0 is the moment balance, ω̇_i = 0 the idlers', ω̇_2 = 0 the load's row, Ḟ = 0 the law's
 rows, and φ = φ_cmd, φ̇ = 0: the steady model's residual (core.model) and the linkage's angle, so the dynamic
@@ -171,7 +171,8 @@ def _outputs(layout, parameters, u, per, tau, tau2_ext, motor, steer, frame, gam
                 + sum(J.roller_inertia[layout.rollers.index(r)] * w ** 2 for r, w in idlers))
     return {"gamma_axis": frame.axis_angle(u.Om), "ratio": u.w2 / w1, "alpha": frame.slip_angle(w1, u.w2, gamma),
             "phi": phi, "phi_rate": phid, "motor_torque": motor["torque"], "motor_demand": motor["demand"],
-            "motor_available": motor["available"], "steering_torque": on * steer, "tau_1": on * tau[1], "tau_2": tau2_ext, "kinetic_energy": ke,
+            "motor_available": motor["available"], "steering_torque": on * steer, "tau_1": on * tau[1],
+            "tau_2": tau2_ext, "kinetic_energy": ke,
             "power_in": on * tau[1] * w1 + tau2_ext * u.w2 + motor["torque"] * phid,
             "power_loss": on * sum(per["loss"]), "utilisation": ca.vertcat(*per["utilisation"]),
             "N": ca.vertcat(*per["N"]), "F_t": u.Ft, "F_a": u.Fa}
