@@ -11,6 +11,7 @@ DUTY = ROOT / "studies" / "cobot_duty.yaml"
 EXISTING = ROOT / "variants" / "existing.yaml"
 
 
+@pytest.mark.slow
 def test_life_gives_the_commands_json(tmp_path):
     assert main(["life", str(EXISTING), "--duty", str(DUTY), "--json", str(tmp_path / "life.json")]) == 0
     result = api.life(EXISTING, duty=DUTY)

@@ -123,6 +123,7 @@ def _bore_axis(shape):
     return np.array(ax.Location().Coord()), np.array(ax.Direction().Coord())
 
 
+@pytest.mark.slow
 def test_step_header_round_trip_wrapped_and_quoted(tmp_path):
     """A variant file whose path has a quote and is long enough that the writer breaks it across lines comes
     back from the header exactly as written."""

@@ -76,6 +76,7 @@ def test_printed_table_is_side_by_side(capsys):
     assert "fastest ratio change: not computed (--quick)" in out
 
 
+@pytest.mark.slow
 def test_api_gives_the_commands_json(tmp_path):
     from cvtdesign import api
     assert main(["transient", EXISTING, "--quick", "--gamma-to", "30 deg", "--bandwidth-at", "30 deg",

@@ -223,6 +223,7 @@ def _capacity_study(tmp_path, capacity, design, **constraints):
     return path
 
 
+@pytest.mark.slow
 def test_an_optimum_under_min_capacity_carries_it_at_every_gamma(tmp_path, cli):
     """constraints.min_capacity: 6 N·m with the default traction margin 0.2: the optimum's capacity by the
     full search (capacity --safety 1/(1 − 0.2)) is at least 6 N·m at every γ of the study's envelope, both

@@ -361,6 +361,7 @@ def test_no_successful_case_reports_the_failures_and_nothing_else(tmp_path, caps
     assert not (tmp_path / "s" / "pareto.png").exists()
 
 
+@pytest.mark.slow
 def test_worker_with_another_cvtdesign_version_is_refused(tmp_path, shared, capsys, monkeypatch):
     """Workers that run another version of cvtdesign than the client (here: the client says 0.0.0) are
     refused in one line when they are warmed, before any case runs."""

@@ -242,6 +242,7 @@ def test_staged_block_failure_and_interrupt_leave_nothing(tmp_path):
     assert [p.read_text() for p in paths] == [".step", ".svg"]
 
 
+@pytest.mark.slow
 def test_optimise_variant_and_json_all_or_nothing(tmp_path, capsys, monkeypatch):
     """The optimum's variant file is written only together with the --json report."""
     study = tmp_path / "s.yaml"
