@@ -107,6 +107,7 @@ def test_capacity_gives_the_commands_json(tmp_path, monkeypatch):
     assert record["max_slip_deg"] == pytest.approx(3.0)
 
 
+@pytest.mark.slow
 def test_plots_are_written_where_asked(box_comparison, tmp_path):
     result, _ = box_comparison
     path = result.plot(tmp_path / "figure.png")

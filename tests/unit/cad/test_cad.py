@@ -143,6 +143,7 @@ def test_step_header_round_trip_wrapped_and_quoted(tmp_path):
     assert back["description"][1] == f"variant file: {path}"
 
 
+@pytest.mark.slow
 def test_cli_end_to_end_wheels_where_the_model_puts_them(tmp_path, capsys):
     """Kim's CVT at γ = 30°: the linkage turns the forks by φ ≈ −20.75°; every wheel in the STEP file has its
     axis along the model's axle at that φ, through (R + r)·n, and all checks pass."""

@@ -194,6 +194,7 @@ def test_kalker_nu_rule_and_clamping():
     assert floats(kalker.kalker_coefficients(2.0, -0.1)) == pytest.approx(floats(kalker.kalker_coefficients(2.0, 0.0)))
 
 
+@pytest.mark.slow
 def test_pivot_lever():
     """Mean lever of the Hertz pressure: 3 pi a/16 for a circle, symmetric in a and b, and equal to a
     direct quadrature of (3/(2 pi a b)) int sqrt(1 - x^2/a^2 - y^2/b^2) sqrt(x^2 + y^2) dA."""

@@ -107,6 +107,7 @@ def _uncertain(name):
     return model, _ageing(name, model)
 
 
+@pytest.mark.slow
 def test_interval_carries_the_models_own_inputs():
     """The life's interval moves the creep calibration's σ (and on an uncertain model the preloads, moduli,
     friction and spin moment: core.inputs) as well as the materials' ageing constants: each a +1σ move whose

@@ -80,6 +80,7 @@ def test_min_life_is_a_time(tmp_path):
         build_problem(load_study(f))
 
 
+@pytest.mark.slow
 def test_duty_travels_as_content(tmp_path):
     """A study's workers read no input file: the duty file travels as data (design.cases.study_content), which
     gives the same life rows with the file gone; an edited duty file is a new study (its digest)."""
@@ -125,6 +126,7 @@ def _max_life_study(tmp_path, **constraints):
     return f
 
 
+@pytest.mark.slow
 def test_max_life_objective_is_the_worst_inverse_life(tmp_path):
     """Objective max_life: the p-norm (p = 32) of the rollers' inverse wear lives [1/h], between the largest
     and 8^(1/32) times it, the largest being the life rows' over min_life_h."""
