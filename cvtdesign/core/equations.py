@@ -106,8 +106,7 @@ def equations(layout: Layout, hooks: Hooks, law, const, u: Unknowns, w1, phi, ca
     N = normal_forces(layout, poses, Fvec)
     slip, moment, idle, tau, sat = [], ca.SX.zeros(3), [], {1: 0, 2: 0}, []
     per = {k: [] for k in ("xi", "eta", "spin", "utilisation", "mu", "M_spin", "loss", "a", "b", "G", "C11", "C22",
-                           "C23", "roll_sign", "T_fork", "fork_pivot", "fork_slide", "V", "slide", "force_per_row",
-                           "M")}
+                           "C23", "roll_sign", "T_fork", "fork_pivot", "fork_slide", "V", "slide", "force_per_row")}
     for i, r in enumerate(layout.rollers):
         (n, a), t, c = poses[i], tdirs[i], const[i]
         drive = r.role != "steering"
@@ -140,7 +139,6 @@ def equations(layout: Layout, hooks: Hooks, law, const, u: Unknowns, w1, phi, ca
         per["V"].append(V)
         per["slide"].append(ca.sqrt(s_t ** 2 + s_a ** 2 + (c["a"] * spin) ** 2 + (1e-9 * u.v_ref) ** 2))  # [m/s]
         per["force_per_row"].append(law_rows.force_per_row)
-        per["M"].append(M)
         per["M_spin"].append(m_spin)
         for k, v in zip(("T_fork", "fork_pivot", "fork_slide"), fork_terms(r, n, a, on_sphere, R)):
             per[k].append(v)

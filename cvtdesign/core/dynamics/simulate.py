@@ -39,19 +39,22 @@ def steady_state(model: DynamicModel, u: np.ndarray, theta=None, start=None) -> 
     """The state at which Ẋ = 0 for constant inputs u (a segment with no rates), by Newton from the ideal
     kinematics (or `start`); None where the solve does not converge."""
     th = model.param_values if theta is None else theta
-    X = ca.MX.sym("X", model.n_states)
-    p = ca.MX.sym("p", len(u) + len(th))
-    f = ca.Function("g", [X, p], [model.rhs(0, X, p[:len(u)], p[len(u):])])
-    solver = _cached(model, "steady", lambda: ca.rootfinder("steady", "newton", f, {
-        "abstol": STEADY_TOL, "abstolStep": 1e-14, "max_iter": 60, "error_on_fail": False,
-        "show_eval_warnings": False}))
+    solver, jac = _cached(model, "steady", lambda: _steady_functions(model, len(u), len(th)))
     x0 = model.steady_guess(u) if start is None else start
     pv = np.concatenate([u, th])
     x = np.array(solver(x0, pv)).ravel()
-    jac = _cached(model, "steady_jacobian", lambda: ca.Function("j", [X, p], [ca.jacobian(f(X, p), X), f(X, p)]))
     J, resid = (np.array(v) for v in jac(x, pv))
     step = np.abs(resid.ravel()) / np.max(np.abs(J), axis=1)      # each row's residual in its states' units
     return x if np.all(np.isfinite(step)) and np.max(step) < STEP_TOL else None
+
+
+def _steady_functions(model: DynamicModel, nu: int, nth: int) -> tuple[ca.Function, ca.Function]:
+    """(Newton's rootfinder of Ẋ(X; [u, θ]) = 0, (X, [u, θ]) → (∂Ẋ/∂X, Ẋ)), built once a model."""
+    X, p = ca.MX.sym("X", model.n_states), ca.MX.sym("p", nu + nth)
+    f = ca.Function("g", [X, p], [model.rhs(0, X, p[:nu], p[nu:])])
+    solver = ca.rootfinder("steady", "newton", f, {"abstol": STEADY_TOL, "abstolStep": 1e-14, "max_iter": 60,
+                                                   "error_on_fail": False, "show_eval_warnings": False})
+    return solver, ca.Function("j", [X, p], [ca.jacobian(f(X, p), X), f(X, p)])
 
 
 def simulate(model: DynamicModel, X0: np.ndarray, segments: list, t_end: float, n_points: int = 400,
