@@ -45,16 +45,17 @@ def dynamic_rows(nlp, rows) -> None:
     load = float(np.max(nlp.l_pts))
     theta = ca.DM(nlp.model.param_values)
     phi_fn = nlp.model.point_function(["phi"])
+    fns = _functions(dyn, nlp, theta)
     for g, phi0 in zip(gammas, steering_angle_guess(*steering_data(nlp.base), gammas)[0]):
         phi = phi_fn(g, nlp.w1, load, 0.0, phi0, theta, nlp.P)
         slope = _linkage_slope(nlp)(phi, g, nlp.P)
         at = f"γ={np.degrees(g):+.0f}° τ⊥={load:+.3g}"
         if f_min is not None:
-            rows.add(_bandwidth_row(dyn, nlp, theta, g, load, phi, slope, f_min), 0.0, np.inf, "bandwidth",
+            rows.add(_bandwidth_row(dyn, fns, nlp, g, load, phi, slope, f_min), 0.0, np.inf, "bandwidth",
                      [f"bandwidth ≥ {f_min:g} Hz at {at}"])
         if rate_min is not None:
             for sign in (1, -1):
-                expr, labels = _rate_rows(dyn, nlp, theta, g, load, phi, sign * rate_min * slope, at,
+                expr, labels = _rate_rows(dyn, fns, nlp, theta, g, load, phi, sign * rate_min * slope, at,
                                           sign * np.degrees(rate_min))
                 rows.add(expr, -np.inf, 0.0, "ratio_rate", labels)
 
@@ -84,22 +85,32 @@ def _inputs(nlp, g, load, phi):
     return ca.vertcat(*[values[k] for k in INPUTS])
 
 
-def _bandwidth_row(dyn, nlp, theta, g, load, phi, slope, f_hz):
-    """|H(j2πf)|²/|H(0)|² − 1/2 of the axis angle at one point (module docstring)."""
+def _functions(dyn, nlp, theta) -> dict:
+    """What every point's rows call, built once: Newton on Ẋ = 0 ('steady'), on the first states' rates at a
+    given fork rate ('rate'), shaft 2's torque at a state ('held') and the linearisation (A, ∂Ẋ/∂u, ∂γ_axis/∂X)."""
+    n, nx = dyn.n_states, dyn.n_states - 3
+    Xs, us, ps, rate = ca.MX.sym("X", n), ca.MX.sym("u", len(INPUTS)), ca.MX.sym("p", nlp.p.numel()), ca.MX.sym("r")
+    opts = {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False, "show_eval_warnings": False}
+    f = dyn.rhs(0, Xs, us, theta, ps)
+    outs = dyn.outputs.call([0, Xs, us, theta, ps])
+    xs = ca.MX.sym("x", nx)
+    f_rate = dyn.rhs(0, ca.vertcat(xs, us[INPUTS.index("phi_cmd")], rate, 0), us, theta, ps)[:nx]
+    return {"steady": ca.rootfinder("dyn_steady", "newton", ca.Function("g", [Xs, ca.vertcat(us, ps)], [f]), opts),
+            "rate": ca.rootfinder("dyn_rate", "newton", ca.Function("g", [xs, ca.vertcat(us, ps, rate)], [f_rate]),
+                                  opts),
+            "held": ca.Function("held", [Xs, us, ps], [outs[OUTPUTS.index("tau_2")]]),
+            "lin": ca.Function("lin", [Xs, us, ps], [ca.jacobian(f, Xs), ca.jacobian(f, us),
+                                                     ca.jacobian(outs[OUTPUTS.index("gamma_axis")], Xs)])}
+
+
+def _bandwidth_row(dyn, fns, nlp, g, load, phi, slope, f_hz):
+    """|H(j2πf)|²/|H(0)|² − 1/2 of the axis angle at one point (module docstring); `fns` from _functions."""
     u = _inputs(nlp, g, load, phi)
     n = dyn.n_states
-    Xs, us, ps = ca.MX.sym("X", n), ca.MX.sym("u", len(INPUTS)), ca.MX.sym("p", nlp.p.numel())
-    f = dyn.rhs(0, Xs, us, theta, ps)
-    solve = ca.rootfinder("dyn_steady", "newton", ca.Function("g", [Xs, ca.vertcat(us, ps)], [f]),
-                          {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False,
-        "show_eval_warnings": False})
-    X = solve(dyn.steady_guess(u, nlp.P), ca.vertcat(u, nlp.P))
-    outs = dyn.outputs.call([0, Xs, us, theta, ps])
-    held = ca.Function("held", [Xs, us, ps], [outs[OUTPUTS.index("tau_2")]])(X, u, nlp.P)
+    X = fns["steady"](dyn.steady_guess(u, nlp.P), ca.vertcat(u, nlp.P))
+    held = fns["held"](X, u, nlp.P)
     u_held = ca.vertcat(u[:INPUTS.index("load")], held, 1, u[INPUTS.index("contacts"):])   # shaft 2's torque held
-    lin = ca.Function("lin", [Xs, us, ps], [ca.jacobian(f, Xs), ca.jacobian(f, us),
-                                            ca.jacobian(outs[OUTPUTS.index("gamma_axis")], Xs)])
-    A, Bu, C = lin(X, u_held, nlp.P)
+    A, Bu, C = fns["lin"](X, u_held, nlp.P)
     B0 = Bu[:, INPUTS.index("gamma_cmd")] + Bu[:, INPUTS.index("phi_cmd")] * slope
     w = 2 * np.pi * f_hz
     eye = ca.MX.eye(n)
@@ -109,18 +120,12 @@ def _bandwidth_row(dyn, nlp, theta, g, load, phi, slope, f_hz):
     return (h[0] ** 2 + h[1] ** 2) / h0 ** 2 - 0.5
 
 
-def _rate_rows(dyn, nlp, theta, g, load, phi, phi_rate, at, rate_deg):
+def _rate_rows(dyn, fns, nlp, theta, g, load, phi, phi_rate, at, rate_deg):
     """The motor's torque against its curve and each contact's traction at a steady fork rate (module
-    docstring): rows ≤ 0, and their labels."""
+    docstring): rows ≤ 0, and their labels; `fns` from _functions."""
     u = _inputs(nlp, g, load, phi)
-    n = dyn.n_states
-    nx = n - 3
-    xs, us, ps, rate = ca.MX.sym("x", nx), ca.MX.sym("u", len(INPUTS)), ca.MX.sym("p", nlp.p.numel()), ca.MX.sym("r")
-    f = dyn.rhs(0, ca.vertcat(xs, us[INPUTS.index("phi_cmd")], rate, 0), us, theta, ps)[:nx]
-    solve = ca.rootfinder("dyn_rate", "newton", ca.Function("g", [xs, ca.vertcat(us, ps, rate)], [f]),
-                          {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False,
-        "show_eval_warnings": False})
-    x = solve(dyn.steady_guess(u, nlp.P)[:nx], ca.vertcat(u, nlp.P, phi_rate))
+    nx = dyn.n_states - 3
+    x = fns["rate"](dyn.steady_guess(u, nlp.P)[:nx], ca.vertcat(u, nlp.P, phi_rate))
     outs = dict(zip(OUTPUTS, dyn.outputs.call([0, ca.vertcat(x, phi, phi_rate, 0), u, theta, nlp.P])))
     P = dyn.parameters
     available = P.motor_torque * (1 - ca.fabs(phi_rate) / P.motor_speed)
