@@ -37,6 +37,7 @@ solution at |F| ≥ SAT_LIMIT·μN means). A solve that did not converge is `not
 """
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -219,13 +220,13 @@ def _steering_residual(layout: Layout, frame: ShaftFrame, design: ca.SX):
 
 
 def _solvers(residual: ca.Function, jacobian: ca.Function, steer_residual: ca.Function, written_out: bool,
-             derivatives: bool = False):
+             derivatives: bool = False, hoisted=None):
     """The model's and the steering angle's Newton solvers: CasADi's rootfinders, or (written_out) the same
     iteration in nodes that can be code-generated (core.newton), differentiable if `derivatives`."""
     tol = {"cvt": (1e-12, 1e-12, 40), "steer": (1e-14, 1e-12, 30)}   # abstol, abstolStep, max_iter
     fns = {"cvt": residual, "steer": steer_residual}
     if written_out:
-        return (newton_solver("cvt", residual, *tol["cvt"], derivatives, jacobian),
+        return (newton_solver("cvt", residual, *tol["cvt"], derivatives, jacobian, hoisted()),
                 newton_solver("steer", steer_residual, *tol["steer"], derivatives))
     return tuple(ca.rootfinder(k, "newton", fns[k], {"abstol": tol[k][0], "abstolStep": tol[k][1], "max_iter": tol[k][2],
                                                     "error_on_fail": False, "show_eval_warnings": False})
@@ -339,7 +340,8 @@ def compile_model(layout: Layout, effects=None, design: ca.SX | None = None,
             closed[tuple(names)] = calls.close(name, [u.x, params], [outs[k] for k in names])
         return closed[tuple(names)]
     build = _point_builder(close, G, G_jac, x0_fn, steer_res, misfit, theta, design,
-                           close("utilisation", ["utilisation"]) if law.several_roots else None)
+                           close("utilisation", ["utilisation"]) if law.several_roots else None,
+                           functools.cache(lambda: calls.newton_functions("residual", u.x, params, resid)))
     every = list(POINT_OUTPUTS) + list(CONTACT_OUTPUTS) + ["steer_misfit"]
     point = build(every)
     return CompiledModel(layout, effects, pnames, pvalues, design, point, [r.name for r in layout.rollers], G,
@@ -364,7 +366,7 @@ def library_model(layout: Layout, code: str, design_size: int = 0, effects=None)
                          frame=shaft_frame(layout), _tiered=tiered)
 
 
-def _point_builder(close, residual, jacobian, x0_fn, steer_res, misfit, theta, design, utilisation):
+def _point_builder(close, residual, jacobian, x0_fn, steer_res, misfit, theta, design, utilisation, hoisted):
     """(names, name, written_out) → a CasADi Function of one operating point: φ from the linkage's inverse
     kinematics, then the solve (_solve_from_rest), then only the selected outputs' expressions (`close`:
     (name, output names) → their Function of (x, params)); with the solvers that can be code-generated if
@@ -373,7 +375,8 @@ def _point_builder(close, residual, jacobian, x0_fn, steer_res, misfit, theta, d
 
     def build(selected, name="point", written_out=False):
         if written_out not in solvers:
-            solvers[written_out] = _solvers(residual, jacobian, steer_res, bool(written_out), written_out == "derivatives")
+            solvers[written_out] = _solvers(residual, jacobian, steer_res, bool(written_out), written_out == "derivatives",
+                                            hoisted)
         solver, steer = solvers[written_out]
         in_names = ["gamma_cmd", "omega_1", "load", "load_is_tau_2", "phi_guess", "theta", "design"]
         ins = [ca.MX.sym(n, *(theta.shape if n == "theta" else design.shape if n == "design" else (1, 1)))

@@ -28,22 +28,27 @@ LINE_SEARCH_STEPS = 80      # step lengths α = 1, ½, … tried at most in one 
 
 
 def newton_solver(name: str, residual: ca.Function, abstol: float, abstol_step: float, max_iter: int,
-                  derivatives: bool = False, jacobian: ca.Function | None = None) -> ca.Function:
+                  derivatives: bool = False, jacobian: ca.Function | None = None,
+                  hoisted: tuple | None = None) -> ca.Function:
     """(x0, p) → x with residual(x, p) = 0, by CasADi's `newton` rootfinder's iteration (module docstring);
     with `derivatives`, x is differentiable in p by the implicit function theorem.
 
     `residual` is a Function (x, p) → F, F the size of x: SX, or MX where it calls compiled functions
-    (core.deferred), and then `jacobian` (x, p) → (∂F/∂x, F) is given."""
+    (core.deferred), and then `jacobian` (x, p) → (∂F/∂x, F) is given. `hoisted` (core.deferred's
+    `newton_functions`: p → q, and the residual and its Jacobian as functions of (x, q)) has the iteration
+    evaluate what depends on p alone once, not at every iteration: the same numbers."""
     x, p = residual.sx_in() if residual.is_a("SXFunction") else residual.mx_in()
     F = residual(x, p)
     jac = jacobian or ca.Function(f"{name}_jac", [x, p], [ca.jacobian(F, x), F])
     res = ca.Function(f"{name}_res", [x, p], [F])
-    search = _line_search(name, res, x.numel(), p.numel(), abstol_step)
-    iteration = _iteration(name, jac, res, search, x.numel(), p.numel(), abstol, abstol_step)
-    x0, pm = ca.MX.sym("x0", x.sparsity()), ca.MX.sym("p", p.sparsity())
-    loop = ca.Function(f"{name}_loop", [x0, pm], [iteration.fold(max_iter)(ca.vertcat(x0, 1), pm)[:x.numel()]],
+    parametric, res_q, jac_q = hoisted or (None, res, jac)
+    m = res_q.size1_in(1)
+    search = _line_search(name, res_q, x.numel(), m, abstol_step)
+    iteration = _iteration(name, jac_q, res_q, search, x.numel(), m, abstol, abstol_step)
+    x0, qm, pm = ca.MX.sym("x0", x.sparsity()), ca.MX.sym("q", m), ca.MX.sym("p", p.sparsity())
+    loop = ca.Function(f"{name}_loop", [x0, qm], [iteration.fold(max_iter)(ca.vertcat(x0, 1), qm)[:x.numel()]],
                        {"is_diff_in": [False, False], "is_diff_out": [False]})
-    root = loop(x0, pm)
+    root = loop(x0, parametric(pm) if parametric else pm)
     if derivatives:
         held = ca.Function(f"{name}_held_jac", [x, p], [jac(x, p)[0]],
                            {"is_diff_in": [False, False], "is_diff_out": [False]})
