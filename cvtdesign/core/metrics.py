@@ -31,6 +31,7 @@ it over is None, never NaN.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -142,8 +143,10 @@ def at_key(figure: str) -> str:
     return f"{figure.removesuffix('_Nm') if 'steering_torque' in figure else figure}_at"
 
 
-def extremes(model: CompiledModel, res: dict) -> dict[str, Extreme]:
-    """Every figure of the module docstring that is an extreme over the envelope, with where it is taken."""
+def _terms(model: CompiledModel, res: dict) -> dict[str, tuple]:
+    """Every extreme figure of the module docstring as (quantity, where it counts, largest, per contact): the
+    quantity's points on its last axis (contacts first for a contact's figure); `res` may hold a batch of
+    envelopes on the axis before the points (`batch_figures`)."""
     L, deg = model.layout, np.degrees
     G, T = res["gamma_cmd"], res["load"]
     ideal = model.frame.ideal_ratio(G)
@@ -153,20 +156,46 @@ def extremes(model: CompiledModel, res: dict) -> dict[str, Extreme]:
         ratio_err = 100 * (ideal - res["omega_2"] / res["omega_1"]) / ideal
     eff_range = (np.abs(G) >= np.radians(5) - 1e-12) & (np.abs(T) >= 0.25 * np.max(np.abs(L.load_grid)))
     delivers = delivers_power(res)
-    forks = np.reshape([r.fork_ratio for r in L.rollers], (-1, *([1] * G.ndim))) * res["T_fork"]
     return {
-        "max_abs_alpha_deg": _extreme(np.abs(deg(res["alpha"]))),
-        "max_abs_alpha_steering_deg": _extreme(np.abs(deg(res["alpha_steering"]))),
-        "max_abs_alpha_drive_deg": _extreme(np.abs(deg(res["alpha_drive"]))),
-        "ratio_error_pct_at_max_load": _extreme(np.abs(ratio_err), in_range & at_max),
-        "min_efficiency": _extreme(res["efficiency"], eff_range & delivers, largest=False),
-        "max_loss_no_output_W": _extreme(res["power_loss"], res["ok"] & ~delivers),
-        "max_traction_utilisation": _extreme(res["utilisation"], res["ok"], per_contact=True),
-        "max_hertz_pressure_MPa": _extreme(res["p_max"] / 1e6, res["ok"], per_contact=True),
-        "max_steering_torque_Nm": _largest_share(_extreme(np.abs(res["steering_torque"]), res["ok"]), forks),
-        "max_standstill_steering_torque_Nm": _largest_share(
-            _extreme(res["steering_torque_standstill"], res["ok"]), res["T_fork_standstill"]),
+        "max_abs_alpha_deg": (np.abs(deg(res["alpha"])), None, True, False),
+        "max_abs_alpha_steering_deg": (np.abs(deg(res["alpha_steering"])), None, True, False),
+        "max_abs_alpha_drive_deg": (np.abs(deg(res["alpha_drive"])), None, True, False),
+        "ratio_error_pct_at_max_load": (np.abs(ratio_err), in_range & at_max, True, False),
+        "min_efficiency": (res["efficiency"], eff_range & delivers, False, False),
+        "max_loss_no_output_W": (res["power_loss"], res["ok"] & ~delivers, True, False),
+        "max_traction_utilisation": (res["utilisation"], res["ok"], True, True),
+        "max_hertz_pressure_MPa": (res["p_max"] / 1e6, res["ok"], True, True),
+        "max_steering_torque_Nm": (np.abs(res["steering_torque"]), res["ok"], True, False),
+        "max_standstill_steering_torque_Nm": (res["steering_torque_standstill"], res["ok"], True, False),
     }
+
+
+def extremes(model: CompiledModel, res: dict) -> dict[str, Extreme]:
+    """Every figure of the module docstring that is an extreme over the envelope, with where it is taken (and,
+    for the steering torques, the fork whose share is largest there)."""
+    out = {k: _extreme(*t) for k, t in _terms(model, res).items()}
+    forks = np.reshape([r.fork_ratio for r in model.layout.rollers], (-1, *([1] * res["gamma_cmd"].ndim))) * res["T_fork"]
+    out["max_steering_torque_Nm"] = _largest_share(out["max_steering_torque_Nm"], forks)
+    k = "max_standstill_steering_torque_Nm"
+    out[k] = _largest_share(out[k], res["T_fork_standstill"])
+    return out
+
+
+def batch_figures(model: CompiledModel, res: dict) -> dict[str, np.ndarray]:
+    """The values of `metrics`' extremes and RMS α for a batch of envelopes at once (a tolerance study's
+    linearised ones): `res` holds every output with the batch on the axis before the points, (batch, points)
+    and (contacts, batch, points), and γ, τ⊥, ω1 and ok as (points,). {figure: (batch,)}, NaN where a figure
+    has no point (metrics' None), as `metrics` gives them one envelope at a time."""
+    missing = not_modelled(model.layout, model.effects)
+    out = {}
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)           # an all-NaN batch member: NaN, as wanted
+        for k, (x, mask, largest, per_contact) in _terms(model, res).items():
+            x = np.asarray(x, float) if mask is None else np.where(mask, x, np.nan)
+            axes = (0, x.ndim - 1) if per_contact else (x.ndim - 1,)
+            out[k] = np.full(x.shape[-2], np.nan) if k in missing else (np.nanmax if largest else np.nanmin)(x, axis=axes)
+        out["rms_alpha_deg"] = np.sqrt(np.nanmean(np.degrees(res["alpha"]) ** 2, axis=-1))
+    return out
 
 
 def where_text(model: CompiledModel, res: dict, e: Extreme) -> dict | None:

@@ -10,15 +10,16 @@ import numpy as np
 import pandas as pd
 
 from cvtdesign.core import steering
-from cvtdesign.core.metrics import efficiency
+from cvtdesign.core.metrics import batch_figures, efficiency
 from cvtdesign.core.model import CompiledModel
 from cvtdesign.core.tolerances import KINDS
 from cvtdesign.core.uncertainty import OUTPUTS, sensitivities
-from cvtdesign.design.tolerance import FIGURES, LINEAR_DRAWS, LINEAR_STREAM, figures, stream_draws
+from cvtdesign.design.tolerance import FIGURES, LINEAR_DRAWS, LINEAR_STREAM, stream_draws
 from cvtdesign.design.tolerance_inputs import columns
 
 EFFECT_NODES = 33       # equal-probability points of a dimension's distribution for its effect
 STANDSTILL_STEP = 1e-3  # × σ: the step of the standstill torque's central differences along each slope
+BATCH = 250             # linearised envelopes taken at once (each output: contacts × BATCH × points values)
 
 
 def first_order(model: CompiledModel, nominal: dict, content, xs: np.ndarray) -> dict:
@@ -53,17 +54,25 @@ def derivatives(model: CompiledModel, nominal: dict, ok: np.ndarray, content) ->
 
 def linearised_figures(model: CompiledModel, nominal: dict, ok: np.ndarray, slopes: dict, xs: np.ndarray) -> np.ndarray:
     """FIGURES of the envelope with every output at the ok points `ok` (flat indices) moved to first order,
-    nominal + slopes·x, for each row x of `xs`: (len(xs), FIGURES), NaN where a figure has no point."""
+    nominal + slopes·x, for each row x of `xs`: (len(xs), FIGURES), NaN where a figure has no point. BATCH
+    rows at once (core.metrics.batch_figures)."""
     out = np.full((len(xs), len(FIGURES)), np.nan)
-    for i, x in enumerate(xs):
-        res = dict(nominal)
+    fixed = {k: np.ravel(nominal[k]) for k in ("gamma_cmd", "load", "omega_1", "ok")}
+    for start in range(0, len(xs), BATCH):
+        x = xs[start:start + BATCH]
+        res = dict(fixed)
         for name, d in slopes.items():
-            v = np.array(nominal[name], float)
-            flat = v.reshape(v.shape[0], -1) if d.ndim == 3 else v.reshape(1, -1)     # views of v
-            flat[:, ok] += (d @ x).T if d.ndim == 3 else (d @ x)[None, :]
-            res[name] = v
+            v = np.asarray(nominal[name], float)
+            if d.ndim == 3:                                   # a contact's output: d (points, contacts, inputs)
+                moved = np.repeat(v.reshape(v.shape[0], 1, -1), len(x), axis=1)             # (contacts, rows, points)
+                moved[:, :, ok] += np.einsum("pci,ri->crp", d, x)
+            else:
+                moved = np.repeat(v.reshape(1, -1), len(x), axis=0)                          # (rows, points)
+                moved[:, ok] += x @ d.T
+            res[name] = moved
         res["efficiency"] = efficiency(res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"])
-        out[i] = list(figures(model, res).values())
+        got = batch_figures(model, res)
+        out[start:start + len(x)] = np.column_stack([got[k] for k in FIGURES])
     return out
 
 

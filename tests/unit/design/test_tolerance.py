@@ -14,7 +14,7 @@ import yaml
 from conftest import ROOT, shipped_layout, variant_data, write_yaml
 from cvtdesign.cli import main
 from cvtdesign.core.layout import Layout
-from cvtdesign.core.metrics import envelope, envelopes, metrics
+from cvtdesign.core.metrics import efficiency, envelope, envelopes, metrics
 from cvtdesign.core.model import compile_model, library_model
 from cvtdesign.core.tolerances import Dimension, as_built
 from cvtdesign.core.uncertainty import sensitivities
@@ -279,3 +279,35 @@ def test_a_number_of_samples_out_of_range_is_refused_before_anything_runs(kalker
     assert main(["tolerance", str(kalker), "--tolerances", str(AXLES), "--samples", samples, "--store",
                  str(tmp_path / "s")]) == 2
     one_line(capsys.readouterr().err, f"--samples: expected a number of samples from 1 to 100000, got {samples}")
+
+
+@pytest.mark.parametrize("name", ["existing_kim", "box"])
+def test_linearised_figures_taken_at_once_are_each_envelopes_metrics(name):
+    """The linearised envelopes' figures, taken BATCH rows at once (core.metrics.batch_figures), against
+    `metrics` of each linearised envelope built one at a time: the same to round-off, for every figure,
+    including one a law cannot produce (Kim's: the rolling steering torque, NaN), across the batches' seam and
+    for a row moved far off."""
+    from cvtdesign.core.uncertainty import OUTPUTS
+    from cvtdesign.design.tolerance_stats import BATCH, linearised_figures
+    model = compile_model(shipped_layout(name))
+    nominal = envelope(model)
+    ok = np.flatnonzero(np.ravel(nominal["ok"]))
+    rng = np.random.default_rng(5)
+    names = [k for k in OUTPUTS if k in nominal] + ["steering_torque_standstill"]
+    slopes = {k: rng.normal(0, np.nanstd(nominal[k]) + 1e-3, (ok.size, *np.shape(nominal[k])[:-2], 3))
+              for k in names}
+    xs = rng.normal(0, 0.3, (BATCH + 7, 3))
+    xs[3] = [40, -40, 40]                           # far off: moves whole figures out of their points
+    got = linearised_figures(model, nominal, ok, slopes, xs)
+    for i in (0, 1, 3, BATCH - 1, BATCH, BATCH + 6):
+        res = {k: np.array(v, float) if k in slopes else v for k, v in nominal.items()}
+        for k, d in slopes.items():
+            flat = res[k].reshape(-1, res[k].shape[-2] * res[k].shape[-1]) if d.ndim == 3 else res[k].reshape(1, -1)
+            flat[:, ok] += (d @ xs[i]).T if d.ndim == 3 else (d @ xs[i])[None, :]
+        res["efficiency"] = efficiency(res["tau_1"] * res["omega_1"], res["tau_2"] * res["omega_2"])
+        m = metrics(model, res)
+        want = [np.nan if m[k] is None else m[k] for k in FIGURES]
+        np.testing.assert_allclose(got[i], want, rtol=1e-12, atol=1e-12, err_msg=f"row {i}")
+    assert np.isfinite(got).sum() > 0.8 * got.size
+    if name == "existing_kim":
+        assert np.isnan(got[:, FIGURES.index("max_steering_torque_Nm")]).all()
