@@ -14,6 +14,11 @@ and evaluated with one call per table that returns the value and its Jacobian to
 for the box's Jacobian. It is attached to the function as its Jacobian, so every derivative CasADi takes of
 it (the Newton solves, the implicit derivatives for the optimiser) uses it. Without deferred calls `close`
 is the plain SX function.
+
+A model closes several functions of the same expressions (the residual, its Jacobian in the unknowns for the
+Newton solves, selections of outputs), so each derivative block, the arguments' function and each list's common
+subexpressions (ca.cse, a third of a model's build) are made once a model and reused (`_derivative`, `_args`,
+`_shared`): the Newton's Jacobian is a part of the residual's and takes its blocks as they are.
 """
 from __future__ import annotations
 
@@ -40,6 +45,38 @@ class DeferredCalls:
 
     def __init__(self):
         self.calls: list[_Call] = []
+        self._made: dict = {}        # what is made once (module docstring), by kind and the ids of what it is of
+        self._held: list = []        # ... and those objects, so that their ids stay theirs
+
+    def _once(self, key: tuple, of: tuple, make):
+        """make(), made once for the objects `of` (compared by identity) and `key`."""
+        key = (*key, *map(id, of))
+        if key not in self._made:
+            self._held.append(of)
+            self._made[key] = make()
+        return self._made[key]
+
+    def _derivative(self, out, wrt):
+        """ca.jacobian(out, wrt), taken once a model."""
+        return self._once(("d",), (out, wrt), lambda: ca.jacobian(out, wrt))
+
+    def _values(self):
+        """The calls' value symbols stacked."""
+        return self._once(("values", len(self.calls)), (), lambda: ca.vertcat(*(c.value for c in self.calls)))
+
+    def _args(self, inputs: list) -> ca.Function:
+        """Function(inputs) → every call's arguments, flat, common subexpressions shared."""
+        return self._once(("args", len(self.calls)), tuple(inputs), lambda: ca.Function(
+            "deferred_args", inputs, ca.cse([a for c in self.calls for a in c.args])))
+
+    def _shared(self, exprs: list) -> list:
+        """ca.cse(exprs), or, where an earlier list held every one of them, their forms of then (the same nodes)."""
+        if all((("cse", id(e)) in self._made) for e in exprs):
+            return [self._made["cse", id(e)] for e in exprs]
+        shared = ca.cse(exprs)
+        for e, c in zip(exprs, shared):
+            self._once(("cse",), (e,), lambda c=c: c)
+        return shared
 
     def call(self, value_fn: ca.Function, jacobian_fn: ca.Function, args: list) -> ca.SX:
         """An SX symbol that stands for value_fn(*args) (one output) in the expressions built from it;
@@ -51,11 +88,10 @@ class DeferredCalls:
     def close(self, name: str, inputs: list, outputs: list) -> ca.Function:
         """Function(inputs) → outputs, the deferred calls in them evaluated, with its Jacobian by the chain rule
         (module docstring). `inputs` are the SX symbols the expressions depend on besides the calls' values."""
-        values = ca.vertcat(*(c.value for c in self.calls))
+        values = self._values()
         if not self.calls or not ca.depends_on(ca.vertcat(*outputs), values):
             return ca.Function(name, inputs, outputs)
-        flat_args = [a for c in self.calls for a in c.args]
-        args = ca.Function(f"{name}_args", inputs, ca.cse(flat_args))
+        args = self._args(inputs)
         rest = ca.Function(f"{name}_rest", [*inputs, values], ca.cse(outputs))
         mx_in = [ca.MX.sym(f"i{k}", s.sparsity()) for k, s in enumerate(inputs)]
         arg_values = self._split(args.call(mx_in))
@@ -97,13 +133,12 @@ class DeferredCalls:
         """(∂out_k/∂w_j for outputs k and w_j in `wrt`, outputs-major; the outputs' values) as MX of mx_in, by
         the chain rule: the partial derivatives in SX (sparse), the calls' Jacobians D from one evaluation
         each, and the products ∂out/∂v · D · ∂a/∂w as sparse matrix products."""
-        values = ca.vertcat(*(c.value for c in self.calls))
-        live, a_all = self._live(ca.vertcat(*inputs))
-        partial = [ca.jacobian(out, w) for out in outputs for w in wrt]
-        through = [ca.jacobian(out, values) for out in outputs] + [ca.jacobian(a_all, w) for w in wrt]
-        parts = ca.Function(f"{name}_partials", [*inputs, values], ca.cse(partial + through + list(outputs)))
-        args = ca.Function(f"{name}_args", inputs, ca.cse([a for c in self.calls for a in c.args]))
-        value, D = self._evaluated(self._split(args.call(mx_in)), live)
+        values = self._values()
+        live, a_all = self._live(inputs)
+        partial = [self._derivative(out, w) for out in outputs for w in wrt]
+        through = [self._derivative(out, values) for out in outputs] + [self._derivative(a_all, w) for w in wrt]
+        parts = ca.Function(f"{name}_partials", [*inputs, values], self._shared(partial + through + list(outputs)))
+        value, D = self._evaluated(self._split(self._args(inputs).call(mx_in)), live)
         got = parts.call([*mx_in, value])
         n_p, n_o = len(partial), len(outputs)
         direct, by_value, of_args = got[:n_p], got[n_p:n_p + n_o], got[n_p + n_o:n_p + n_o + len(wrt)]
@@ -120,12 +155,12 @@ class DeferredCalls:
         The operations are the same ones, so are the numbers. Neither function is differentiable in q (the
         loop that calls them is not: core.newton). None where that takes out less than HOIST_SHARE of an
         iteration's operations."""
-        values = ca.vertcat(*(c.value for c in self.calls))
-        live, a_all = self._live(ca.vertcat(x, p))
+        values = self._values()
+        live, a_all = self._live([x, p])
         arg_list = [a for c in self.calls for a in c.args]
-        wanted = [*arg_list, output, ca.jacobian(output, x)]
+        wanted = [*arg_list, output, self._derivative(output, x)]
         if self.calls:
-            wanted += [ca.jacobian(output, values), ca.jacobian(a_all, x)]
+            wanted += [self._derivative(output, values), self._derivative(a_all, x)]
         # merged first: an expression that is there twice would get two symbols, and stay twice
         merged = ca.cse(wanted)
         got, symbols, expressions = ca.extract_parametric(merged, p)
@@ -149,11 +184,14 @@ class DeferredCalls:
         J, by_value, of_args, F = parts.call([xm, qm, value])
         return parametric, residual, ca.Function(f"{name}_jac", [xm, qm], [J + ca.mtimes(ca.mtimes(by_value, D), of_args), F])
 
-    def _live(self, inputs: ca.SX) -> tuple[list, ca.SX]:
-        """(per call, which of its arguments depend on `inputs`: constant ones have no derivative; those
-        arguments stacked)."""
-        live = [[ca.depends_on(a, inputs) for a in c.args] for c in self.calls]
-        return live, ca.vertcat(*(a for c, lv in zip(self.calls, live) for a, on in zip(c.args, lv) if on))
+    def _live(self, inputs: list) -> tuple[list, ca.SX]:
+        """Which of each call's arguments depend on the inputs (constant ones have no D), and those arguments
+        stacked."""
+        def make():
+            every = ca.vertcat(*inputs)
+            live = [[ca.depends_on(a, every) for a in c.args] for c in self.calls]
+            return live, ca.vertcat(*(a for c, lv in zip(self.calls, live) for a, on in zip(c.args, lv) if on))
+        return self._once(("live", len(self.calls)), tuple(inputs), make)
 
     def _evaluated(self, arg_values: list, live: list) -> tuple[ca.MX, ca.MX]:
         """The calls at their arguments' values, each once with its Jacobian: (their values stacked, D the

@@ -15,6 +15,8 @@ repeated in every evaluation of its Jacobian.
 """
 from __future__ import annotations
 
+import hashlib
+
 import casadi as ca
 import numpy as np
 
@@ -72,18 +74,30 @@ def derivatives(model, gammas, speeds, loads, phi_guess, outputs: list[str], the
                 design_cols: list[int], load: bool = False) -> list[np.ndarray]:
     """d output/d(columns) at each point (γ_cmd, ω1, τ⊥ load, φ guess: vectors), at the model's θ and design 0,
     the load's column last where `load` (a capacity's interval, core.capacity_interval):
-    per output an array (rows, points, columns); the points are solved by the model's `root` output, then
-    derivative_function is mapped over them on two threads (at_points)."""
+    per output an array (rows, points, columns); the points are solved by the model's `root` output (`roots`),
+    then derivative_function is mapped over them on two threads (at_points)."""
     n = np.size(gammas)
     key = ("derivatives", tuple(outputs), tuple(theta_cols), tuple(design_cols), load, n)
     if key not in model._maps:
-        model._maps[key] = (model.point_function(["root"]).map(n, "thread", 2),
-                            derivative_function(model, outputs, theta_cols, design_cols, load).map(n, "thread", 2))
-    root, parts = model._maps[key]
-    xq = call_mapped(root, [gammas, speeds, loads, np.zeros(n), phi_guess, model.param_values,
-                            np.zeros(model.design.numel())])[0]
-    nx = model.residual.size1_in(0)
-    return at_points(parts, xq[:nx], xq[nx:], output_sizes(model, outputs))
+        model._maps[key] = derivative_function(model, outputs, theta_cols, design_cols, load).map(n, "thread", 2)
+    X, Q = roots(model, gammas, speeds, loads, phi_guess)
+    return at_points(model._maps[key], X, Q, output_sizes(model, outputs))
+
+
+def roots(model, gammas, speeds, loads, phi_guess) -> tuple[np.ndarray, np.ndarray]:
+    """The solutions x and parameters q (columns) of the points, at the model's θ and design 0: the point
+    function's `root` output (its Newton solve, interpreted), solved once a model and set of points (a layout's
+    figures' gradients and its plot's bands ask for derivatives at the same points)."""
+    n = np.size(gammas)
+    args = [gammas, speeds, loads, np.zeros(n), phi_guess, model.param_values, np.zeros(model.design.numel())]
+    key = ("roots", n, hashlib.sha256(b"|".join(np.asarray(a, float).tobytes() for a in args)).hexdigest())
+    if key not in model._maps:
+        if ("root", n) not in model._maps:
+            model._maps["root", n] = model.point_function(["root"]).map(n, "thread", 2)
+        xq = call_mapped(model._maps["root", n], args)[0]
+        nx = model.residual.size1_in(0)
+        model._maps[key] = (xq[:nx], xq[nx:])
+    return model._maps[key]
 
 
 def output_sizes(model, outputs: list[str]) -> list[int]:

@@ -84,18 +84,15 @@ def unfold(quarter: np.ndarray) -> np.ndarray:
     return np.concatenate([mirrored, half], axis=-2)                   # the whole η̂ axis (φ̂ reversed with it)
 
 
-def _spline_coefficients(values: np.ndarray, axis: int) -> np.ndarray:
-    """Coefficients c_-1..c_n of the uniform cubic B-spline through values along `axis` (natural ends:
-    c_-1 − 2c_0 + c_1 = 0 and the same at the far end); the axis grows by two."""
-    y = np.moveaxis(values, axis, 0)
-    n = y.shape[0]
+def spline_matrix(n: int) -> np.ndarray:
+    """The (n + 2) × n matrix that takes values at n uniform nodes to the coefficients c_-1..c_n of the uniform
+    cubic B-spline through them (natural ends: c_-1 − 2c_0 + c_1 = 0 and the same at the far end); `coefficients`
+    applies it along each axis of the table."""
     A = np.zeros((n + 2, n + 2))
     A[0, :3] = A[-1, -3:] = (1.0, -2.0, 1.0)
     for i in range(n):
         A[i + 1, i:i + 3] = (1.0 / 6.0, 4.0 / 6.0, 1.0 / 6.0)
-    rhs = np.concatenate([np.zeros((1,) + y.shape[1:]), y, np.zeros((1,) + y.shape[1:])])
-    c = np.linalg.solve(A, rhs.reshape(n + 2, -1)).reshape(rhs.shape)
-    return np.moveaxis(c, 0, axis)
+    return np.linalg.solve(A, np.eye(n + 2)[:, 1:n + 1])     # the interpolation conditions' right-hand sides
 
 
 @functools.cache
@@ -106,10 +103,17 @@ def coefficients() -> np.ndarray:
         if not (np.allclose(data["ratio_nodes"], RATIO_NODES) and float(data["rho_scale"]) == RHO_SCALE
                 and str(data["mapping"]) == MAPPING and int(data["grid_points"]) == GRID_POINTS):
             raise RuntimeError(f"{DATA.name} was built for another grid: rebuild it (build_surface)")
-    c = unfold(quarter)                                    # (ratio, output, z0, z1, z2)
-    for axis in (0, 2, 3, 4):
-        c = _spline_coefficients(c, axis)
-    return np.ascontiguousarray(np.transpose(c, (1, 0, 4, 3, 2)))
+    return spline_coefficients(unfold(quarter))
+
+
+def spline_coefficients(values: np.ndarray) -> np.ndarray:
+    """The coefficients of the spline through `values` (ratio, output, z0, z1, z2), C-ordered [output][ratio][z2]
+    [z1][z0]: spline_matrix applied along each of the four axes, by one matrix product an axis (each moves its
+    axis to the end: the ratio's, then z2's, z1's and z0's)."""
+    c = values
+    for axis in (0, 3, 2, 1):
+        c = np.tensordot(c, spline_matrix(c.shape[axis]), axes=(axis, 1))
+    return np.ascontiguousarray(c)
 
 
 def evaluate(z, ratio) -> np.ndarray:

@@ -69,3 +69,28 @@ def test_derivatives_match_the_whole_point_functions(name, deltas, effects, rtol
     if name == "existing_kim":      # the steering angle moves with the fork's axis: the part through φ is there
         phi = derivatives(model, g, np.full(g.size, model.layout.motor_speed), t, phi0, ["phi"], [], [0])[0]
         assert np.abs(phi).min() > 1e-3
+
+
+def test_points_asked_again_are_solved_once(make_variant, monkeypatch):
+    """Derivatives at points the model has solved for derivatives before (a layout's figures' gradients and its
+    plot's bands: the same ok points) reuse their solutions: one Newton solve of them, and the same numbers as a
+    fresh model's; other points, or other loads, are solved anew."""
+    from cvtdesign.core import sensitivity
+    g, t = np.radians([-60.0, -20.0, 10.0, 50.0]), np.array([-0.8, 0.3, 1.0, -0.2])
+    path = make_variant("existing_kim", polar_parameter)
+    model = design_model(path, {"pol": np.radians(45.0)})
+    phi0 = steering_angle_guess(*steering_data(load_variant(path)), g)[0]
+    w = np.full(g.size, model.layout.motor_speed)
+    solves, real = [], sensitivity.call_mapped
+    monkeypatch.setattr(sensitivity, "call_mapped", lambda fn, args: (solves.append(fn.name()), real(fn, args))[1])
+    roots_solved = lambda: sum("root" in name for name in solves)                 # noqa: E731
+    first = derivatives(model, g, w, t, phi0, ["alpha"], [0, 1], [])
+    again = derivatives(model, g, w, t, phi0, ["alpha", "omega_2", "N"], [0, 1], [0])
+    assert roots_solved() == 1
+    fresh = design_model(path, {"pol": np.radians(45.0)})
+    for got, want in zip(first + again, derivatives(fresh, g, w, t, phi0, ["alpha"], [0, 1], []) +
+                         derivatives(fresh, g, w, t, phi0, ["alpha", "omega_2", "N"], [0, 1], [0])):
+        np.testing.assert_array_equal(got, want)
+    derivatives(model, g[:3], w[:3], t[:3], phi0[:3], ["alpha"], [0], [])
+    derivatives(model, g, w, t * 1.01, phi0, ["alpha"], [0], [])
+    assert roots_solved() == 3

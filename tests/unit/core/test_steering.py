@@ -12,7 +12,7 @@ from scipy.special import ellipe
 from conftest import shipped_model, variant_data, variant_path, write_yaml
 from cvtdesign.core.metrics import envelope, envelopes, metrics
 from cvtdesign.core.model import compile_model
-from cvtdesign.core.steering import SAMPLE_NODES, sliding_lever, standstill_torques
+from cvtdesign.core.steering import SAMPLE_NODES, sliding_lever, sliding_lever_expr, standstill_torques
 
 
 @pytest.mark.parametrize("a, b", [(1e-3, 1e-3), (1.6e-3, 1e-3), (1e-3, 2.5e-3)])
@@ -161,12 +161,22 @@ def test_a_steering_motor_limit_is_met_by_the_preload(tmp_path):
     assert np.max(held.g[still]) == pytest.approx(1.0, abs=1e-6)
 
 
+def _full_circle_nodes(nodes: int):
+    """The quadrature's nodes as they were first written: Gauss–Legendre in u, all 4·nodes angles of the
+    trapezoid rule in t around the whole circle (core.steering._nodes folds them onto half of it)."""
+    u, wu = np.polynomial.legendre.leggauss(nodes)
+    u, wu = np.pi / 4 * (u + 1), np.pi / 4 * wu
+    t = np.linspace(0.0, 2 * np.pi, 4 * nodes, endpoint=False)
+    rho = np.sin(u)[:, None]
+    weight = (wu * np.cos(u) ** 2 * np.sin(u))[:, None] * 3 / (4 * nodes) * np.ones_like(t)
+    return rho * np.cos(t), rho * np.sin(t), weight
+
+
 def _sliding_lever_loop(a, b, pivot, slide, nodes=32):
-    """sliding_lever as it was written first, one patch at a time in a Python loop: the reference of its
-    vectorised form."""
-    from cvtdesign.core.steering import _nodes
+    """sliding_lever as it was written first, one patch at a time in a Python loop over the whole circle's
+    nodes: the reference of its vectorised, folded form."""
     a, b, w, s = np.broadcast_arrays(*(np.asarray(v, float) for v in (a, b, pivot, slide)))
-    xh, yh, weight = _nodes(nodes)
+    xh, yh, weight = _full_circle_nodes(nodes)
     out = np.full(a.shape, np.nan)
     for k in zip(*np.nonzero(np.isfinite(a) & np.isfinite(b))) if a.ndim else [()]:
         x, y = a[k] * xh, b[k] * yh
@@ -175,9 +185,10 @@ def _sliding_lever_loop(a, b, pivot, slide, nodes=32):
 
 
 def test_sliding_lever_vectorised_gives_the_loops_numbers():
-    """The quadrature over every patch at once gives the loop's numbers to 1e-12 relative: pure pivoting, pure
-    sliding, the slide's centre outside and inside the patch, both signs, a patch with no number (NaN stays
-    NaN), a scalar, a 2-D array, and more patches than one block (CHUNK_NODES)."""
+    """The quadrature over every patch at once, on the nodes folded onto half the circle, gives the whole circle's
+    loop's numbers to 1e-12 relative: pure pivoting, pure sliding, the slide's centre outside and inside the
+    patch, both signs, a patch with no number (NaN stays NaN), a scalar, a 2-D array, more patches than one block
+    (CHUNK_NODES), and the optimiser's expression (sliding_lever_expr, 12 nodes, its 1e-12 m smoothing aside)."""
     rng = np.random.default_rng(7)
     n = 3000
     a, b = rng.uniform(0.3e-3, 3e-3, n), rng.uniform(0.3e-3, 3e-3, n)
@@ -193,3 +204,5 @@ def test_sliding_lever_vectorised_gives_the_loops_numbers():
         assert float(sliding_lever(*case)) == pytest.approx(float(_sliding_lever_loop(*case)), rel=1e-12)
     assert float(sliding_lever(1e-3, 1e-3, 1.0, 0.0, nodes=8)) == pytest.approx(
         float(_sliding_lever_loop(1e-3, 1e-3, 1.0, 0.0, nodes=8)), rel=1e-12)
+    for case in ((1e-3, 2e-3, 1.0, 0.0), (1.6e-3, 1e-3, 1.0, 0.5e-3), (1e-3, 1e-3, -1.0, 5e-3)):
+        assert float(sliding_lever_expr(*case)) == pytest.approx(float(_sliding_lever_loop(*case, nodes=12)), rel=1e-12)
