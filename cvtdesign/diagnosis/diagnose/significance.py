@@ -39,7 +39,7 @@ def f_oneway(*samples) -> tuple[float, float]:
     offset = np.mean(alldata, keepdims=True)
     alldata = alldata - offset
     normalized_ss = np.sum(alldata) ** 2. / bign
-    sstot = np.vecdot(alldata, alldata) - normalized_ss
+    sstot = np.dot(alldata, alldata) - normalized_ss        # np.vecdot in scipy: the same sum (numpy ≥ 2)
     ssbn = 0
     for s in samples:
         ssbn = ssbn + np.sum(s - offset) ** 2. / s.size
