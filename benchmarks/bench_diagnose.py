@@ -18,15 +18,24 @@ issue.
    operating points, so the fit's cost follows the 187 points, not the rows). With --large, also × 535
    (≈ 100k rows), without a goal.
 4. With --cold: the 187-row diagnosis with an empty compiled-model cache, then with the libraries it left.
+5. With --command, alone: the command itself, `python -m cvtdesign diagnose` on the 187 rows in a fresh process (its
+   imports, reading the variant and the CSV, the diagnosis and the report printed), wall and CPU time, against
+   `python -c "import casadi"` in CPU time; goal: at most COMMAND_GOAL seconds on a quiet machine. With
+   --against DIR, the same command from the source tree DIR (an older commit: `git archive <commit> | tar -x -C
+   DIR`) in the same rounds, for a paired before/after. The children may write bytecode caches, as an installed
+   package has them.
 
 The rounds are interleaved (each baseline is measured next to what it is the baseline of) and each figure is
 the best of the rounds: the machine is shared and noisy.
 
-Run: python benchmarks/bench_diagnose.py [--rounds N] [--large] [--cold]
+Run: python benchmarks/bench_diagnose.py [--rounds N] [--large] [--cold] [--command [--against DIR]]
 """
 import argparse
 import os
 import resource
+import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -49,6 +58,7 @@ BASE = ("drive_longitudinal_creep",)
 DIAGNOSE_GOAL = 3280      # [references] the whole 187-row diagnosis, at most: 60 s / 18.3 ms
 SCALE_GOAL = 3.0          # [×] the 5049-row diagnosis against the 187-row one, at most
 EVALUATION_GOAL = 150     # [×] the whole 187-row diagnosis against one base-model evaluation at its rows, at most
+COMMAND_GOAL = 3.0        # [s] the 187-row `cvtdesign diagnose` command, quiet machine, at most
 
 
 def goal_line(what, ratio, goal, unit):
@@ -169,13 +179,54 @@ def cold(L):
           f"then with its libraries {t1:.2f} s, {c1:.2f} s of CPU")
 
 
+def command(L, rounds, against=None):
+    """5. With --command: the diagnose command in fresh processes against `import casadi` (and the command of the
+    source tree `against`), interleaved; best and median of each."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    trees = {"this tree": ROOT} | ({f"{against}": Path(against).resolve()} if against else {})
+
+    def timed(argv, tree):
+        """(wall time, CPU time of the child) [s] of argv run in `tree` with it first on the path."""
+        r0, t = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
+        subprocess.run(argv, cwd=tree, check=True, capture_output=True, env=env | {"PYTHONPATH": str(tree)})
+        wall, r1 = time.perf_counter() - t, resource.getrusage(resource.RUSAGE_CHILDREN)
+        return wall, r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "kim.csv"
+        path.write_text(dataset(L))
+        run = [sys.executable, "-m", "cvtdesign", "diagnose", str(path), "--variant", "variants/existing_kim.yaml",
+               "--base", ",".join(BASE)]
+        for tree in trees.values():         # bytecode and the compiled-model cache, as every run after the first
+            timed(run, tree)
+        load = os.getloadavg()[0]
+        times = {"import casadi": []} | {k: [] for k in trees}
+        for _ in range(rounds):
+            times["import casadi"].append(timed([sys.executable, "-c", "import casadi"], ROOT))
+            for k, tree in trees.items():
+                times[k].append(timed(run, tree))
+    base = min(c for _, c in times["import casadi"])
+    print(f"5. the diagnose command, 187 rows, fresh processes ({rounds} interleaved rounds, load average {load:.1f} "
+          f"before, {os.getloadavg()[0]:.1f} after): best (median)")
+    for k, v in times.items():
+        w, c = [x for x, _ in v], [x for _, x in v]
+        print(f"   {k:40s} wall {min(w):5.2f} s ({statistics.median(w):5.2f})   CPU {min(c):5.2f} s "
+              f"({statistics.median(c):5.2f})   {min(c) / base:5.1f} × import casadi's CPU")
+    goal_line("the command's CPU time (its wall time on a quiet machine)", min(c for _, c in times["this tree"]),
+              COMMAND_GOAL, " s")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds; each figure is the best (default 3)")
     parser.add_argument("--large", action="store_true", help="also the 100k-row diagnosis (one round)")
     parser.add_argument("--cold", action="store_true", help="also a diagnosis with an empty compiled-model cache")
+    parser.add_argument("--command", action="store_true", help="the command in fresh processes, alone")
+    parser.add_argument("--against", help="with --command: also the command of this source tree (an older commit)")
     args = parser.parse_args()
     L = load_variant(ROOT / "variants/existing_kim.yaml")
+    if args.command:
+        return command(L, args.rounds, args.against)
     print(f"load average {os.getloadavg()[0]:.1f} at the start; best of {args.rounds} interleaved rounds")
     whole_diagnosis(L, args.rounds)
     exact_jacobian(L)

@@ -5,11 +5,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import wilcoxon
 
 from cvtdesign.diagnosis.diagnose.fitting import Fit, fit
 from cvtdesign.diagnosis.diagnose.predictor import (Predictor, efficiency_mask, model_efficiency, residuals, rms,
                                                     zscores)
+from cvtdesign.diagnosis.diagnose.significance import wilcoxon_greater
 from cvtdesign.diagnosis.diagnose.spatial import Neighbours, neighbour_pairs, structured_power
 from cvtdesign.diagnosis.measured import FOLDS, Measured
 
@@ -87,7 +87,7 @@ def compare(before: Score, after: Score, channels: int, nb: Neighbours) -> Compa
     if not common.any():
         return Comparison(0, (np.nan, np.nan), -np.inf, 1.0, np.inf, (0.0, 0.0), np.inf)
     d = b - a
-    p = 1.0 if np.allclose(d, 0) else float(wilcoxon(d, alternative="greater", zero_method="zsplit").pvalue)
+    p = 1.0 if np.allclose(d, 0) else wilcoxon_greater(d)[1]
     n = common.sum() * channels
     dk = len(after.fit.theta) - len(before.fit.theta)
     dbic = float(np.sum(after.fit_per_point[common]) - np.sum(before.fit_per_point[common]) + dk * np.log(n))

@@ -3,12 +3,12 @@ separate them), and where a remaining gap lies beyond the vocabulary (model-form
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import f_oneway
 
 from cvtdesign.diagnosis.diagnose.crossval import Score
 from cvtdesign.diagnosis.diagnose.fitting import Fit
 from cvtdesign.diagnosis.diagnose.predictor import CHANNELS, Models, residuals, zscores
 from cvtdesign.diagnosis.diagnose.search import Candidate, signature
+from cvtdesign.diagnosis.diagnose.significance import f_oneway
 from cvtdesign.diagnosis.measured import Measured
 
 FORM_BINS = 8          # quantile bins of a variable in the model-form checks (one-way ANOVA of the residual)
@@ -112,7 +112,7 @@ def form_checks(models: Models, data: Measured, final: Score, noise: dict) -> di
             continue
         groups = [[zc[good & (bins == k)] for k in np.unique(bins[good])] for zc in z]
         if len(groups[0]) > 1:
-            p[name] = float(min(f_oneway(*g).pvalue for g in groups))
+            p[name] = min(f_oneway(*g)[1] for g in groups)
             size[name] = max(_between_bins(g) for g in groups) / reading
     top = min(p, key=p.get)
     along = top if p[top] < 1e-3 / (len(p) * len(z)) else None

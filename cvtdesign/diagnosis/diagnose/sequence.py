@@ -22,10 +22,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.stats import chi2
 
 from cvtdesign.diagnosis.diagnose.fitting import Fit, fit
 from cvtdesign.diagnosis.diagnose.predictor import Models, Predictor, channels
+from cvtdesign.diagnosis.diagnose.significance import chi2_sf
 from cvtdesign.diagnosis.diagnose.verdict import RESIDUE
 from cvtdesign.diagnosis.measured import MIN_POINTS, Measured, merge_points
 
@@ -103,7 +103,7 @@ def direction_test(points: Measured, resid: dict, noise: dict) -> Direction | No
         size[c] = float(np.sqrt(max(np.mean(d[ok] ** 2 - var[ok]), 0.0)))
         one = np.sqrt(np.mean(noise[c][i] ** 2 * count[i]))            # one reading's noise
         reading = max(reading, size[c] / one)
-    p = float(chi2.sf(stat, dof)) if dof else 1.0
+    p = chi2_sf(stat, dof) if dof else 1.0
     return Direction(len(pairs), mean, size, reading, p, bool(p < P_SEQUENCE and reading >= RESIDUE))
 
 
@@ -154,7 +154,7 @@ def _compare_halves(models: Models, final: Fit, fits: list[Fit], row_noise: dict
     a, b = fits
     good = np.isfinite(a.std) & np.isfinite(b.std) & (a.std > 0) & (b.std > 0)
     stat = float(np.sum((a.theta - b.theta)[good] ** 2 / (a.std ** 2 + b.std ** 2)[good]))
-    p = float(chi2.sf(stat, int(good.sum()))) if good.any() else 1.0
+    p = chi2_sf(stat, int(good.sum())) if good.any() else 1.0
     P = models.get(final.effects)
     pa, pb = P(a.theta)[0], P(b.theta)[0]
     change = {c: float(np.sqrt(np.nanmean((pb[c] - pa[c]) ** 2))) for c in row_noise}
