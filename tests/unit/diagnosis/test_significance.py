@@ -29,16 +29,33 @@ def close(a, b):
     return (np.isnan(a) and np.isnan(b)) or a == b or abs(a - b) <= TOL * max(1.0, abs(b))
 
 
-@PROPERTY
-@given(st.one_of(st.lists(GRID, min_size=1, max_size=13), st.lists(FREE, min_size=1, max_size=60),
-                 st.lists(VALUES, min_size=1, max_size=200)))
-def test_wilcoxon_greater_is_scipys(values):
+WILCOXON_SAMPLES = st.one_of(st.lists(GRID, min_size=1, max_size=13), st.lists(FREE, min_size=1, max_size=60),
+                             st.lists(VALUES, min_size=1, max_size=200))
+
+
+def check_wilcoxon(values):
     d = np.array(values)
     if np.all(d == 0):
         return                                  # σ = 0: scipy divides by zero; the diagnosis never asks (p = 1)
     r, p = significance.wilcoxon_greater(d)
     ref = stats.wilcoxon(d, alternative="greater", zero_method="zsplit")
     assert close(r, float(ref.statistic)) and close(p, float(ref.pvalue)), (r, p, ref)
+
+
+@settings(PROPERTY, max_examples=100)
+@given(st.one_of(st.lists(FREE, min_size=1, max_size=60), st.lists(VALUES, min_size=14, max_size=200)))
+def test_wilcoxon_greater_is_scipys(values):
+    """The exact and the normal methods; the sign flips of up to 13 tied values are checked on one sample here
+    (test_wilcoxon_greater_each_method) and on many with the slow tests: scipy's own permutation test takes
+    about a second a sample."""
+    check_wilcoxon(values)
+
+
+@pytest.mark.slow
+@PROPERTY
+@given(WILCOXON_SAMPLES)
+def test_wilcoxon_greater_is_scipys_on_many_samples(values):
+    check_wilcoxon(values)
 
 
 @pytest.mark.parametrize("d", [np.arange(1.0, 11.0) - 3.5,                      # 10, no ties: exact
