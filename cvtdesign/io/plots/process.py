@@ -25,12 +25,15 @@ def worker(conn, parent_end, warm=None, call=None):
 
     Its interrupt is its own: a parent started with SIGINT ignored (by `nohup`, or as a background job of a
     shell without job control) would hand that on through the fork, and close() would then wait its whole
-    timeout for every process it ends (5 s a failing command) before terminating it."""
+    timeout for every process it ends (5 s a failing command) before terminating it. It starts with SIGINT blocked
+    (Forked), so an interrupt sent at once waits until its handler is there: before it, the interrupt would
+    have been raised in the fork's copy of the parent's code."""
     signal.signal(signal.SIGINT, signal.default_int_handler)
     gc.disable()
     parent_end.close()      # its copy of the parent's end: without it, a parent that dies would not be noticed
     failed = None
     try:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})    # one sent since the fork arrives here
         if warm is not None:
             warm()
     except KeyboardInterrupt:
@@ -82,8 +85,13 @@ class Forked:
         ctx = multiprocessing.get_context("fork")
         self.conn, child = ctx.Pipe()
         self.proc = ctx.Process(target=worker, args=(child, self.conn, warm, call), daemon=True)
-        self.proc.start()
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})     # in the child until `worker`
+        try:                                                                  # handles it
+            self.proc.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
         child.close()
+        self.answered = False
 
     def send(self, fn, *args):
         """Have the process call fn(*args) (a module-level function, sent by reference)."""
@@ -97,12 +105,16 @@ class Forked:
         except EOFError:
             return False, None
         finally:
+            self.answered = True
             self.close()
 
     def close(self):
-        """After an answer the process ends by itself; otherwise (the parent failed) it is interrupted, so a
-        file it is writing is removed (output.write_file), and ended if it does not stop."""
-        self.proc.join(timeout=0.1)
+        """After an answer the process ends by itself; otherwise (the parent failed) it is interrupted at once,
+        so a file it is writing is removed (output.write_file), and ended if it does not stop. (Waiting for it
+        first cost every refused command 0.1 s: a process still warming up or waiting for its call never ends
+        by itself.)"""
+        if self.answered:
+            self.proc.join(timeout=0.1)
         if self.proc.is_alive():
             os.kill(self.proc.pid, signal.SIGINT)
             self.proc.join(timeout=5)

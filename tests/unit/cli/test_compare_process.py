@@ -89,3 +89,16 @@ def test_a_process_ended_early_stops_on_its_interrupt_even_where_the_parent_igno
     finally:
         signal.signal(signal.SIGINT, was)
     assert forked.proc.exitcode == 0
+
+
+def test_a_process_closed_at_once_after_its_fork_ends_quietly_on_the_interrupt(capfd):
+    """A command refused right after it forked its plotting process interrupts that process at once (it used to
+    wait 0.1 s first, for every refused compare). The interrupt can then reach the child before its handler is
+    there; the child starts with SIGINT blocked, so the interrupt waits for `worker`, which ends quietly (exit
+    code 0, nothing on stderr), instead of being raised in the fork's copy of the parent's code."""
+    for _ in range(30):
+        forked = process.Forked()
+        forked.close()
+        assert forked.proc.exitcode == 0
+    out, err = capfd.readouterr()
+    assert "Traceback" not in err and "Process" not in err, err
