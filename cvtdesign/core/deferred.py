@@ -171,10 +171,10 @@ class DeferredCalls:
         parametric = ca.Function(f"{name}_parametric", [p], [ca.vertcat(p, *ca.cse(expressions))])
         n = len(arg_list)
         out, partial, through = got[n], got[n + 1], got[n + 2:]
-        xm, qm = ca.MX.sym("x", x.sparsity()), ca.MX.sym("q", q.sparsity())
         if not self.calls:
             jac = ca.Function(f"{name}_jac", [x, q], ca.cse([partial, out]))
             return parametric, ca.Function(f"{name}_res", [x, q], [out]), jac
+        xm, qm = ca.MX.sym("x", x.sparsity()), ca.MX.sym("q", q.sparsity())
         arg_values = self._split(ca.Function(f"{name}_args", [x, q], ca.cse(got[:n])).call([xm, qm]))
         rest = ca.Function(f"{name}_rest", [x, q, values], ca.cse([out]))
         residual = ca.Function(f"{name}_res", [xm, qm], rest.call(
