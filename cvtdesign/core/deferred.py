@@ -67,7 +67,7 @@ class DeferredCalls:
     def _args(self, inputs: list) -> ca.Function:
         """Function(inputs) → every call's arguments, flat, common subexpressions shared."""
         return self._once(("args", len(self.calls)), tuple(inputs), lambda: ca.Function(
-            "deferred_args", inputs, ca.cse([a for c in self.calls for a in c.args])))
+            "deferred_args", inputs, self._shared([a for c in self.calls for a in c.args])))
 
     def _shared(self, exprs: list) -> list:
         """ca.cse(exprs), or, where an earlier list held every one of them, their forms of then (the same nodes)."""
@@ -158,28 +158,29 @@ class DeferredCalls:
         values = self._values()
         live, a_all = self._live([x, p])
         arg_list = [a for c in self.calls for a in c.args]
-        wanted = [*arg_list, output, self._derivative(output, x)]
+        blocks = [self._derivative(output, x)]
         if self.calls:
-            wanted += [self._derivative(output, values), self._derivative(a_all, x)]
-        # merged first: an expression that is there twice would get two symbols, and stay twice
-        merged = ca.cse(wanted)
+            blocks += [self._derivative(output, values), self._derivative(a_all, x)]
+        # the shared forms the arguments' and the Jacobian's functions have (an expression there twice would get
+        # two symbols, and stay twice); extract_parametric keeps their sharing
+        merged = self._shared(arg_list) + self._shared([*blocks, output])
         got, symbols, expressions = ca.extract_parametric(merged, p)
         q = ca.vertcat(p, *symbols)
-        if (ca.Function("after", [x, q, values], ca.cse(got)).n_instructions()
+        if (ca.Function("after", [x, q, values], got).n_instructions()
                 > (1 - HOIST_SHARE) * ca.Function("before", [x, p, values], merged).n_instructions()):
             return None
         parametric = ca.Function(f"{name}_parametric", [p], [ca.vertcat(p, *ca.cse(expressions))])
         n = len(arg_list)
-        out, partial, through = got[n], got[n + 1], got[n + 2:]
+        partial, through, out = got[n], got[n + 1:-1], got[-1]
         if not self.calls:
-            jac = ca.Function(f"{name}_jac", [x, q], ca.cse([partial, out]))
+            jac = ca.Function(f"{name}_jac", [x, q], [partial, out])
             return parametric, ca.Function(f"{name}_res", [x, q], [out]), jac
         xm, qm = ca.MX.sym("x", x.sparsity()), ca.MX.sym("q", q.sparsity())
-        arg_values = self._split(ca.Function(f"{name}_args", [x, q], ca.cse(got[:n])).call([xm, qm]))
-        rest = ca.Function(f"{name}_rest", [x, q, values], ca.cse([out]))
+        arg_values = self._split(ca.Function(f"{name}_args", [x, q], got[:n]).call([xm, qm]))
+        rest = ca.Function(f"{name}_rest", [x, q, values], [out])
         residual = ca.Function(f"{name}_res", [xm, qm], rest.call(
             [xm, qm, ca.vertcat(*(c.value_fn(*a) for c, a in zip(self.calls, arg_values)))]))
-        parts = ca.Function(f"{name}_parts", [x, q, values], ca.cse([partial, *through, out]))
+        parts = ca.Function(f"{name}_parts", [x, q, values], [partial, *through, out])
         value, D = self._evaluated(arg_values, live)
         J, by_value, of_args, F = parts.call([xm, qm, value])
         return parametric, residual, ca.Function(f"{name}_jac", [xm, qm], [J + ca.mtimes(ca.mtimes(by_value, D), of_args), F])
