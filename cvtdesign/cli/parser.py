@@ -53,11 +53,6 @@ COMMANDS = {     # name -> one-line help; cvtdesign.cli.<name> runs it
 # imports made (30 ms each) for the little garbage such a run leaves; and when the command is the process's
 # (main's argv None), its objects are frozen at the end, so that the interpreter's exit does not walk them either.
 SHORT_WITH_FIGURE = ("compare",)
-# Commands whose module is imported without the cyclic garbage collector: its passes during the imports (SciPy,
-# pandas, pint: 100 000 objects, none of them garbage) took 0.12–0.15 s of a 3 s diagnose. When the command is the
-# process's (main's argv None), the objects the imports made are then frozen, so that neither the run's collections
-# nor the interpreter's exit (0.05 s) walk them; the run itself keeps the collector.
-COLLECTED_AFTER_IMPORT = ("diagnose",)
 
 
 @functools.cache
@@ -386,11 +381,13 @@ def main(argv=None) -> int:
         return _run(args, argv)
 
 
-def _command_module(command: str, argv, collecting: bool):
-    """The one place a command's module (and its libraries: Dask, CadQuery, SciPy) is imported
-    (COLLECTED_AFTER_IMPORT: without the collector, then its objects frozen)."""
-    if command not in COLLECTED_AFTER_IMPORT or not collecting:
-        return importlib.import_module(f"cvtdesign.cli.{command}")
+def _command_module(command: str, argv):
+    """The one place a command's module (and its libraries: Dask, CadQuery, SciPy) is imported, without the
+    cyclic garbage collector: its passes during the imports (SciPy, pandas, pint: 100 000 objects, none of them
+    garbage) took 0.12–0.15 s of a 3 s diagnose. When the command is the process's (main's argv None), the objects
+    the imports made are then frozen, so that neither the run's collections nor the interpreter's exit (0.05 s)
+    walk them. The run gets the collector back if it had it (SHORT_WITH_FIGURE's run without)."""
+    collecting = gc.isenabled()
     gc.disable()
     try:
         module = importlib.import_module(f"cvtdesign.cli.{command}")
@@ -398,7 +395,8 @@ def _command_module(command: str, argv, collecting: bool):
             gc.freeze()
         return module
     finally:
-        gc.enable()
+        if collecting:
+            gc.enable()
 
 
 def _run(args, argv) -> int:
@@ -411,7 +409,7 @@ def _run(args, argv) -> int:
             # imported here, as the command modules are: io.plots loads numpy and CasADi (not matplotlib), which
             # `cvtdesign --help` and `new` need not wait for
             args.painter = painter = importlib.import_module("cvtdesign.io.plots").Background()
-        return _command_module(args.command, argv, collecting).run(args)
+        return _command_module(args.command, argv).run(args)
     except InputError as e:
         print(f"cvtdesign: error: {e}", file=sys.stderr)
         return 2

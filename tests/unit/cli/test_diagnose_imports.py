@@ -35,7 +35,7 @@ passes = []
 gc.callbacks.append(lambda phase, info: phase == "start" and passes.append(info["generation"]))
 from cvtdesign.cli import parser
 passes.clear()
-module = parser._command_module("diagnose", None, True)
+module = parser._command_module("diagnose", None)
 print(module.__name__, "passes", len(passes), "enabled", gc.isenabled(), "frozen", gc.get_freeze_count())
 """
 
