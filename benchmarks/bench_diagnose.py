@@ -34,7 +34,6 @@ import argparse
 import os
 import resource
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -50,7 +49,7 @@ from cvtdesign.diagnosis import rig
 from cvtdesign.diagnosis.diagnose.fitting import bounds
 from cvtdesign.diagnosis.diagnose.run import prepare
 from cvtdesign.io.variant import load_variant
-from timing import best_of
+from timing import best_of, run_timed
 
 ROOT = Path(__file__).resolve().parents[1]
 KIM = ("drive_longitudinal_creep", "steering_lateral_creep")
@@ -187,10 +186,7 @@ def command(L, rounds, against=None):
 
     def timed(argv, tree):
         """(wall time, CPU time of the child) [s] of argv run in `tree` with it first on the path."""
-        r0, t = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
-        subprocess.run(argv, cwd=tree, check=True, capture_output=True, env=env | {"PYTHONPATH": str(tree)})
-        wall, r1 = time.perf_counter() - t, resource.getrusage(resource.RUSAGE_CHILDREN)
-        return wall, r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime
+        return run_timed(argv, tree, env | {"PYTHONPATH": str(tree)})
 
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "kim.csv"

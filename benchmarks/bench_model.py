@@ -21,7 +21,6 @@ several repeats)
 """
 import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -33,7 +32,7 @@ import numpy as np
 from cvtdesign.core.model import compile_model
 from cvtdesign.core.native import FLAGS
 from cvtdesign.io.variant import load_variant
-from timing import best_of
+from timing import best_of, run_timed
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -238,10 +237,7 @@ def cold_start_benchmark(rounds: int = 3, goal: float = 8.0, table_goal: float =
 
     def timed(c, env=None):
         """(wall time, CPU time of the process and its children, the plotting process included) [s]"""
-        r0, t = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
-        subprocess.run(c, cwd=ROOT, check=True, capture_output=True, env=env)
-        wall, r1 = time.perf_counter() - t, resource.getrusage(resource.RUSAGE_CHILDREN)
-        return wall, r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime
+        return run_timed(c, ROOT, env)
 
     cmds = [[exe, *args, "--out", out] for _, args in COMMANDS]
     for c in cmds:                         # fills the compiled-model cache: the timed runs find it warm

@@ -15,8 +15,6 @@ Run: python benchmarks/bench_tolerance.py [--rounds N] [--samples N]
 """
 import argparse
 import os
-import resource
-import subprocess
 import sys
 import tempfile
 import time
@@ -28,7 +26,7 @@ from cvtdesign.core.metrics import envelopes
 from cvtdesign.core.model import compile_model, library_model
 from cvtdesign.design import tolerance
 from cvtdesign.design.tolerance_inputs import model_arguments
-from timing import best_of
+from timing import best_of, run_timed
 
 ROOT = Path(__file__).resolve().parents[1]
 VARIANT, TOLERANCES = ROOT / "variants/box.yaml", ROOT / "studies/box_tolerances.yaml"
@@ -72,10 +70,7 @@ def whole_command(samples: int) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         cmd = [sys.executable, "-m", "cvtdesign", "tolerance", str(VARIANT), "--tolerances", str(TOLERANCES),
                "--samples", str(samples), "--workers", "2", "--store", str(Path(tmp) / "store")]
-        r0, t = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
-        subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True)
-        wall, r1 = time.perf_counter() - t, resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime
+        wall, cpu = run_timed(cmd, ROOT)
     print(f"2. tolerance --samples {samples} on 2 workers: {wall:.0f} s wall, {cpu:.0f} s CPU (this process's "
           f"children: the command and the cluster it starts)")
 
